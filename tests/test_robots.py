@@ -1,0 +1,251 @@
+"""Robot kinematics against kinematics.md, round trips, invariants and validation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mpc.errors import MpcInputError, RobotError
+from mpc.robots import (
+    PRESETS,
+    SwedishRobot,
+    SwedishWheel,
+    load,
+    mecanum,
+    omni,
+    preset,
+    swerve,
+)
+
+MECANUM = mecanum(wheelbase=0.30, track=0.25, wheel_radius=0.05, max_wheel_speed=20.0)
+SWERVE = swerve(
+    module_positions=[[0.3, 0.3], [0.3, -0.3], [-0.3, 0.3], [-0.3, -0.3]],
+    wheel_radius=0.05,
+    max_wheel_speed=30.0,
+    max_steer_rate=10.0,
+)
+
+twists = st.tuples(*(st.floats(-3, 3, allow_nan=False) for _ in range(3))).map(np.array)
+
+
+@pytest.mark.parametrize(
+    ("twist", "surface_speed"),
+    [
+        ((1, 0, 0), (1, 1, 1, 1)),
+        ((0, 1, 0), (-1, 1, 1, -1)),
+        ((0, 0, 1), (-0.275, 0.275, -0.275, 0.275)),
+    ],
+)
+def test_mecanum_check_values(twist, surface_speed):
+    np.testing.assert_allclose(MECANUM.wheel_speeds(twist) * 0.05, surface_speed, atol=1e-12)
+
+
+def test_mecanum_batched_matches_single():
+    batch = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [0.3, -0.2, 0.7]])
+    single = np.array([MECANUM.wheel_speeds(t) for t in batch])
+    np.testing.assert_allclose(MECANUM.wheel_speeds(batch), single)
+
+
+def test_omni_formula_and_ccw_spin():
+    robot = omni(n_wheels=3, base_radius=0.15, wheel_radius=0.03, max_wheel_speed=30.0,
+                 first_wheel_angle=math.radians(60))
+    alphas = np.radians([60, 180, 300])
+    vx, vy, w = 0.4, -0.3, 1.2
+    expected = (-np.sin(alphas) * vx + np.cos(alphas) * vy + 0.15 * w) / 0.03
+    np.testing.assert_allclose(robot.wheel_speeds([vx, vy, w]), expected, atol=1e-12)
+    # A positive speed on every wheel spins the robot counter-clockwise.
+    twist = robot.twist(np.ones(3))
+    np.testing.assert_allclose(twist[:2], 0.0, atol=1e-12)
+    assert twist[2] > 0
+
+
+def test_omni4_x_layout_forward():
+    robot = preset("omni4")  # wheels at 45, 135, 225, 315 degrees, radius 0.05
+    s = math.sqrt(0.5)
+    np.testing.assert_allclose(robot.wheel_speeds([1, 0, 0]) * 0.05, [-s, -s, s, s], atol=1e-12)
+
+
+def test_swerve_check_values_spin():
+    speeds, angles = SWERVE.module_states([0, 0, 1])
+    np.testing.assert_allclose(speeds * 0.05, 0.4243, atol=1e-4)
+    assert math.degrees(angles[0]) == pytest.approx(135)
+    assert math.degrees(angles[1]) == pytest.approx(45)
+    np.testing.assert_allclose(SWERVE.wheel_speeds([0, 0, 1]) * 0.05, 0.4243, atol=1e-4)
+
+
+def test_swerve_flip_beyond_90_degrees():
+    # Ask every module for 170 degrees (pure translation) while at 0: flip to -10, drive back.
+    direction = math.radians(170)
+    twist = [math.cos(direction), math.sin(direction), 0.0]
+    speeds, angles = SWERVE.module_states(twist, current_angles=np.zeros(4))
+    np.testing.assert_allclose(np.degrees(angles), -10.0, atol=1e-9)
+    np.testing.assert_allclose(speeds, -1.0 / 0.05)
+
+
+def test_swerve_exactly_90_degrees_does_not_flip():
+    speeds, angles = SWERVE.module_states([0, 1, 0], current_angles=np.zeros(4))
+    np.testing.assert_allclose(angles, math.pi / 2)
+    np.testing.assert_allclose(speeds, 1.0 / 0.05)
+
+
+def test_swerve_stopped_module_keeps_angle():
+    current = np.array([0.1, -0.2, 0.3, 2.0])
+    speeds, angles = SWERVE.module_states([0, 0, 0], current_angles=current)
+    np.testing.assert_allclose(speeds, 0.0)
+    np.testing.assert_allclose(angles, current)
+
+
+@settings(max_examples=60, deadline=None)
+@given(twists)
+def test_round_trips(twist):
+    for robot in (MECANUM, preset("omni3"), preset("omni4")):
+        np.testing.assert_allclose(robot.twist(robot.wheel_speeds(twist)), twist, atol=1e-9)
+    speeds, angles = SWERVE.module_states(twist, current_angles=np.full(4, 0.5))
+    np.testing.assert_allclose(SWERVE.twist(speeds, angles), twist, atol=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(twists, st.floats(0.01, 10))
+def test_desaturate_keeps_direction_and_limits(twist, scale):
+    for robot in (MECANUM, SWERVE):
+        out = robot.desaturate(twist * scale)
+        assert robot.is_feasible(out)
+        # Parallel to the input, never longer.
+        assert np.linalg.norm(out) <= np.linalg.norm(twist * scale) + 1e-12
+        np.testing.assert_allclose(np.cross(out, twist * scale), 0.0, atol=1e-9)
+        if robot.is_feasible(twist * scale):
+            np.testing.assert_allclose(out, twist * scale)
+        else:
+            assert robot.speed_ratio(out) == pytest.approx(1.0)
+
+
+def test_feasible_set_is_not_a_box():
+    # Full forward speed leaves no room to strafe on a Mecanum chassis.
+    assert MECANUM.is_feasible([1.0, 0.0, 0.0])
+    assert MECANUM.is_feasible([0.0, 1.0, 0.0])
+    assert not MECANUM.is_feasible([1.0, 0.1, 0.0])
+
+
+def test_derated_wheel():
+    weak = MECANUM.derated({1: 0.5})
+    np.testing.assert_allclose(weak.max_wheel_speed, [20, 10, 20, 20])
+    assert not weak.is_feasible([1.0, 0, 0])
+    dead = preset("omni4").derated({0: 0.0})
+    assert dead.speed_ratio([0.0, 0.0, 0.0]) == 0.0
+    assert dead.speed_ratio([0.1, 0.0, 0.0]) == math.inf
+    np.testing.assert_allclose(dead.desaturate([0.1, 0.0, 0.0]), 0.0)
+    with pytest.raises(RobotError, match="derating factors"):
+        MECANUM.derated({0: 1.5})
+    with pytest.raises(RobotError, match="wheel index"):
+        MECANUM.derated({7: 0.5})
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_presets_load(name):
+    robot = preset(name)
+    assert robot.n_wheels >= 3 or name == "swerve"
+    assert np.all(robot.max_wheel_speed > 0)
+
+
+def test_load_toml_matches_factory(tmp_path):
+    path = tmp_path / "robot.toml"
+    path.write_text(
+        'type = "mecanum"\nname = "mine"\nwheelbase = 0.30\ntrack = 0.25\n'
+        "wheel_radius = 0.05\nmax_wheel_speed = 20.0\n"
+    )
+    robot = load(path)
+    assert robot.name == "mine"
+    np.testing.assert_allclose(robot.wheel_speeds([0.2, 0.1, 0.5]),
+                               MECANUM.wheel_speeds([0.2, 0.1, 0.5]))
+
+
+def test_load_swedish_wheels_table(tmp_path):
+    path = tmp_path / "robot.toml"
+    rows = "".join(
+        f"[[wheels]]\nalpha = {a}\nbeta = 3.141592653589793\ngamma = 0.0\nl = 0.2\n"
+        "radius = 0.05\nmax_speed = 10.0\n"
+        for a in (0.0, 2.0, 4.0)
+    )
+    path.write_text('type = "swedish"\n' + rows)
+    robot = load(path)
+    assert isinstance(robot, SwedishRobot) and robot.n_wheels == 3
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ('type = "tank"\n', "type must be one of"),
+        ('type = "mecanum"\nwheelbase = 0.3\ntrack = 0.2\nwheel_radius = 0.05\n'
+         "max_wheel_speed = 20.0\ncolour = 1\n", r"unknown key\(s\) \['colour'\]"),
+        ('type = "mecanum"\nwheelbase = 0.3\n', "missing"),
+        ("type = [", "not valid TOML"),
+    ],
+)
+def test_load_errors(tmp_path, text, match):
+    path = tmp_path / "robot.toml"
+    path.write_text(text)
+    with pytest.raises(RobotError, match=match):
+        load(path)
+
+
+def test_load_missing_file(tmp_path):
+    with pytest.raises(RobotError, match="cannot read robot file"):
+        load(tmp_path / "nope.toml")
+
+
+def test_unknown_preset_lists_names():
+    with pytest.raises(RobotError, match="omni3"):
+        preset("hexapod")
+
+
+@pytest.mark.parametrize(
+    ("build", "match"),
+    [
+        (lambda: mecanum(wheelbase=0.3, track=0.2, wheel_radius=0.0, max_wheel_speed=1.0),
+         "radius must be a finite number > 0"),
+        (lambda: mecanum(wheelbase=0.3, track=0.2, wheel_radius=0.05, max_wheel_speed=-1.0),
+         "max_speed"),
+        (lambda: mecanum(wheelbase=float("nan"), track=0.2, wheel_radius=0.05,
+                         max_wheel_speed=1.0), "wheelbase"),
+        (lambda: omni(n_wheels=2, base_radius=0.2, wheel_radius=0.05, max_wheel_speed=1.0),
+         "n_wheels must be an integer >= 3"),
+        (lambda: omni(n_wheels=3, base_radius=0.2, wheel_radius=0.05, max_wheel_speed=1.0,
+                      max_wheel_accel=float("inf")), "max_accel"),
+        (lambda: swerve(module_positions=[[0.3, 0.3]], wheel_radius=0.05, max_wheel_speed=1.0,
+                        max_steer_rate=5.0), r"shape \(n, 2\)"),
+        (lambda: swerve(module_positions=[[0.0, 0.0], [0.0, 0.0]], wheel_radius=0.05,
+                        max_wheel_speed=1.0, max_steer_rate=5.0), "not holonomic"),
+        (lambda: swerve(module_positions=[[0.3, 0.3], [0.3, -0.3]], wheel_radius=0.05,
+                        max_wheel_speed=1.0, max_steer_rate=0.0), "max_steer_rate"),
+    ],
+)
+def test_bad_descriptions(build, match):
+    with pytest.raises(RobotError, match=match):
+        build()
+
+
+def test_parallel_wheels_are_not_holonomic():
+    wheel = dict(beta=0.0, gamma=0.0, l=0.2, radius=0.05, max_speed=10.0)
+    # All three wheel planes parallel: alpha + beta equal, so no sideways drive.
+    wheels = tuple(SwedishWheel(alpha=0.0, **wheel) for _ in range(3))
+    with pytest.raises(RobotError, match="not holonomic"):
+        SwedishRobot(name="parallel", wheels=wheels)
+
+
+@pytest.mark.parametrize(
+    ("twist", "match"),
+    [([1.0, 0.0], r"shape \(3,\) or \(k, 3\)"), ([np.nan, 0.0, 0.0], "finite")],
+)
+def test_bad_twists(twist, match):
+    with pytest.raises(MpcInputError, match=match):
+        MECANUM.wheel_speeds(twist)
+
+
+def test_errors_are_value_errors():
+    assert issubclass(RobotError, ValueError)
+    with pytest.raises(ValueError):
+        MECANUM.twist([1.0, 2.0])
