@@ -1,0 +1,59 @@
+"""What the controller returns each tick."""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+from mpc.robots.base import FloatArray
+
+
+class Status(enum.Enum):
+    """How this tick's command was obtained.
+
+    ``SOLVED``: the solver converged; its first twist (clamped into the
+    wheel limits) is the command. The others are the fallbacks, in order:
+    the shifted previous plan, the reference feedforward scaled into the
+    limits, a stop ramp within the acceleration limits.
+    """
+
+    SOLVED = "solved"
+    PREVIOUS_PLAN = "previous_plan"
+    FEEDFORWARD = "feedforward"
+    STOPPING = "stopping"
+
+    @property
+    def is_fallback(self) -> bool:
+        return self is not Status.SOLVED
+
+
+@dataclass(frozen=True, eq=False)
+class Command:
+    """One tick's command.
+
+    Attributes:
+        wheel_speeds: wheel speeds to send [rad/s], shape (n,); within the
+            limits always. Swerve: signed, after the flip rule.
+        twist: the commanded body twist (vx, vy, omega) [m/s, m/s, rad/s].
+        steer_angles: swerve module steer angles [rad] in (-pi, pi], else None.
+        predicted_poses: the plan's poses (N+1, 3) [m, m, rad].
+        status: how the command was obtained (:class:`Status`).
+        solver_status: the solver's own status text.
+        solve_time: the solver's own time [s].
+        tick_time: the whole ``step()`` [s].
+        iterations: solver iterations.
+        consecutive_failures: solver failures in a row, this tick included.
+        clamped: whether the safety clamp had to change the twist.
+    """
+
+    wheel_speeds: FloatArray
+    twist: FloatArray
+    steer_angles: FloatArray | None
+    predicted_poses: FloatArray
+    status: Status
+    solver_status: str
+    solve_time: float
+    tick_time: float
+    iterations: int
+    consecutive_failures: int
+    clamped: bool

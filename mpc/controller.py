@@ -1,0 +1,236 @@
+"""The embeddable tracking controller: ``Controller(robot, trajectory).step(pose, t)``."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mpc.command import Command, Status
+from mpc.errors import ControllerError
+from mpc.limits import clamp_command
+from mpc.model import TrackingModel
+from mpc.nlp import NlpSolver
+from mpc.qp import QpSolver
+from mpc.reference import ReferenceWindow
+from mpc.robots.base import FloatArray, Robot
+from mpc.robots.swerve import SwerveRobot
+from mpc.weights import Weights, make_weights
+from trajectories import Trajectory
+
+#: Valid ``solver=`` names: the OSQP fast path and the exact IPOPT path.
+SOLVERS: tuple[str, ...] = ("osqp", "ipopt")
+
+
+class Controller:
+    """Model-predictive tracking of a reference trajectory within wheel limits.
+
+    Each :meth:`step` plans ``horizon`` ticks of ``dt`` seconds from the
+    measured pose and returns the first twist as wheel speeds. The command
+    never exceeds a wheel's speed or acceleration limit: the solver plans
+    within them, and a final clamp along the segment from the last command
+    removes solver tolerance. If the solver fails, the command comes from
+    the shifted previous plan (while it lasts, ``horizon`` ticks), then from
+    the reference feedforward scaled into the limits (another ``horizon``
+    ticks), then from a stop ramp; :attr:`Command.status` says which.
+
+    Swerve steering rate: modules steer at a finite rate, so the cost
+    penalises the change of every module's ground velocity between ticks
+    (``Weights.module_rate``), in both solvers. This keeps the module
+    directions changing smoothly; the steer angles follow the 90-degree flip
+    rule against the previous command.
+
+    Args:
+        robot: the drive layout and its wheel limits.
+        trajectory: the reference to track.
+        horizon: control intervals in the plan, >= 1.
+        dt: control interval [s], > 0; also the tick of :meth:`step`.
+        solver: ``"osqp"`` (fast real-time iteration) or ``"ipopt"`` (exact NLP).
+        weights: :class:`~mpc.weights.Weights` or a dict of overrides.
+        polygon_sides: sides of the polygon inside a swerve module's speed
+            disk in the QP (even, >= 4; the NLP uses the exact disk).
+        max_iter: solver iterations per tick at most (default 500 OSQP, 100 IPOPT).
+        time_limit: solver time per tick at most [s]; 0 for none.
+        delay_ticks: known command latency in whole ticks; the controller
+            predicts the pose forward through the commands already sent.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        trajectory: Trajectory,
+        horizon: int = 20,
+        dt: float = 0.05,
+        solver: str = "osqp",
+        weights: Weights | dict[str, ArrayLike] | None = None,
+        *,
+        polygon_sides: int = 16,
+        max_iter: int | None = None,
+        time_limit: float = 0.0,
+        delay_ticks: int = 0,
+    ) -> None:
+        if not isinstance(robot, Robot):
+            raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
+        self._check_trajectory(trajectory)
+        if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 1:
+            raise ControllerError(f"horizon must be an integer >= 1, got {horizon!r}")
+        if not isinstance(dt, (int, float)) or not math.isfinite(dt) or dt <= 0.0:
+            raise ControllerError(f"dt must be a finite number of seconds > 0, got {dt!r}")
+        if solver not in SOLVERS:
+            raise ControllerError(f"unknown solver {solver!r}; expected one of {list(SOLVERS)}")
+        if (isinstance(delay_ticks, bool) or not isinstance(delay_ticks, (int, np.integer))
+                or delay_ticks < 0):
+            raise ControllerError(f"delay_ticks must be an integer >= 0, got {delay_ticks!r}")
+        if max_iter is not None and (not isinstance(max_iter, (int, np.integer)) or max_iter < 1):
+            raise ControllerError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+        if not math.isfinite(time_limit) or time_limit < 0.0:
+            raise ControllerError(f"time_limit must be a finite number >= 0, got {time_limit!r}")
+        self.robot = robot
+        self.horizon = int(horizon)
+        self.dt = float(dt)
+        self.delay_ticks = int(delay_ticks)
+        self.weights = make_weights(weights)
+        self.model = TrackingModel(robot, self.horizon, self.dt, self.weights)
+        self.solver: QpSolver | NlpSolver
+        if solver == "osqp":
+            self.solver = QpSolver(self.model, polygon_sides=polygon_sides,
+                                   max_iter=max_iter or 500, time_limit=time_limit)
+        else:
+            self.solver = NlpSolver(self.model, max_iter=max_iter or 100, time_limit=time_limit)
+        self.solver_name = solver
+        self._reference = ReferenceWindow(trajectory, self.horizon, self.dt)
+        self.reset()
+
+    @staticmethod
+    def _check_trajectory(trajectory: object) -> None:
+        if not isinstance(trajectory, Trajectory):
+            raise ControllerError(
+                f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}"
+            )
+
+    @property
+    def trajectory(self) -> Trajectory:
+        return self._reference.trajectory
+
+    @trajectory.setter
+    def trajectory(self, trajectory: Trajectory) -> None:
+        """Track a new trajectory from the next tick on (the plan is dropped)."""
+        self._check_trajectory(trajectory)
+        self._reference = ReferenceWindow(trajectory, self.horizon, self.dt)
+        self._plan_twists = None
+        self._guess = None
+        self.solver.reset()
+
+    def reset(self, last_twist: ArrayLike | None = None) -> None:
+        """Forget the plan and warm start; the robot is at rest unless ``last_twist`` says.
+
+        Args:
+            last_twist: the body twist the robot is executing now [m/s, m/s, rad/s].
+        """
+        last = np.zeros(3) if last_twist is None else np.asarray(last_twist, dtype=float)
+        if last.shape != (3,) or not np.all(np.isfinite(last)):
+            raise ControllerError(f"last_twist must be a finite (3,) twist, got {last_twist!r}")
+        self._last = last
+        self._sent: deque[FloatArray] = deque([last] * self.delay_ticks, maxlen=self.delay_ticks)
+        self._guess: tuple[FloatArray, FloatArray] | None = None
+        self._plan_twists: FloatArray | None = None
+        self._failures = 0
+        self._steer = np.zeros(self.robot.n_wheels) if isinstance(self.robot, SwerveRobot) else None
+        self.solver.reset()
+
+    def step(self, pose: ArrayLike, t: float) -> Command:
+        """Plan from the measured pose at time ``t`` and return this tick's command.
+
+        Args:
+            pose: measured world pose (x, y, theta) [m, m, rad], shape (3,).
+            t: the current time on the trajectory's clock [s].
+        """
+        start = time.perf_counter()
+        x0 = self._check_pose(pose)
+        if not isinstance(t, (int, float, np.floating, np.integer)) or not math.isfinite(t):
+            raise ControllerError(f"t must be a finite time in seconds, got {t!r}")
+        for twist in self._sent:  # commands still in the pipe (known delay)
+            x0 = self.model.dynamics(x0, twist).full().ravel()
+        t_plan = float(t) + self.delay_ticks * self.dt
+        poses_ref, twists_ref = self._reference.at(t_plan, float(x0[2]))
+        guess_poses, guess_twists = self._warm_start(x0, poses_ref, twists_ref)
+        result = self.solver.solve(x0, poses_ref, twists_ref, self._last, guess_poses, guess_twists)
+
+        if result.success:
+            self._failures = 0
+            status = Status.SOLVED
+            target = result.twists[0]
+            self._plan_twists = result.twists
+            self._guess = (result.poses, result.twists)
+            plan = result.poses
+        else:
+            self._failures += 1
+            self._guess = None
+            self.solver.reset()
+            status, target = self._fallback(twists_ref[0])
+            plan = poses_ref
+        twist, clamped = clamp_command(self.robot, target, self._last, self.dt)
+        self._last = twist
+        if self.delay_ticks:
+            self._sent.append(twist)
+        if self._steer is not None:
+            assert isinstance(self.robot, SwerveRobot)
+            wheel_speeds, steer = self.robot.module_states(twist, self._steer)
+            self._steer = steer
+        else:
+            wheel_speeds, steer = self.robot.wheel_speeds(twist), None
+        return Command(
+            wheel_speeds=wheel_speeds,
+            twist=twist,
+            steer_angles=steer,
+            predicted_poses=plan,
+            status=status,
+            solver_status=result.status,
+            solve_time=result.solve_time,
+            tick_time=time.perf_counter() - start,
+            iterations=result.iterations,
+            consecutive_failures=self._failures,
+            clamped=clamped,
+        )
+
+    def _check_pose(self, pose: ArrayLike) -> FloatArray:
+        try:
+            x0 = np.array(pose, dtype=float)
+        except (TypeError, ValueError):
+            raise ControllerError(f"pose must be 3 numbers (x, y, theta), got {pose!r}") from None
+        if x0.shape != (3,):
+            raise ControllerError(f"pose must have shape (3,) as (x, y, theta), got shape {x0.shape}")
+        if not np.all(np.isfinite(x0)):
+            raise ControllerError(f"pose must be finite, got {x0.tolist()}")
+        return x0
+
+    def _warm_start(
+        self, x0: FloatArray, poses_ref: FloatArray, twists_ref: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """The previous plan shifted one tick (or the reference), starting at ``x0``."""
+        if self._guess is None:
+            poses, twists = poses_ref.copy(), twists_ref
+        else:
+            plan_poses, plan_twists = self._guess
+            poses = np.empty_like(plan_poses)
+            poses[:-1] = plan_poses[1:]
+            poses[-1] = plan_poses[-1]
+            twists = np.empty_like(plan_twists)
+            twists[:-1] = plan_twists[1:]
+            twists[-1] = plan_twists[-1]
+            turns = math.floor((poses[0, 2] - x0[2]) / (2.0 * math.pi) + 0.5)
+            if turns:  # the measured heading was wrapped
+                poses[:, 2] -= 2.0 * math.pi * turns
+        poses[0] = x0
+        return poses, twists
+
+    def _fallback(self, feedforward: FloatArray) -> tuple[Status, FloatArray]:
+        """The fallback twist after ``self._failures`` failed ticks in a row."""
+        if self._plan_twists is not None and self._failures < self.horizon:
+            return Status.PREVIOUS_PLAN, self._plan_twists[self._failures]
+        if self._failures < 2 * self.horizon:
+            return Status.FEEDFORWARD, self.robot.desaturate(feedforward)
+        return Status.STOPPING, np.zeros(3)

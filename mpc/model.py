@@ -1,0 +1,146 @@
+"""The tracking problem in CasADi: one model, used by both solvers.
+
+- State ``x = (px, py, theta)`` (world pose), input ``u = (vx, vy, omega)``
+  (body twist, held constant over a tick of ``dt`` seconds).
+- Dynamics: the exact integral of a constant body twist (an SE(2)
+  exponential), with a Taylor series where ``|omega dt|`` is tiny so that
+  values and derivatives stay finite.
+- Cost: :class:`~mpc.weights.Weights` over the decision vector
+  ``z = (x_0 .. x_N, u_0 .. u_{N-1})`` and the parameter vector
+  ``p = (x0, xref_0 .. xref_N, uref_0 .. uref_{N-1}, u_prev)``.
+
+The exact path (:mod:`mpc.nlp`) hands these expressions to IPOPT; the fast
+path (:mod:`mpc.qp`) takes the cost's constant Hessian and its linear
+gradient map once, and each tick one mapped call of :attr:`linearization`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from mpc.robots.base import FloatArray, Robot
+from mpc.weights import Weights
+
+#: Below this ``|omega * dt|`` [rad] the dynamics use their Taylor series.
+SMALL_ROTATION = 1e-3
+
+
+def twist_integral(pose: ca.SX, twist: ca.SX, dt: float) -> ca.SX:
+    """Pose after driving a constant body twist for ``dt`` seconds.
+
+    ``p+ = p + R(theta) @ V(omega dt) @ (vx, vy) dt``, ``theta+ = theta + omega dt`` with
+    ``V(a) = [[sin a / a, -(1 - cos a) / a], [(1 - cos a) / a, sin a / a]]``.
+    """
+    angle = twist[2] * dt
+    small = ca.fabs(angle) < SMALL_ROTATION
+    safe = ca.if_else(small, 1.0, angle)  # never divide by ~0, even in the unused branch
+    sin_over = ca.if_else(small, 1 - angle**2 / 6 + angle**4 / 120, ca.sin(safe) / safe)
+    # 1 - cos a = 2 sin^2(a / 2) avoids cancellation.
+    cos_over = ca.if_else(
+        small, angle / 2 - angle**3 / 24 + angle**5 / 720, 2 * ca.sin(safe / 2) ** 2 / safe
+    )
+    forward = dt * (sin_over * twist[0] - cos_over * twist[1])
+    left = dt * (cos_over * twist[0] + sin_over * twist[1])
+    c, s = ca.cos(pose[2]), ca.sin(pose[2])
+    return ca.vertcat(pose[0] + c * forward - s * left, pose[1] + s * forward + c * left,
+                      pose[2] + angle)
+
+
+@dataclass(eq=False)
+class TrackingModel:
+    """CasADi functions and expressions of the tracking problem for one robot.
+
+    Args:
+        robot: the drive layout (its wheel maps give the limits).
+        horizon: number of control intervals ``N`` >= 1.
+        dt: control interval [s].
+        weights: cost weights.
+    """
+
+    robot: Robot
+    horizon: int
+    dt: float
+    weights: Weights
+    dynamics: ca.Function = field(init=False)
+    linearization: ca.Function = field(init=False)
+    rate_matrix: FloatArray = field(init=False)
+
+    def __post_init__(self) -> None:
+        pose, twist = ca.SX.sym("x", 3), ca.SX.sym("u", 3)
+        following = twist_integral(pose, twist, self.dt)
+        self.dynamics = ca.Function("dynamics", [pose, twist], [following], ["x", "u"], ["x_next"])
+        wrt_pose = ca.jacobian(following, pose)
+        wrt_twist = ca.jacobian(following, twist)
+        # Affine model x+ ~ A x + B u + c around (pose, twist); rows (c, vec A, vec B),
+        # vec column-major as CasADi stores it.
+        offset = following - wrt_pose @ pose - wrt_twist @ twist
+        stage = ca.Function(
+            "stage_linearization",
+            [pose, twist],
+            [ca.densify(ca.vertcat(offset, ca.vec(wrt_pose), ca.vec(wrt_twist)))],
+        )
+        self.linearization = stage.map(self.horizon)
+        self.rate_matrix = self._rate_matrix()
+
+    def _rate_matrix(self) -> FloatArray:
+        """The 3x3 weight of ``u_k - u_{k-1}``: diagonal rate plus module velocity change."""
+        matrix = np.diag(self.weights.rate)
+        if self.robot.wheel_dim == 2 and self.weights.module_rate > 0.0:
+            radius = float(getattr(self.robot, "wheel_radius", 1.0))
+            ground = self.robot.wheel_blocks * radius  # module ground velocity per twist
+            matrix = matrix + self.weights.module_rate * np.einsum("ndi,ndj->ij", ground, ground)
+        return matrix
+
+    # Layout of z and p -------------------------------------------------
+    @property
+    def n_poses(self) -> int:
+        return 3 * (self.horizon + 1)
+
+    @property
+    def n_variables(self) -> int:
+        return self.n_poses + 3 * self.horizon
+
+    @property
+    def n_parameters(self) -> int:
+        return 3 + 3 * (self.horizon + 1) + 3 * self.horizon + 3
+
+    def pack_parameters(
+        self, pose: FloatArray, poses_ref: FloatArray, twists_ref: FloatArray, last_twist: FloatArray
+    ) -> FloatArray:
+        """``p`` from the initial pose (3,), reference poses (N+1, 3), twists (N, 3), last command."""
+        return np.concatenate((pose, poses_ref.ravel(), twists_ref.ravel(), last_twist))
+
+    def split(self, z: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Poses (N+1, 3) and twists (N, 3) from a decision vector."""
+        return z[: self.n_poses].reshape(-1, 3), z[self.n_poses :].reshape(-1, 3)
+
+    def symbols(self) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
+        """Symbolic ``z``, ``p``, poses (3 x N+1) and twists (3 x N) views of ``z``."""
+        z = ca.SX.sym("z", self.n_variables)
+        p = ca.SX.sym("p", self.n_parameters)
+        poses = ca.reshape(z[: self.n_poses], 3, self.horizon + 1)
+        twists = ca.reshape(z[self.n_poses :], 3, self.horizon)
+        return z, p, poses, twists
+
+    def cost(self, poses: ca.SX, twists: ca.SX, p: ca.SX) -> ca.SX:
+        """The tracking cost (see :class:`~mpc.weights.Weights`) as a CasADi expression."""
+        n = self.horizon
+        poses_ref = ca.reshape(p[3 : 3 + 3 * (n + 1)], 3, n + 1)
+        twists_ref = ca.reshape(p[3 + 3 * (n + 1) : 3 + 3 * (n + 1) + 3 * n], 3, n)
+        last = p[-3:]
+        q, r, qf = (ca.DM(np.diag(w)) for w in (self.weights.pose, self.weights.twist,
+                                                 self.weights.terminal))
+        s = ca.DM(self.rate_matrix)
+        total = 0
+        for k in range(n):
+            if k > 0:
+                error = poses[:, k] - poses_ref[:, k]
+                total += ca.bilin(q, error, error)
+            deviation = twists[:, k] - twists_ref[:, k]
+            change = twists[:, k] - (last if k == 0 else twists[:, k - 1])
+            total += ca.bilin(r, deviation, deviation) + ca.bilin(s, change, change)
+        final = poses[:, n] - poses_ref[:, n]
+        return total + ca.bilin(qf, final, final)

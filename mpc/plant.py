@@ -1,0 +1,147 @@
+"""A simulated robot: integrates commanded wheel speeds, with real-robot faults.
+
+The plant is deliberately not the controller's model: it integrates the
+pose with RK4 over ``substeps`` sub-intervals per tick from the twist that
+forward kinematics gives for the *actual* wheel speeds, which may lag the
+command (first-order motor), arrive late (whole ticks of delay), slip, or
+point the wrong way while a swerve module is still steering.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from mpc.command import Command
+from mpc.errors import MpcInputError
+from mpc.robots.base import FloatArray, Robot
+from mpc.robots.swerve import SwerveRobot, wrap_angle
+
+
+@dataclass(frozen=True)
+class PlantConfig:
+    """What the simulated robot adds to ideal kinematics.
+
+    Attributes:
+        substeps: integration sub-intervals per control tick (>= 1).
+        motor_lag: first-order time constant of every wheel's speed [s]; 0 = instant.
+        delay_ticks: whole ticks between a command and its effect.
+        position_noise: standard deviation of the measured x and y [m].
+        heading_noise: standard deviation of the measured heading [rad].
+        slip: mean fraction of each wheel's speed lost to slip, drawn per
+            wheel and tick uniformly from [0, 2 * slip] (0 <= slip < 0.5).
+        steer_rate_limited: swerve modules turn at the robot's ``max_steer_rate``
+            (False: they snap to the commanded angle).
+    """
+
+    substeps: int = 10
+    motor_lag: float = 0.0
+    delay_ticks: int = 0
+    position_noise: float = 0.0
+    heading_noise: float = 0.0
+    slip: float = 0.0
+    steer_rate_limited: bool = True
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.substeps, int) or self.substeps < 1:
+            raise MpcInputError(f"substeps must be an integer >= 1, got {self.substeps!r}")
+        if not isinstance(self.delay_ticks, int) or self.delay_ticks < 0:
+            raise MpcInputError(f"delay_ticks must be an integer >= 0, got {self.delay_ticks!r}")
+        for name in ("motor_lag", "position_noise", "heading_noise", "slip"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+                raise MpcInputError(f"{name} must be a finite number >= 0, got {value!r}")
+        if self.slip >= 0.5:
+            raise MpcInputError(f"slip must be < 0.5 (a mean fraction), got {self.slip!r}")
+
+
+#: Named plants for the CLI and tests.
+PLANT_PRESETS: dict[str, PlantConfig] = {
+    "ideal": PlantConfig(),
+    "realistic": PlantConfig(motor_lag=0.03, delay_ticks=1, position_noise=0.002,
+                             heading_noise=0.005, slip=0.03),
+}
+
+
+class Plant:
+    """The simulated robot.
+
+    Args:
+        robot: the true robot (its kinematics and steering rate).
+        dt: control tick [s].
+        pose: initial world pose (x, y, theta).
+        config: the faults to simulate.
+        rng: random generator for noise and slip.
+    """
+
+    def __init__(self, robot: Robot, dt: float, pose: FloatArray, config: PlantConfig,
+                 rng: np.random.Generator) -> None:
+        self.robot = robot
+        self.dt = dt
+        self.config = config
+        self.pose = np.array(pose, dtype=float)
+        self.rng = rng
+        n = robot.n_wheels
+        self.wheel_speeds = np.zeros(n)  # actual, signed [rad/s]
+        self.steer_angles = np.zeros(n) if isinstance(robot, SwerveRobot) else None
+        rest = (np.zeros(n), None if self.steer_angles is None else np.zeros(n))
+        self._pipe: deque[tuple[FloatArray, FloatArray | None]] = deque(
+            [rest] * config.delay_ticks
+        )
+
+    def measure(self) -> FloatArray:
+        """The pose a localisation system would report (with noise)."""
+        config = self.config
+        if config.position_noise == 0.0 and config.heading_noise == 0.0:
+            return self.pose.copy()
+        noise = self.rng.normal(size=3) * np.array(
+            [config.position_noise, config.position_noise, config.heading_noise]
+        )
+        return self.pose + noise
+
+    def apply(self, command: Command) -> FloatArray:
+        """Run one tick under ``command``; return the wheel speeds actually reached [rad/s]."""
+        self._pipe.append((command.wheel_speeds, command.steer_angles))
+        target_speeds, target_angles = self._pipe.popleft()
+        config = self.config
+        h = self.dt / config.substeps
+        keep = math.exp(-h / config.motor_lag) if config.motor_lag > 0 else 0.0
+        if config.slip > 0:
+            grip = 1.0 - self.rng.uniform(0.0, 2.0 * config.slip, size=self.robot.n_wheels)
+        else:
+            grip = np.ones(self.robot.n_wheels)
+        for _ in range(config.substeps):
+            self.wheel_speeds = keep * self.wheel_speeds + (1.0 - keep) * target_speeds
+            if self.steer_angles is not None and target_angles is not None:
+                self._steer(target_angles, h)
+            self._integrate(self._twist(self.wheel_speeds * grip), h)
+        return self.wheel_speeds * grip
+
+    def _steer(self, target: FloatArray, h: float) -> None:
+        assert isinstance(self.robot, SwerveRobot) and self.steer_angles is not None
+        error = wrap_angle(target - self.steer_angles)
+        if self.config.steer_rate_limited:
+            reach = self.robot.max_steer_rate * h
+            error = np.clip(error, -reach, reach)
+        self.steer_angles = wrap_angle(self.steer_angles + error)
+
+    def _twist(self, speeds: FloatArray) -> FloatArray:
+        if isinstance(self.robot, SwerveRobot):
+            assert self.steer_angles is not None
+            return self.robot.twist(speeds, self.steer_angles)
+        return self.robot.twist(speeds)  # type: ignore[attr-defined, no-any-return]
+
+    def _integrate(self, twist: FloatArray, h: float) -> None:
+        """RK4 of d/dt pose = R(theta) twist over ``h`` seconds."""
+        def rate(pose: FloatArray) -> FloatArray:
+            c, s = math.cos(pose[2]), math.sin(pose[2])
+            return np.array([c * twist[0] - s * twist[1], s * twist[0] + c * twist[1], twist[2]])
+
+        k1 = rate(self.pose)
+        k2 = rate(self.pose + 0.5 * h * k1)
+        k3 = rate(self.pose + 0.5 * h * k2)
+        k4 = rate(self.pose + h * k3)
+        self.pose = self.pose + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)

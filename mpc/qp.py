@@ -1,0 +1,249 @@
+"""Fast path: one sparse QP per tick solved by OSQP (real-time iteration).
+
+Each tick linearises the CasADi model around the shifted previous plan (one
+mapped call for all stages) and solves
+
+    minimise    1/2 z' P z + (G p)' z
+    subject to  x_0 = x0,  x_{k+1} - A_k x_k - B_k u_k = c_k,
+                |C u_k| <= speed bounds,  |C (u_k - u_{k-1})| <= accel bounds,
+
+with ``z = (x_0..x_N, u_0..u_{N-1})``. ``P`` and ``G`` come once from the
+CasADi cost (its Hessian and its gradient's parameter Jacobian; the cost is
+quadratic). OSQP is set up once; each tick updates only ``q``, ``l``, ``u``
+and the dynamics entries of ``A``, whose sparsity pattern never changes:
+``A_k`` and ``B_k`` are stored as dense 3x3 blocks, structural zeros
+included, and their positions in ``A.data`` are computed once.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import osqp
+import scipy.sparse as sp
+
+from mpc.limits import polygon_factor, polygon_rows
+from mpc.model import TrackingModel
+from mpc.robots.base import FloatArray
+from mpc.solution import SolveResult
+
+_ACCEPTED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
+
+
+class _Pattern:
+    """Accumulates COO entries of ``A`` and remembers where each block went."""
+
+    def __init__(self) -> None:
+        self.rows: list[FloatArray] = []
+        self.cols: list[FloatArray] = []
+        self.values: list[FloatArray] = []
+        self.count = 0
+
+    def add(self, row: FloatArray, col: FloatArray, value: FloatArray) -> FloatArray:
+        """Add entries; return their COO ids."""
+        row, col, value = np.broadcast_arrays(row, col, value)
+        ids = self.count + np.arange(row.size).reshape(row.shape)
+        self.rows.append(row.ravel())
+        self.cols.append(col.ravel())
+        self.values.append(np.asarray(value, dtype=float).ravel())
+        self.count += row.size
+        return ids
+
+    def to_csc(self, shape: tuple[int, int]) -> tuple[sp.csc_matrix, FloatArray]:
+        """CSC matrix with every entry kept, and ``position[id]`` in its data."""
+        rows, cols = np.concatenate(self.rows), np.concatenate(self.cols)
+        tagged = sp.coo_matrix((np.arange(1, self.count + 1, dtype=float), (rows, cols)),
+                               shape=shape).tocsc()
+        tagged.sort_indices()
+        if tagged.nnz != self.count:
+            raise RuntimeError("duplicate entries in the QP constraint pattern")
+        position = np.empty(self.count, dtype=np.intp)
+        position[tagged.data.astype(np.intp) - 1] = np.arange(self.count)
+        matrix = tagged.copy()
+        matrix.data[position] = np.concatenate(self.values)
+        return matrix, position
+
+
+class QpSolver:
+    """OSQP real-time-iteration solver of a :class:`~mpc.model.TrackingModel`.
+
+    Args:
+        model: the tracking problem.
+        polygon_sides: sides of the polygon inscribed in a swerve module's
+            speed disk (even, >= 4).
+        max_iter: OSQP iterations per tick at most.
+        time_limit: OSQP time per tick at most [s]; 0 for none.
+        tolerance: OSQP's absolute and relative tolerance.
+    """
+
+    name = "osqp"
+
+    def __init__(
+        self,
+        model: TrackingModel,
+        polygon_sides: int = 16,
+        max_iter: int = 500,
+        time_limit: float = 0.0,
+        tolerance: float = 1e-4,
+    ) -> None:
+        self.model = model
+        n = model.horizon
+        robot = model.robot
+        n_poses = model.n_poses
+
+        # Cost: constant Hessian and the linear map from parameters to q.
+        z, p, poses, twists = model.symbols()
+        cost = model.cost(poses, twists, p)
+        gradient = ca.gradient(cost, z)
+        zero_z, zero_p = np.zeros(model.n_variables), np.zeros(model.n_parameters)
+        hessian = sp.csc_matrix(ca.Function("h", [z, p], [ca.hessian(cost, z)[0]])(zero_z, zero_p)
+                                .sparse())
+        self._gradient_map = sp.csr_matrix(
+            ca.Function("g", [z, p], [ca.jacobian(gradient, p)])(zero_z, zero_p).sparse()
+        )
+
+        # Constraints.
+        rows, wheel = polygon_rows(robot, polygon_sides)
+        factor = polygon_factor(robot, polygon_sides)
+        speed_bound = robot.max_wheel_speed[wheel] * factor
+        accel = robot.max_wheel_accel
+        pattern = _Pattern()
+        eye = np.eye(3)
+        pattern.add(np.arange(3), np.arange(3), 1.0)
+        stage = np.arange(n)[:, None, None]
+        r3, c3 = np.meshgrid(np.arange(3), np.arange(3), indexing="ij")  # r3[i, j] = i
+        dyn_rows = 3 + 3 * stage + r3  # (N, 3, 3)
+        pattern.add(dyn_rows, 3 * (stage + 1) + c3, eye)
+        # Column-major ids so that they line up with CasADi's vec(A_k), vec(B_k).
+        ids_a = pattern.add(dyn_rows, 3 * stage + c3, 0.0).transpose(0, 2, 1).reshape(n, 9)
+        ids_b = pattern.add(dyn_rows, n_poses + 3 * stage + c3, 0.0).transpose(0, 2, 1).reshape(n, 9)
+        m_rows = 3 * (n + 1)
+        n_limit = rows.shape[0]
+        limit_rows = m_rows + n_limit * stage[:, :, 0] + np.arange(n_limit)  # (N, m)
+        for k in range(n):
+            cols = n_poses + 3 * k + np.arange(3)
+            pattern.add(limit_rows[k][:, None], cols[None, :], rows)
+        lower = [np.zeros(m_rows), -np.tile(speed_bound, n)]
+        upper = [np.zeros(m_rows), np.tile(speed_bound, n)]
+        m_rows += n * n_limit
+        self._accel_rows: FloatArray | None = None
+        if accel is not None:
+            self._accel_start = m_rows
+            accel_bound = accel[wheel] * model.dt * factor
+            for k in range(n):
+                cols = n_poses + 3 * k + np.arange(3)
+                row = m_rows + n_limit * k + np.arange(n_limit)
+                pattern.add(row[:, None], cols[None, :], rows)
+                if k > 0:
+                    pattern.add(row[:, None], cols[None, :] - 3, -rows)
+            lower.append(-np.tile(accel_bound, n))
+            upper.append(np.tile(accel_bound, n))
+            m_rows += n * n_limit
+            self._accel_rows = rows
+            self._accel_bound = accel_bound
+        matrix, position = pattern.to_csc((m_rows, model.n_variables))
+        self._a_data = matrix.data.copy()
+        self._dynamics_slots = np.concatenate((position[ids_a], position[ids_b]), axis=1)
+        self._lower = np.concatenate(lower)
+        self._upper = np.concatenate(upper)
+        self._n_limit = n_limit
+
+        self._solver = osqp.OSQP()
+        self._solver.setup(
+            sp.triu(hessian, format="csc"),
+            np.zeros(model.n_variables),
+            matrix,
+            self._lower,
+            self._upper,
+            verbose=False,
+            warm_starting=True,
+            polishing=False,
+            max_iter=int(max_iter),
+            time_limit=float(time_limit) if time_limit > 0 else 1e10,
+            eps_abs=float(tolerance),
+            eps_rel=float(tolerance),
+            check_termination=5,
+        )
+        self._dual: FloatArray | None = None
+        # Zero-copy evaluation of the mapped linearisation: CasADi reads the
+        # (N, 3) C-ordered arrays as its 3 x N column-major inputs and writes
+        # (N, 21) rows (c_k, vec A_k, vec B_k).
+        self._lin_poses = np.zeros((n, 3))
+        self._lin_twists = np.zeros((n, 3))
+        self._lin_out = np.zeros((n, 21))
+        buffer, self._linearize = model.linearization.buffer()
+        buffer.set_arg(0, memoryview(self._lin_poses))
+        buffer.set_arg(1, memoryview(self._lin_twists))
+        buffer.set_res(0, memoryview(self._lin_out))
+        self._lin_buffer = buffer  # keeps the views alive
+        self._dual_shift = self._stage_shift(
+            [(0, 3, 1), (3, 3, n), (3 * (n + 1), n_limit, n)]
+            + ([(self._accel_start, n_limit, n)] if accel is not None else []),
+            m_rows,
+        )
+
+    @staticmethod
+    def _stage_shift(blocks: list[tuple[int, int, int]], size: int) -> FloatArray:
+        """Index map moving each per-stage block one stage earlier (last repeated)."""
+        index = np.arange(size)
+        for start, width, stages in blocks:
+            stage = np.minimum(np.arange(stages) + 1, stages - 1)
+            index[start : start + width * stages] = (
+                start + width * stage[:, None] + np.arange(width)
+            ).ravel()
+        return index
+
+    def reset(self) -> None:
+        """Forget the dual warm start (after a failure or a jump in the reference)."""
+        self._dual = None
+
+    def solve(
+        self,
+        pose: FloatArray,
+        poses_ref: FloatArray,
+        twists_ref: FloatArray,
+        last_twist: FloatArray,
+        guess_poses: FloatArray,
+        guess_twists: FloatArray,
+    ) -> SolveResult:
+        """Solve one tick around the guess (N+1, 3) poses and (N, 3) twists."""
+        model = self.model
+        self._lin_poses[:] = guess_poses[:-1]
+        self._lin_twists[:] = guess_twists
+        self._linearize()
+        stages = self._lin_out
+        self._a_data[self._dynamics_slots] = -stages[:, 3:]
+        lower, upper = self._lower, self._upper
+        lower[:3] = pose
+        lower[3 : model.n_poses] = stages[:, :3].ravel()
+        upper[: model.n_poses] = lower[: model.n_poses]
+        if self._accel_rows is not None:
+            base = self._accel_rows @ last_twist
+            start, stop = self._accel_start, self._accel_start + self._n_limit
+            lower[start:stop] = base - self._accel_bound
+            upper[start:stop] = base + self._accel_bound
+        q = self._gradient_map @ model.pack_parameters(pose, poses_ref, twists_ref, last_twist)
+        solver = self._solver
+        solver.update(q=q, l=lower, u=upper, Ax=self._a_data)
+        guess = np.concatenate((guess_poses.ravel(), guess_twists.ravel()))
+        if self._dual is None:
+            solver.warm_start(x=guess, y=np.zeros(len(lower)))
+        else:
+            solver.warm_start(x=guess, y=self._dual[self._dual_shift])
+        result = solver.solve(raise_error=False)
+        info = result.info
+        solution = result.x
+        success = info.status_val in _ACCEPTED and bool(np.all(np.isfinite(solution)))
+        self._dual = result.y.copy() if success else None
+        poses, twists = model.split(solution)
+        return SolveResult(
+            success=success,
+            status=str(info.status),
+            poses=poses,
+            twists=twists,
+            # OSQP's own time: the KKT refactorisation done in update() plus the iterations.
+            solve_time=float(info.update_time + info.solve_time),
+            iterations=int(info.iter),
+        )
+
+

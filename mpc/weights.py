@@ -1,0 +1,76 @@
+"""Cost weights of the tracking problem, with defaults that work across layouts."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mpc.errors import ControllerError
+from mpc.robots.base import FloatArray
+
+
+def _diagonal(name: str, value: ArrayLike) -> FloatArray:
+    array = np.asarray(value, dtype=float)
+    if array.ndim == 0:
+        array = np.full(3, float(array))
+    if array.shape != (3,):
+        raise ControllerError(
+            f"weight {name!r} must be a scalar or a vector of shape (3,) for (x, y, theta) "
+            f"or (vx, vy, omega), got shape {array.shape}"
+        )
+    if not np.all(np.isfinite(array)) or np.any(array < 0.0):
+        raise ControllerError(f"weight {name!r} must be finite and >= 0, got {array.tolist()}")
+    array.setflags(write=False)
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class Weights:
+    """Diagonal weights of the cost (a scalar applies to all three axes).
+
+    ``J = sum_k |x_k - xref_k|^2_pose + |u_k - uref_k|^2_twist
+    + |u_k - u_{k-1}|^2_rate + module_rate * sum_i |v_i,k - v_i,k-1|^2
+    + |x_N - xref_N|^2_terminal``
+
+    Attributes:
+        pose: on (x, y, theta) error [1/m^2, 1/m^2, 1/rad^2].
+        twist: on the deviation from the feedforward twist [s^2/m^2, s^2/m^2, s^2/rad^2].
+        rate: on the change of twist between ticks (same units as ``twist``).
+        terminal: on the pose error at the end of the horizon.
+        module_rate: swerve only, on the change of each module's ground
+            velocity between ticks [s^2/m^2]; it keeps steering motions
+            smooth enough for a rate-limited steering motor.
+    """
+
+    pose: FloatArray = field(default_factory=lambda: np.array([200.0, 200.0, 50.0]))
+    twist: FloatArray = field(default_factory=lambda: np.array([1.0, 1.0, 0.1]))
+    rate: FloatArray = field(default_factory=lambda: np.array([0.2, 0.2, 0.02]))
+    terminal: FloatArray = field(default_factory=lambda: np.array([400.0, 400.0, 100.0]))
+    module_rate: float = 1.0
+
+    def __post_init__(self) -> None:
+        for item in fields(self):
+            if item.name == "module_rate":
+                continue
+            object.__setattr__(self, item.name, _diagonal(item.name, getattr(self, item.name)))
+        rate = float(self.module_rate)
+        if not np.isfinite(rate) or rate < 0.0:
+            raise ControllerError(f"weight 'module_rate' must be finite and >= 0, got {rate!r}")
+        object.__setattr__(self, "module_rate", rate)
+
+
+def make_weights(weights: Weights | dict[str, ArrayLike] | None) -> Weights:
+    """Accept Weights, a dict of overrides (unknown names are an error), or None."""
+    if weights is None:
+        return Weights()
+    if isinstance(weights, Weights):
+        return weights
+    if isinstance(weights, dict):
+        known = {item.name for item in fields(Weights)}
+        unknown = sorted(set(weights) - known)
+        if unknown:
+            raise ControllerError(f"unknown weight name(s) {unknown}; expected some of {sorted(known)}")
+        return Weights(**weights)  # type: ignore[arg-type]
+    raise ControllerError(f"weights must be Weights, a dict or None, got {type(weights).__name__}")
