@@ -105,7 +105,8 @@ def test_round_trips(twist):
     for robot in (MECANUM, preset("omni3"), preset("omni4")):
         np.testing.assert_allclose(robot.twist(robot.wheel_speeds(twist)), twist, atol=1e-9)
     speeds, angles = SWERVE.module_states(twist, current_angles=np.full(4, 0.5))
-    np.testing.assert_allclose(SWERVE.twist(speeds, angles), twist, atol=1e-9)
+    # Modules slower than STOPPED_MODULE_SPEED (1e-6 m/s) are commanded to rest.
+    np.testing.assert_allclose(SWERVE.twist(speeds, angles), twist, atol=1e-5)
 
 
 @settings(max_examples=60, deadline=None)

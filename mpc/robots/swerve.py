@@ -118,9 +118,18 @@ class SwerveRobot(Robot):
         xi = as_twists(twist)
         if xi.shape != (3,):
             raise RobotError(f"module_states takes one twist of shape (3,), got {xi.shape}")
-        velocity = self.module_velocities(xi)
-        speed = np.hypot(velocity[:, 0], velocity[:, 1])
-        angle = np.arctan2(velocity[:, 1], velocity[:, 0])
+        return self.states_from_velocities(self.module_velocities(xi), current_angles)
+
+    def states_from_velocities(
+        self, velocities: FloatArray, current_angles: ArrayLike | None = None
+    ) -> tuple[FloatArray, FloatArray]:
+        """Signed wheel speeds [rad/s] and steer angles [rad] for module velocities (n, 2) [m/s].
+
+        The same rules as :meth:`module_states`, for module velocities that
+        need not come from one rigid-body twist (e.g. after per-wheel clipping).
+        """
+        speed = np.hypot(velocities[:, 0], velocities[:, 1])
+        angle = np.arctan2(velocities[:, 1], velocities[:, 0])
         if current_angles is None:
             current = np.zeros(self.n_wheels)
         else:

@@ -1,0 +1,53 @@
+"""Reference trajectories for holonomic robots (pure NumPy/SciPy).
+
+A trajectory gives, at times t [s], the world-frame reference pose
+(x, y, theta), velocity and acceleration, and the body twist (vx, vy, omega)
+a controller tracks. The path and the heading are independent: any path
+(:class:`Circle`, :class:`FigureEight`, :class:`Waypoints`) takes any heading
+profile (fixed, tangent, spinning, or a function of time)::
+
+    from trajectories import Circle, body_twist
+
+    reference = Circle.with_speed(1.0, 0.8, heading="tangent")  # 1 m radius at 0.8 m/s
+    sample = reference.sample(t0 + dt * np.arange(21))  # arrays of shape (21, 3)
+    twists = body_twist(sample)  # (vx, vy, omega) in the body frame, (21, 3)
+"""
+
+from .base import PathDerivatives, Trajectory, TrajectorySample, body_twist
+from .errors import TrajectoryError
+from .feasibility import FeasibilityReport, WheelLimitedRobot, feasibility
+from .heading import (
+    FixedHeading,
+    FunctionHeading,
+    HeadingDerivatives,
+    HeadingProfile,
+    HeadingSpec,
+    SpinHeading,
+    TangentHeading,
+    make_heading,
+)
+from .shapes import Circle, FigureEight
+from .waypoints import Waypoints, read_waypoint_csv
+
+__all__ = [
+    "Circle",
+    "FeasibilityReport",
+    "FigureEight",
+    "FixedHeading",
+    "FunctionHeading",
+    "HeadingDerivatives",
+    "HeadingProfile",
+    "HeadingSpec",
+    "PathDerivatives",
+    "SpinHeading",
+    "TangentHeading",
+    "Trajectory",
+    "TrajectoryError",
+    "TrajectorySample",
+    "Waypoints",
+    "WheelLimitedRobot",
+    "body_twist",
+    "feasibility",
+    "make_heading",
+    "read_waypoint_csv",
+]

@@ -1,0 +1,84 @@
+"""Boundary checks shared by the trajectory modules (private)."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from .errors import TrajectoryError
+
+FloatArray = npt.NDArray[np.float64]
+
+_MAX_SHOWN = 80  # characters of a value quoted in an error message
+
+
+def as_times(t: npt.ArrayLike) -> FloatArray:
+    """Times [s] as a float64 array of any shape (0-d for a scalar), all finite."""
+    try:
+        times = np.asarray(t, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TrajectoryError(
+            f"t must be a finite number or an array of finite numbers [s], got {shown(t)}"
+        ) from error
+    if not np.isfinite(times).all():
+        if times.ndim == 0:
+            raise TrajectoryError(
+                f"t must be a finite number or an array of finite numbers [s], got {shown(t)}"
+            )
+        bad = tuple(int(i) for i in np.argwhere(~np.isfinite(times))[0])
+        raise TrajectoryError(
+            "t must be a finite number or an array of finite numbers [s], got an array of "
+            f"shape {times.shape} with t[{', '.join(map(str, bad))}]={float(times[bad])!r}"
+        )
+    return times
+
+
+def shown(value: Any) -> str:
+    """repr of a value for a message, NumPy scalars shown as plain Python numbers."""
+    if isinstance(value, (np.generic, np.ndarray)) and np.ndim(value) == 0:
+        return repr(value.item())
+    text = repr(value)
+    return text if len(text) <= _MAX_SHOWN else text[: _MAX_SHOWN - 3] + "..."
+
+
+def is_real_scalar(value: Any) -> bool:
+    """True for a real number (not a bool), including 0-d numeric arrays."""
+    if isinstance(value, bool):
+        return False
+    if isinstance(value, numbers.Real):
+        return True
+    return isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf"
+
+
+def finite_number(name: str, value: Any) -> float:
+    """``value`` as a float, or TrajectoryError if it is not a finite real number."""
+    if not is_real_scalar(value) or not math.isfinite(float(value)):
+        raise TrajectoryError(f"{name} must be a finite number, got {shown(value)}")
+    return float(value)
+
+
+def positive_number(name: str, value: Any) -> float:
+    """``value`` as a float, or TrajectoryError if it is not finite and > 0."""
+    if not is_real_scalar(value) or not (math.isfinite(float(value)) and float(value) > 0.0):
+        raise TrajectoryError(f"{name} must be a finite number > 0, got {shown(value)}")
+    return float(value)
+
+
+def point2(name: str, value: Any) -> FloatArray:
+    """A read-only float array of shape (2,) with finite entries."""
+    try:
+        point = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TrajectoryError(
+            f"{name} must be 2 finite numbers (x, y) [m], got {shown(value)}"
+        ) from error
+    if point.shape != (2,) or not np.isfinite(point).all():
+        raise TrajectoryError(
+            f"{name} must be 2 finite numbers (x, y) [m], got {shown(value)} (shape {point.shape})"
+        )
+    point.flags.writeable = False
+    return point
