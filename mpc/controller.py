@@ -155,9 +155,10 @@ class Controller:
         for twist in self._sent:  # commands still in the pipe (known delay)
             x0 = self.model.dynamics(x0, twist).full().ravel()
         t_plan = float(t) + self.delay_ticks * self.dt
-        poses_ref, twists_ref = self._reference.at(t_plan, float(x0[2]))
+        poses_ref, twists_ref, directions = self._reference.at(t_plan, float(x0[2]))
         guess_poses, guess_twists = self._warm_start(x0, poses_ref, twists_ref)
-        result = self.solver.solve(x0, poses_ref, twists_ref, self._last, guess_poses, guess_twists)
+        result = self.solver.solve(x0, poses_ref, twists_ref, directions, self._last,
+                                   guess_poses, guess_twists)
 
         if result.success:
             self._failures = 0

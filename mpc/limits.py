@@ -47,38 +47,39 @@ def polygon_factor(robot: Robot, polygon_sides: int) -> float:
 def clamp_command(
     robot: Robot, target: FloatArray, last: FloatArray, dt: float
 ) -> tuple[FloatArray, bool]:
-    """The twist furthest along ``last -> target`` that keeps every wheel limit.
+    """Bring ``target`` within every wheel limit, moving it as little as the rules allow.
 
-    Both limit sets are convex and contain ``last`` (if ``last`` is within
-    the speed limits), so the segment's feasible part is ``[0, lam]``; each
-    wheel gives ``lam`` in closed form (a quadratic for a swerve disk).
-    Returns the clamped twist and whether it had to move. If ``last`` itself
-    breaks a speed limit (the limits were just derated), acceleration cannot
-    be honoured as well and the target is scaled uniformly into the speed
-    limits instead.
+    1. Speed: scale ``target`` uniformly into the speed limits (a solver's
+       output is off by its tolerance at most, so this is a tiny scaling).
+    2. Acceleration: step from ``last`` towards that twist only as far as
+       every wheel's acceleration limit allows. Both ends lie in the convex
+       speed-limit set, so the whole step does too.
+
+    Returns the clamped twist and whether it differs from ``target``. If
+    ``last`` itself breaks a speed limit (the limits were just derated),
+    acceleration cannot be honoured as well; the speed limits win.
     """
-    step = target - last
     blocks = robot.wheel_blocks
-    start = blocks @ last  # (n, d) wheel velocities now
-    direction = blocks @ step  # (n, d) their change
+    wheels = blocks @ target  # (n, d) wheel velocities asked for
+    speed = np.sqrt((wheels * wheels).sum(axis=1))
     limit = robot.max_wheel_speed
-    aa = (start * start).sum(axis=1)
-    if (aa > (limit * (1 + 1e-9) + 1e-12) ** 2).any():
-        clamped = robot.desaturate(target)
-        return clamped, not np.array_equal(clamped, target)
-    bb = (direction * direction).sum(axis=1)
-    moving = bb > 0.0
-    if not moving.any():
-        return target, False
-    ab = (start * direction).sum(axis=1)
-    safe = np.where(moving, bb, 1.0)
-    # Largest lam with |start + lam direction| <= limit, per wheel.
-    speed_room = (-ab + np.sqrt(np.maximum(ab * ab - bb * (aa - limit * limit), 0.0))) / safe
-    fraction = speed_room[moving].min()
+    over = speed > limit
+    safe = target
+    if over.any():
+        # The smallest limit / speed over the wheels; a failed wheel (limit 0) stops the robot.
+        safe = target * (limit[over] / speed[over]).min() * (1.0 - 1e-12)
     accel = robot.max_wheel_accel
-    if accel is not None:
-        fraction = min(fraction, (accel[moving] * dt / np.sqrt(bb[moving])).min())
+    if accel is None:
+        return safe, safe is not target
+    start = blocks @ last
+    if ((start * start).sum(axis=1) > (limit * (1 + 1e-9) + 1e-12) ** 2).any():
+        return safe, safe is not target
+    change = blocks @ safe - start
+    size = np.sqrt((change * change).sum(axis=1))
+    moving = size > 0.0
+    if not moving.any():
+        return safe, safe is not target
+    fraction = (accel[moving] * dt / size[moving]).min()
     if fraction >= 1.0:
-        return target, False
-    # Shave a relative 1e-12 so that rounding never lands a hair outside.
-    return last + max(fraction * (1.0 - 1e-12), 0.0) * step, True
+        return safe, safe is not target
+    return last + fraction * (1.0 - 1e-12) * (safe - last), True

@@ -7,11 +7,12 @@
   values and derivatives stay finite.
 - Cost: :class:`~mpc.weights.Weights` over the decision vector
   ``z = (x_0 .. x_N, u_0 .. u_{N-1})`` and the parameter vector
-  ``p = (x0, xref_0 .. xref_N, uref_0 .. uref_{N-1}, u_prev)``.
+  ``p = (x0, xref_0 .. xref_N, uref_0 .. uref_{N-1}, t_0 .. t_N, u_prev)``
+  where ``t_k`` is the reference's direction of travel (2,).
 
 The exact path (:mod:`mpc.nlp`) hands these expressions to IPOPT; the fast
-path (:mod:`mpc.qp`) takes the cost's constant Hessian and its linear
-gradient map once, and each tick one mapped call of :attr:`linearization`.
+path (:mod:`mpc.qp`) evaluates the cost's Hessian and gradient (the cost is
+quadratic in ``z``) and one mapped call of :attr:`linearization` each tick.
 """
 
 from __future__ import annotations
@@ -105,13 +106,21 @@ class TrackingModel:
 
     @property
     def n_parameters(self) -> int:
-        return 3 + 3 * (self.horizon + 1) + 3 * self.horizon + 3
+        return 3 + 3 * (self.horizon + 1) + 3 * self.horizon + 2 * (self.horizon + 1) + 3
 
     def pack_parameters(
-        self, pose: FloatArray, poses_ref: FloatArray, twists_ref: FloatArray, last_twist: FloatArray
+        self,
+        pose: FloatArray,
+        poses_ref: FloatArray,
+        twists_ref: FloatArray,
+        directions: FloatArray,
+        last_twist: FloatArray,
     ) -> FloatArray:
-        """``p`` from the initial pose (3,), reference poses (N+1, 3), twists (N, 3), last command."""
-        return np.concatenate((pose, poses_ref.ravel(), twists_ref.ravel(), last_twist))
+        """``p`` from the initial pose (3,), reference poses (N+1, 3), feedforward twists
+        (N, 3), directions of travel (N+1, 2) and the last command (3,)."""
+        return np.concatenate(
+            (pose, poses_ref.ravel(), twists_ref.ravel(), directions.ravel(), last_twist)
+        )
 
     def split(self, z: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Poses (N+1, 3) and twists (N, 3) from a decision vector."""
@@ -128,19 +137,27 @@ class TrackingModel:
     def cost(self, poses: ca.SX, twists: ca.SX, p: ca.SX) -> ca.SX:
         """The tracking cost (see :class:`~mpc.weights.Weights`) as a CasADi expression."""
         n = self.horizon
-        poses_ref = ca.reshape(p[3 : 3 + 3 * (n + 1)], 3, n + 1)
-        twists_ref = ca.reshape(p[3 + 3 * (n + 1) : 3 + 3 * (n + 1) + 3 * n], 3, n)
+        start = 3
+        poses_ref = ca.reshape(p[start : start + 3 * (n + 1)], 3, n + 1)
+        start += 3 * (n + 1)
+        twists_ref = ca.reshape(p[start : start + 3 * n], 3, n)
+        start += 3 * n
+        directions = ca.reshape(p[start : start + 2 * (n + 1)], 2, n + 1)
         last = p[-3:]
-        q, r, qf = (ca.DM(np.diag(w)) for w in (self.weights.pose, self.weights.twist,
-                                                 self.weights.terminal))
-        s = ca.DM(self.rate_matrix)
+        weights = self.weights
+        r, s = ca.DM(np.diag(weights.twist)), ca.DM(self.rate_matrix)
+
+        def pose_cost(k: int, diagonal: FloatArray) -> ca.SX:
+            error = poses[:, k] - poses_ref[:, k]
+            along = ca.dot(directions[:, k], error[:2])
+            relief = (1.0 - weights.along_track) * float(min(diagonal[0], diagonal[1]))
+            return ca.bilin(ca.DM(np.diag(diagonal)), error, error) - relief * along**2
+
         total = 0
         for k in range(n):
             if k > 0:
-                error = poses[:, k] - poses_ref[:, k]
-                total += ca.bilin(q, error, error)
+                total += pose_cost(k, weights.pose)
             deviation = twists[:, k] - twists_ref[:, k]
             change = twists[:, k] - (last if k == 0 else twists[:, k - 1])
             total += ca.bilin(r, deviation, deviation) + ca.bilin(s, change, change)
-        final = poses[:, n] - poses_ref[:, n]
-        return total + ca.bilin(qf, final, final)
+        return total + pose_cost(n, weights.terminal)

@@ -100,6 +100,7 @@ class NlpSolver:
         pose: FloatArray,
         poses_ref: FloatArray,
         twists_ref: FloatArray,
+        directions: FloatArray,
         last_twist: FloatArray,
         guess_poses: FloatArray,
         guess_twists: FloatArray,
@@ -107,7 +108,7 @@ class NlpSolver:
         """Solve one tick from the guess (N+1, 3) poses and (N, 3) twists."""
         model = self.model
         guess = np.concatenate((guess_poses.ravel(), guess_twists.ravel()))
-        params = model.pack_parameters(pose, poses_ref, twists_ref, last_twist)
+        params = model.pack_parameters(pose, poses_ref, twists_ref, directions, last_twist)
         output = self._solver(x0=guess, p=params, lbg=self._lbg, ubg=self._ubg)
         stats = self._solver.stats()
         solution = output["x"].full().ravel()

@@ -3,14 +3,16 @@
 Each tick linearises the CasADi model around the shifted previous plan (one
 mapped call for all stages) and solves
 
-    minimise    1/2 z' P z + (G p)' z
+    minimise    1/2 z' P(p) z + q(p)' z
     subject to  x_0 = x0,  x_{k+1} - A_k x_k - B_k u_k = c_k,
                 |C u_k| <= speed bounds,  |C (u_k - u_{k-1})| <= accel bounds,
 
-with ``z = (x_0..x_N, u_0..u_{N-1})``. ``P`` and ``G`` come once from the
-CasADi cost (its Hessian and its gradient's parameter Jacobian; the cost is
-quadratic). OSQP is set up once; each tick updates only ``q``, ``l``, ``u``
-and the dynamics entries of ``A``, whose sparsity pattern never changes:
+with ``z = (x_0..x_N, u_0..u_{N-1})``. ``P`` and ``q`` are the CasADi
+cost's Hessian and its gradient at ``z = 0`` (the cost is quadratic in
+``z``), evaluated each tick from the parameters ``p`` (the direction of
+travel enters ``P``). OSQP is set up once; each tick updates only ``P``'s
+values, ``q``, ``l``, ``u`` and the dynamics entries of ``A``, whose
+sparsity patterns never change:
 ``A_k`` and ``B_k`` are stored as dense 3x3 blocks, structural zeros
 included, and their positions in ``A.data`` are computed once.
 """
@@ -91,15 +93,27 @@ class QpSolver:
         robot = model.robot
         n_poses = model.n_poses
 
-        # Cost: constant Hessian and the linear map from parameters to q.
+        # Cost: P(p) = Hessian (upper triangle, CasADi's CCS order = OSQP's CSC
+        # order) and q(p) = gradient at z = 0, evaluated into buffers each tick.
         z, p, poses, twists = model.symbols()
         cost = model.cost(poses, twists, p)
-        gradient = ca.gradient(cost, z)
-        zero_z, zero_p = np.zeros(model.n_variables), np.zeros(model.n_parameters)
-        hessian = sp.csc_matrix(ca.Function("h", [z, p], [ca.hessian(cost, z)[0]])(zero_z, zero_p)
-                                .sparse())
-        self._gradient_map = sp.csr_matrix(
-            ca.Function("g", [z, p], [ca.jacobian(gradient, p)])(zero_z, zero_p).sparse()
+        hessian = ca.triu(ca.hessian(cost, z)[0])
+        gradient = ca.substitute(ca.gradient(cost, z), z, ca.DM.zeros(model.n_variables))
+        cost_terms = ca.Function("qp_cost", [p], [hessian, gradient])
+        sparsity = cost_terms.sparsity_out(0)
+        self._params = np.zeros(model.n_parameters)
+        self._p_data = np.zeros(sparsity.nnz())
+        self._q = np.zeros(model.n_variables)
+        buffer, self._evaluate_cost = cost_terms.buffer()
+        buffer.set_arg(0, memoryview(self._params))
+        buffer.set_res(0, memoryview(self._p_data))
+        buffer.set_res(1, memoryview(self._q))
+        self._cost_buffer = buffer  # keeps the views alive
+        colind, row = sparsity.get_ccs()
+        self._evaluate_cost()
+        hessian_matrix = sp.csc_matrix(
+            (self._p_data.copy(), np.asarray(row), np.asarray(colind)),
+            shape=(model.n_variables, model.n_variables),
         )
 
         # Constraints.
@@ -150,7 +164,7 @@ class QpSolver:
 
         self._solver = osqp.OSQP()
         self._solver.setup(
-            sp.triu(hessian, format="csc"),
+            hessian_matrix,
             np.zeros(model.n_variables),
             matrix,
             self._lower,
@@ -202,6 +216,7 @@ class QpSolver:
         pose: FloatArray,
         poses_ref: FloatArray,
         twists_ref: FloatArray,
+        directions: FloatArray,
         last_twist: FloatArray,
         guess_poses: FloatArray,
         guess_twists: FloatArray,
@@ -222,9 +237,11 @@ class QpSolver:
             start, stop = self._accel_start, self._accel_start + self._n_limit
             lower[start:stop] = base - self._accel_bound
             upper[start:stop] = base + self._accel_bound
-        q = self._gradient_map @ model.pack_parameters(pose, poses_ref, twists_ref, last_twist)
+        self._params[:] = model.pack_parameters(pose, poses_ref, twists_ref, directions,
+                                                last_twist)
+        self._evaluate_cost()
         solver = self._solver
-        solver.update(q=q, l=lower, u=upper, Ax=self._a_data)
+        solver.update(q=self._q, l=lower, u=upper, Px=self._p_data, Ax=self._a_data)
         guess = np.concatenate((guess_poses.ravel(), guess_twists.ravel()))
         if self._dual is None:
             solver.warm_start(x=guess, y=np.zeros(len(lower)))

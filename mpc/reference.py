@@ -20,6 +20,9 @@ from trajectories import Trajectory
 #: Below this ``|delta theta|`` [rad] the SE(2) logarithm uses its Taylor series.
 _SMALL_ANGLE = 1e-4
 
+#: Reference speed [m/s] below which the direction of travel fades to zero.
+DIRECTION_SPEED = 0.01
+
 
 def feedforward_twists(poses: FloatArray, dt: float) -> FloatArray:
     """Body twists (N, 3) that drive pose k exactly to pose k+1 in ``dt`` seconds.
@@ -54,16 +57,21 @@ class ReferenceWindow:
         self.offsets = dt * np.arange(horizon + 1)
         self.dt = dt
 
-    def at(self, time: float, heading: float) -> tuple[FloatArray, FloatArray]:
-        """Reference poses (N+1, 3) and feedforward twists (N, 3) from ``time`` [s].
+    def at(self, time: float, heading: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The window from ``time`` [s]: poses (N+1, 3), feedforward (N, 3), directions (N+1, 2).
 
         The reference heading is shifted by a multiple of 2 pi so that its
         first value lies within pi of ``heading`` (the robot's), which makes
-        the quadratic heading cost measure the wrapped error.
+        the quadratic heading cost measure the wrapped error. A direction is
+        the reference's world velocity over ``sqrt(|v|^2 + DIRECTION_SPEED^2)``:
+        the unit direction of travel, fading to zero when the reference stops.
         """
-        poses = self.trajectory.sample(time + self.offsets).pose
+        sample = self.trajectory.sample(time + self.offsets)
+        poses = sample.pose
         turns = math.floor((poses[0, 2] - heading) / (2.0 * math.pi) + 0.5)
         if turns:
             poses = poses.copy()
             poses[:, 2] -= 2.0 * math.pi * turns
-        return poses, feedforward_twists(poses, self.dt)
+        velocity = sample.velocity[:, :2]
+        scale = np.sqrt((velocity * velocity).sum(axis=1) + DIRECTION_SPEED**2)
+        return poses, feedforward_twists(poses, self.dt), velocity / scale[:, None]

@@ -30,15 +30,23 @@ def _diagonal(name: str, value: ArrayLike) -> FloatArray:
 class Weights:
     """Diagonal weights of the cost (a scalar applies to all three axes).
 
-    ``J = sum_k |x_k - xref_k|^2_pose + |u_k - uref_k|^2_twist
-    + |u_k - u_{k-1}|^2_rate + module_rate * sum_i |v_i,k - v_i,k-1|^2
-    + |x_N - xref_N|^2_terminal``
+    ``J = sum_k |x_k - xref_k|^2_pose - (1 - along_track) min(pose_x, pose_y) (t_k . e_k)^2
+    + |u_k - uref_k|^2_twist + |u_k - u_{k-1}|^2_rate
+    + module_rate * sum_i |v_i,k - v_i,k-1|^2 + (the same pose terms at N with terminal)``
+
+    where ``e_k`` is the position error and ``t_k`` the reference's unit
+    direction of travel. With ``along_track < 1`` falling behind the
+    reference costs less than leaving its path: when the reference is
+    faster than the wheels allow, the robot slows down on the path instead
+    of cutting corners to catch up.
 
     Attributes:
         pose: on (x, y, theta) error [1/m^2, 1/m^2, 1/rad^2].
         twist: on the deviation from the feedforward twist [s^2/m^2, s^2/m^2, s^2/rad^2].
         rate: on the change of twist between ticks (same units as ``twist``).
         terminal: on the pose error at the end of the horizon.
+        along_track: factor in [0, 1] on the position weight along the
+            reference's direction of travel (1 = isotropic).
         module_rate: swerve only, on the change of each module's ground
             velocity between ticks [s^2/m^2]; it keeps steering motions
             smooth enough for a rate-limited steering motor.
@@ -48,17 +56,22 @@ class Weights:
     twist: FloatArray = field(default_factory=lambda: np.array([1.0, 1.0, 0.1]))
     rate: FloatArray = field(default_factory=lambda: np.array([0.2, 0.2, 0.02]))
     terminal: FloatArray = field(default_factory=lambda: np.array([400.0, 400.0, 100.0]))
+    along_track: float = 0.2
     module_rate: float = 1.0
 
     def __post_init__(self) -> None:
         for item in fields(self):
-            if item.name == "module_rate":
+            if item.name in ("module_rate", "along_track"):
                 continue
             object.__setattr__(self, item.name, _diagonal(item.name, getattr(self, item.name)))
         rate = float(self.module_rate)
         if not np.isfinite(rate) or rate < 0.0:
             raise ControllerError(f"weight 'module_rate' must be finite and >= 0, got {rate!r}")
         object.__setattr__(self, "module_rate", rate)
+        along = float(self.along_track)
+        if not 0.0 <= along <= 1.0:
+            raise ControllerError(f"weight 'along_track' must lie in [0, 1], got {along!r}")
+        object.__setattr__(self, "along_track", along)
 
 
 def make_weights(weights: Weights | dict[str, ArrayLike] | None) -> Weights:

@@ -1,0 +1,144 @@
+"""Baselines a user would otherwise pick: feedforward plus P pose feedback.
+
+The twist is the reference's body twist plus proportional feedback on the
+pose error (world frame, heading wrapped), mapped to wheels in one of two
+ways:
+
+- ``"clip"``: each wheel's velocity is clipped to its speed limit and its
+  change to its acceleration limit, independently (what a motor driver or a
+  per-wheel slew-rate limiter does). Cheap, but the wheels no longer agree
+  on one rigid-body motion, so the robot moves in another direction.
+- ``"desaturate"``: the whole twist is scaled uniformly into the speed
+  limits (WPILib's ``desaturateWheelSpeeds``) and then towards the last
+  command into the acceleration limits. Keeps the direction, loses speed.
+
+Neither looks ahead; that is the difference from the MPC.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mpc.command import Command, Status
+from mpc.errors import ControllerError
+from mpc.limits import clamp_command
+from mpc.robots.base import FloatArray, Robot
+from mpc.robots.swerve import SwerveRobot, wrap_angle
+from trajectories import Trajectory
+
+#: Valid ``saturation=`` names.
+SATURATIONS: tuple[str, ...] = ("clip", "desaturate")
+
+
+class FeedforwardPController:
+    """Reference feedforward plus proportional pose feedback.
+
+    ``twist = R(theta)^T (v_ref + K_p (p_ref - p)), omega = omega_ref + K_theta e_theta``
+
+    Args:
+        robot: the drive layout and its limits.
+        trajectory: the reference.
+        dt: control tick [s].
+        gains: (K_xy, K_theta) [1/s]; default (4, 4), about a tenth of the
+            tick rate, which tracks fast without ringing under a tick of delay.
+        saturation: ``"clip"`` or ``"desaturate"`` (see the module docstring).
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        trajectory: Trajectory,
+        dt: float = 0.05,
+        gains: tuple[float, float] = (4.0, 4.0),
+        saturation: str = "desaturate",
+    ) -> None:
+        if not isinstance(robot, Robot):
+            raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
+        if not isinstance(trajectory, Trajectory):
+            raise ControllerError(
+                f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}"
+            )
+        if not isinstance(dt, (int, float)) or not math.isfinite(dt) or dt <= 0:
+            raise ControllerError(f"dt must be a finite number of seconds > 0, got {dt!r}")
+        if saturation not in SATURATIONS:
+            raise ControllerError(
+                f"unknown saturation {saturation!r}; expected one of {list(SATURATIONS)}"
+            )
+        gain = np.asarray(gains, dtype=float)
+        if gain.shape != (2,) or not np.all(np.isfinite(gain)) or np.any(gain < 0):
+            raise ControllerError(f"gains must be two finite numbers >= 0, got {gains!r}")
+        self.robot = robot
+        self.trajectory = trajectory
+        self.dt = float(dt)
+        self.gains = gain
+        self.saturation = saturation
+        blocks = robot.wheel_blocks
+        self._pinv = np.linalg.pinv(blocks.reshape(-1, 3))  # wheel velocities -> twist
+        self.reset()
+
+    def reset(self) -> None:
+        """The robot is at rest; swerve modules point forward."""
+        self._last = np.zeros(3)
+        self._last_wheels = np.zeros((self.robot.n_wheels, self.robot.wheel_dim))
+        self._steer = np.zeros(self.robot.n_wheels)
+
+    def step(self, pose: ArrayLike, t: float) -> Command:
+        """The command for measured ``pose`` (x, y, theta) at time ``t`` [s]."""
+        start = time.perf_counter()
+        x = np.asarray(pose, dtype=float)
+        if x.shape != (3,) or not np.all(np.isfinite(x)):
+            raise ControllerError(f"pose must be a finite (3,) pose, got {pose!r}")
+        if not math.isfinite(t):
+            raise ControllerError(f"t must be a finite time in seconds, got {t!r}")
+        # Feedforward at mid-tick: the command is held over [t, t + dt].
+        reference = self.trajectory.sample(t)
+        ahead = self.trajectory.sample(t + 0.5 * self.dt)
+        error = reference.pose - x
+        error[2] = float(wrap_angle(error[2]))
+        world = ahead.velocity[:2] + self.gains[0] * error[:2]
+        c, s = math.cos(x[2]), math.sin(x[2])
+        target = np.array([c * world[0] + s * world[1], -s * world[0] + c * world[1],
+                           ahead.velocity[2] + self.gains[1] * error[2]])
+        if self.saturation == "desaturate":
+            twist, clamped = clamp_command(self.robot, self.robot.desaturate(target),
+                                           self._last, self.dt)
+            clamped = clamped or not np.allclose(twist, target)
+            wheels = self.robot.wheel_velocities(twist)
+        else:
+            wheels = self._clip(self.robot.wheel_velocities(target))
+            twist = self._pinv @ wheels.ravel()
+            clamped = not np.allclose(wheels, self.robot.wheel_velocities(target))
+        self._last, self._last_wheels = twist, wheels
+        if isinstance(self.robot, SwerveRobot):
+            speeds, steer = self.robot.states_from_velocities(
+                wheels * self.robot.wheel_radius, self._steer)
+            self._steer = steer
+            steer_angles: FloatArray | None = steer
+        else:
+            speeds, steer_angles = wheels[:, 0], None
+        return Command(
+            wheel_speeds=speeds, twist=twist, steer_angles=steer_angles,
+            predicted_poses=reference.pose[None, :], status=Status.SOLVED,
+            solver_status="none", solve_time=0.0, tick_time=time.perf_counter() - start,
+            iterations=0, consecutive_failures=0, clamped=clamped,
+        )
+
+    def _clip(self, wheels: FloatArray) -> FloatArray:
+        """Per-wheel: speed into its limit, change into its acceleration limit."""
+        limit = self.robot.max_wheel_speed[:, None]
+        wheels = wheels * np.minimum(1.0, limit / np.maximum(_norm(wheels), 1e-300))
+        accel = self.robot.max_wheel_accel
+        if accel is not None:
+            change = wheels - self._last_wheels
+            bound = accel[:, None] * self.dt
+            wheels = self._last_wheels + change * np.minimum(
+                1.0, bound / np.maximum(_norm(change), 1e-300))
+        return wheels
+
+
+def _norm(vectors: FloatArray) -> FloatArray:
+    return np.linalg.norm(vectors, axis=1, keepdims=True)
