@@ -1,0 +1,157 @@
+"""``mpc-bench``: compare tracking controllers on holonomic robots.
+
+    mpc-bench [options]          run the benchmark (defaults: every layout,
+                                 circle and figure-eight, inside and 30% beyond
+                                 the wheel limits, MPC (OSQP, IPOPT) and baselines)
+    mpc-bench report RESULTS     rebuild the report from a results.json
+    mpc-bench perf [options]     tick time against horizon for both solver paths
+    mpc-bench soak [options]     memory and tick time over a long run
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from benchmarks import perf, soak
+from benchmarks.runner import build_scenarios, results_document, run_all, summary_table, write_csv
+from benchmarks.scenarios import (
+    CONTROLLERS,
+    HEADINGS,
+    PRESETS,
+    TRAJECTORIES,
+    ScenarioError,
+    Settings,
+    choose,
+    csv_reference,
+    parse_speeds,
+    robots,
+)
+from mpc.errors import MpcInputError
+from mpc.plant import PLANT_PRESETS
+from trajectories import TrajectoryError
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="mpc-bench",
+        description="Benchmark MPC tracking against feedforward + P baselines on holonomic "
+                    "robots. Subcommands: 'report RESULTS', 'perf', 'soak' (see --help of each).",
+    )
+    parser.add_argument("--layouts", help=f"comma list of {', '.join(PRESETS)} (default: all)")
+    parser.add_argument("--trajectories",
+                        help=f"comma list of {', '.join(TRAJECTORIES)} (default: all)")
+    parser.add_argument("--speeds", help="comma list of inside (peak wheel speed 0.8 x limit), "
+                                         "beyond (1.3 x) or peak ratios like 1.1 (default: both)")
+    parser.add_argument("--controllers",
+                        help=f"comma list of {', '.join(CONTROLLERS)} (default: all)")
+    parser.add_argument("--heading", default="fixed", choices=HEADINGS,
+                        help="heading profile of the shapes (default: fixed)")
+    parser.add_argument("--horizon", type=int, default=20, help="MPC horizon in ticks (20)")
+    parser.add_argument("--dt", type=float, default=0.05, help="control tick [s] (0.05)")
+    parser.add_argument("--duration", type=float,
+                        help="simulated seconds per run (default: one lap + settling time)")
+    parser.add_argument("--skip", type=float, default=2.0,
+                        help="seconds of settling left out of the tracking errors (2.0)")
+    parser.add_argument("--plant", default="ideal", choices=sorted(PLANT_PRESETS),
+                        help="simulated robot: ideal, or realistic (motor lag, 1-tick delay, "
+                             "pose noise, slip)")
+    parser.add_argument("--robot", metavar="TOML", help="also run a robot from a TOML file")
+    parser.add_argument("--trajectory-csv", metavar="CSV",
+                        help="also run a waypoint trajectory from a CSV file (t,x,y,theta)")
+    parser.add_argument("--seed", type=int, default=0, help="seed for noise and slip (0)")
+    parser.add_argument("--out", default="bench-out", metavar="DIR",
+                        help="output folder (bench-out)")
+    parser.add_argument("--no-report", action="store_true", help="skip the figures and HTML page")
+    parser.add_argument("--quick", action="store_true",
+                        help="smoke run in seconds: mecanum, figure8, 3 s per run")
+    return parser
+
+
+def run(argv: list[str]) -> int:
+    args = _parser().parse_args(argv)
+    if args.quick:
+        args.layouts = args.layouts or "mecanum"
+        args.trajectories = args.trajectories or "figure8"
+        args.duration = args.duration or 3.0
+        args.skip = min(args.skip, 1.0)
+    if args.horizon < 1 or not args.dt > 0 or (args.duration is not None and not args.duration > 0):
+        raise ScenarioError("--horizon must be >= 1, --dt and --duration > 0")
+    layouts = choose("layout", args.layouts, PRESETS)
+    chosen_robots = robots(layouts, args.robot)
+    trajectories = choose("trajectory", args.trajectories, TRAJECTORIES)
+    controllers = choose("controller", args.controllers, CONTROLLERS)
+    speeds = parse_speeds(args.speeds)
+    csv_trajectory = csv_reference(args.trajectory_csv) if args.trajectory_csv else None
+    settings = Settings(horizon=args.horizon, dt=args.dt)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    scenarios = build_scenarios(chosen_robots, trajectories, speeds, args.heading, csv_trajectory)
+    print(f"mpc-bench: {len(scenarios)} scenarios x {len(controllers)} controllers, "
+          f"plant {args.plant}, horizon {args.horizon}, dt {args.dt} s", flush=True)
+    started = time.perf_counter()
+    runs = run_all(scenarios, controllers, settings, args.duration, args.skip, args.plant,
+                   args.seed, lambda line: print(line, flush=True))
+    document = results_document(
+        runs,
+        command=" ".join(["mpc-bench", *argv]),
+        settings={"horizon": args.horizon, "dt": args.dt, "duration": args.duration,
+                  "plant": args.plant, "skip": args.skip, "heading": args.heading,
+                  "seed": args.seed},
+    )
+    (out / "results.json").write_text(json.dumps(document))
+    write_csv(runs, out / "results.csv")
+    print()
+    print(summary_table(runs))
+    print(f"\nwrote {out / 'results.json'} and {out / 'results.csv'} "
+          f"({time.perf_counter() - started:.0f} s)")
+    if not args.no_report:
+        _write_report(document, out / "report")
+    return 0
+
+
+def _write_report(document: dict, folder: Path) -> None:
+    from benchmarks.report import write_report  # matplotlib only when asked for
+
+    def progress(done: int, total: int) -> None:
+        if done == total or done % 10 == 0:
+            print(f"report: {done}/{total} figures", flush=True)
+
+    index = write_report(document, folder, on_figure=progress)
+    print(f"wrote {index}")
+
+
+def report(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(prog="mpc-bench report",
+                                     description="Rebuild the report from a results.json.")
+    parser.add_argument("results", help="path of results.json")
+    parser.add_argument("--out", help="report folder (default: 'report' beside the results)")
+    args = parser.parse_args(argv)
+    from benchmarks.report import load_results
+
+    path = Path(args.results)
+    document = load_results(path)
+    _write_report(document, Path(args.out) if args.out else path.parent / "report")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``mpc-bench`` console script."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    commands = {"report": report, "perf": perf.main, "soak": soak.main}
+    try:
+        if argv and argv[0] in commands:
+            return commands[argv[0]](argv[1:])
+        return run(argv)
+    except (ScenarioError, MpcInputError, TrajectoryError, ValueError, OSError) as error:
+        # Every bad option, file or value is a ValueError subclass of ours (the
+        # report's ReportError included) or an OSError: one line, no traceback.
+        print(f"mpc-bench: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("mpc-bench: interrupted", file=sys.stderr)
+        return 130

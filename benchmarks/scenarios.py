@@ -1,0 +1,135 @@
+"""The benchmark's scenarios: which robot, which reference, how fast, which controller.
+
+A scenario's speed is given as the reference's peak wheel-speed requirement
+as a fraction of the wheel limit (``feasibility(...).peak_ratio``): 0.8 is
+comfortably inside the limits, 1.3 is 30% beyond them. The period of the
+reference is scaled to hit that ratio exactly (every speed, and the heading
+rate of tangent and spinning profiles, scales with 1 / period).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from mpc import Controller
+from mpc.baselines import FeedforwardPController
+from mpc.robots import PRESETS, Robot, load, preset
+from mpc.simulation import TrackingController
+from trajectories import Circle, FigureEight, SpinHeading, Trajectory, Waypoints, feasibility
+
+#: Named speeds: the reference's peak wheel speed / limit.
+SPEEDS: dict[str, float] = {"inside": 0.8, "beyond": 1.3}
+TRAJECTORIES: tuple[str, ...] = ("circle", "figure8")
+CONTROLLERS: tuple[str, ...] = ("mpc-osqp", "mpc-ipopt", "ff-p-clip", "ff-p-desat")
+HEADINGS: tuple[str, ...] = ("fixed", "tangent", "spin")
+
+#: Size of the shapes [m] and the period used to measure their wheel load [s].
+SHAPE_SIZE = 1.0
+_PROBE_PERIOD = 10.0
+
+
+class ScenarioError(ValueError):
+    """An unknown name or an unusable file among the benchmark's options."""
+
+
+def choose(kind: str, requested: str | None, valid: tuple[str, ...] | list[str]) -> list[str]:
+    """Split a comma list and check each name, or return every valid name."""
+    if requested is None:
+        return list(valid)
+    names = [name.strip() for name in requested.split(",") if name.strip()]
+    unknown = [name for name in names if name not in valid]
+    if unknown or not names:
+        raise ScenarioError(
+            f"unknown {kind} {', '.join(unknown) or repr(requested)}; valid: {', '.join(valid)}"
+        )
+    return names
+
+
+def parse_speeds(requested: str | None) -> dict[str, float]:
+    """Named speeds (``inside``, ``beyond``) or numbers (peak ratios, e.g. ``0.5,1.5``)."""
+    if requested is None:
+        return dict(SPEEDS)
+    speeds: dict[str, float] = {}
+    for item in (part.strip() for part in requested.split(",") if part.strip()):
+        if item in SPEEDS:
+            speeds[item] = SPEEDS[item]
+            continue
+        try:
+            ratio = float(item)
+        except ValueError:
+            raise ScenarioError(
+                f"unknown speed {item!r}; valid: {', '.join(SPEEDS)} or a peak ratio like 1.2"
+            ) from None
+        if not math.isfinite(ratio) or ratio <= 0:
+            raise ScenarioError(f"a speed ratio must be a finite number > 0, got {item!r}")
+        speeds[f"x{ratio:g}"] = ratio
+    if not speeds:
+        raise ScenarioError(f"no speeds in {requested!r}")
+    return speeds
+
+
+def robots(layouts: list[str], robot_file: str | None) -> dict[str, Robot]:
+    """Presets by name, plus a robot from a TOML file (named after its ``name``)."""
+    chosen = {name: preset(name) for name in layouts}
+    if robot_file is not None:
+        robot = load(robot_file)
+        chosen[robot.name] = robot
+    return chosen
+
+
+def _heading(kind: str, period: float) -> object:
+    if kind == "fixed":
+        return 0.0
+    if kind == "tangent":
+        return "tangent"
+    return SpinHeading(rate=2.0 * math.pi / period)  # one turn per lap
+
+
+def _shape(name: str, heading: str) -> Callable[[float], Trajectory]:
+    def make(period: float) -> Trajectory:
+        spec = _heading(heading, period)
+        if name == "circle":
+            return Circle(SHAPE_SIZE, period, heading=spec)  # type: ignore[arg-type]
+        return FigureEight(SHAPE_SIZE, period, heading=spec)  # type: ignore[arg-type]
+
+    return make
+
+
+def reference(name: str, heading: str, robot: Robot, ratio: float) -> Trajectory:
+    """The named shape, timed so its peak wheel speed is ``ratio`` times the limit."""
+    make = _shape(name, heading)
+    probe = feasibility(make(_PROBE_PERIOD), robot).peak_ratio
+    return make(_PROBE_PERIOD * probe / ratio)
+
+
+def csv_reference(path: str | Path) -> Trajectory:
+    """A waypoint trajectory from a CSV file (columns t,x,y,theta)."""
+    return Waypoints.from_csv(path)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Controller settings shared by every run."""
+
+    horizon: int = 20
+    dt: float = 0.05
+
+
+def controller(name: str, robot: Robot, trajectory: Trajectory,
+               settings: Settings) -> TrackingController:
+    """A controller by its benchmark name (one of :data:`CONTROLLERS`)."""
+    if name == "mpc-osqp":
+        return Controller(robot, trajectory, settings.horizon, settings.dt, solver="osqp")
+    if name == "mpc-ipopt":
+        return Controller(robot, trajectory, settings.horizon, settings.dt, solver="ipopt")
+    saturation = "clip" if name == "ff-p-clip" else "desaturate"
+    return FeedforwardPController(robot, trajectory, settings.dt, saturation=saturation)
+
+
+__all__ = [
+    "CONTROLLERS", "HEADINGS", "PRESETS", "SPEEDS", "TRAJECTORIES", "ScenarioError", "Settings",
+    "choose", "controller", "csv_reference", "parse_speeds", "reference", "robots",
+]
