@@ -101,7 +101,8 @@ class Controller:
         else:
             self.solver = NlpSolver(self.model, max_iter=max_iter or 100, time_limit=time_limit)
         self.solver_name = solver
-        self._reference = ReferenceWindow(trajectory, self.horizon, self.dt)
+        self._reference = ReferenceWindow(trajectory, self.model)
+        self._jacobian = robot.wheel_blocks[:, 0, :]  # Swedish wheels: speeds = J @ twist
         self.reset()
 
     @staticmethod
@@ -119,7 +120,7 @@ class Controller:
     def trajectory(self, trajectory: Trajectory) -> None:
         """Track a new trajectory from the next tick on (the plan is dropped)."""
         self._check_trajectory(trajectory)
-        self._reference = ReferenceWindow(trajectory, self.horizon, self.dt)
+        self._reference = ReferenceWindow(trajectory, self.model)
         self._plan_twists = None
         self._guess = None
         self.solver.reset()
@@ -172,7 +173,7 @@ class Controller:
             self._guess = None
             self.solver.reset()
             status, target = self._fallback(twists_ref[0])
-            plan = poses_ref
+            plan = poses_ref.copy()
         twist, clamped = clamp_command(self.robot, target, self._last, self.dt)
         self._last = twist
         if self.delay_ticks:
@@ -182,7 +183,7 @@ class Controller:
             wheel_speeds, steer = self.robot.module_states(twist, self._steer)
             self._steer = steer
         else:
-            wheel_speeds, steer = self.robot.wheel_speeds(twist), None
+            wheel_speeds, steer = self._jacobian @ twist, None
         return Command(
             wheel_speeds=wheel_speeds,
             twist=twist,
@@ -213,7 +214,7 @@ class Controller:
     ) -> tuple[FloatArray, FloatArray]:
         """The previous plan shifted one tick (or the reference), starting at ``x0``."""
         if self._guess is None:
-            poses, twists = poses_ref.copy(), twists_ref
+            poses, twists = poses_ref.copy(), twists_ref.copy()
         else:
             plan_poses, plan_twists = self._guess
             poses = np.empty_like(plan_poses)

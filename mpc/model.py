@@ -28,6 +28,9 @@ from mpc.weights import Weights
 #: Below this ``|omega * dt|`` [rad] the dynamics use their Taylor series.
 SMALL_ROTATION = 1e-3
 
+#: Reference speed [m/s] below which the direction of travel fades to zero.
+DIRECTION_SPEED = 0.01
+
 
 def twist_integral(pose: ca.SX, twist: ca.SX, dt: float) -> ca.SX:
     """Pose after driving a constant body twist for ``dt`` seconds.
@@ -50,6 +53,26 @@ def twist_integral(pose: ca.SX, twist: ca.SX, dt: float) -> ca.SX:
                       pose[2] + angle)
 
 
+def twist_logarithm(start: ca.SX, end: ca.SX, dt: float) -> ca.SX:
+    """The constant body twist that drives ``start`` exactly to ``end`` in ``dt`` (the inverse
+    of :func:`twist_integral`); columns are stages, so ``start``/``end`` may be 3 x N.
+
+    With ``a = dtheta`` and ``d`` the displacement in the start's body frame,
+    ``(vx, vy) dt = [[h cot h, h], [-h, h cot h]] @ d`` where ``h = a / 2``
+    (series ``1 - a^2 / 12`` for ``h cot h`` near zero).
+    """
+    delta = end - start
+    c, s = ca.cos(start[2, :]), ca.sin(start[2, :])
+    forward = c * delta[0, :] + s * delta[1, :]
+    left = c * delta[1, :] - s * delta[0, :]
+    half = delta[2, :] / 2
+    small = ca.fabs(half) < SMALL_ROTATION / 2
+    safe = ca.if_else(small, 1.0, half)
+    diagonal = ca.if_else(small, 1 - half**2 / 3, safe / ca.tan(safe))
+    return ca.vertcat(diagonal * forward + half * left, diagonal * left - half * forward,
+                      delta[2, :]) / dt
+
+
 @dataclass(eq=False)
 class TrackingModel:
     """CasADi functions and expressions of the tracking problem for one robot.
@@ -67,6 +90,7 @@ class TrackingModel:
     weights: Weights
     dynamics: ca.Function = field(init=False)
     linearization: ca.Function = field(init=False)
+    reference_terms: ca.Function = field(init=False)
     rate_matrix: FloatArray = field(init=False)
 
     def __post_init__(self) -> None:
@@ -84,6 +108,22 @@ class TrackingModel:
             [ca.densify(ca.vertcat(offset, ca.vec(wrt_pose), ca.vec(wrt_twist)))],
         )
         self.linearization = stage.map(self.horizon)
+        # Reference window terms: the feedforward twists (the SE(2) logarithm
+        # between consecutive reference poses, consistent with the discrete
+        # dynamics) and the unit directions of travel (fading to 0 when the
+        # reference stops).
+        n = self.horizon
+        poses, velocities = ca.SX.sym("poses", 3, n + 1), ca.SX.sym("velocities", 3, n + 1)
+        planar = velocities[:2, :]
+        scale = ca.sqrt(ca.sum1(planar**2) + DIRECTION_SPEED**2)
+        self.reference_terms = ca.Function(
+            "reference_terms",
+            [poses, velocities],
+            [ca.densify(twist_logarithm(poses[:, :-1], poses[:, 1:], self.dt)),
+             ca.densify(planar / ca.repmat(scale, 2, 1))],
+            ["poses", "velocities"],
+            ["feedforward", "directions"],
+        )
         self.rate_matrix = self._rate_matrix()
 
     def _rate_matrix(self) -> FloatArray:

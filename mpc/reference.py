@@ -1,11 +1,13 @@
 """The reference window a controller tracks over its horizon.
 
-The feedforward twist of stage ``k`` is the constant body twist that drives
-the model exactly from reference pose ``k`` to reference pose ``k + 1`` in
-one tick (the SE(2) logarithm divided by ``dt``). Unlike the trajectory's
-instantaneous body twist, it is consistent with the discrete dynamics, so a
-robot on the reference with the feedforward stays on it and the cost has no
-bias towards cutting corners.
+Each tick samples the trajectory at ``t + k dt`` (k = 0..N) and evaluates
+the model's :attr:`~mpc.model.TrackingModel.reference_terms`: the
+feedforward twist of stage ``k`` is the constant body twist that drives the
+model exactly from reference pose ``k`` to ``k + 1`` in one tick (the SE(2)
+logarithm divided by ``dt``). Unlike the trajectory's instantaneous body
+twist it is consistent with the discrete dynamics, so a robot on the
+reference with the feedforward stays on it, and the cost has no bias
+towards cutting corners.
 """
 
 from __future__ import annotations
@@ -14,64 +16,46 @@ import math
 
 import numpy as np
 
+from mpc.model import TrackingModel
 from mpc.robots.base import FloatArray
 from trajectories import Trajectory
 
-#: Below this ``|delta theta|`` [rad] the SE(2) logarithm uses its Taylor series.
-_SMALL_ANGLE = 1e-4
-
-#: Reference speed [m/s] below which the direction of travel fades to zero.
-DIRECTION_SPEED = 0.01
-
-
-def feedforward_twists(poses: FloatArray, dt: float) -> FloatArray:
-    """Body twists (N, 3) that drive pose k exactly to pose k+1 in ``dt`` seconds.
-
-    Args:
-        poses: (N+1, 3) world poses with continuous heading [m, m, rad].
-        dt: tick length [s].
-    """
-    delta = poses[1:] - poses[:-1]
-    heading = poses[:-1, 2]
-    c, s = np.cos(heading), np.sin(heading)
-    forward = c * delta[:, 0] + s * delta[:, 1]  # displacement in the body frame of pose k
-    left = -s * delta[:, 0] + c * delta[:, 1]
-    angle = delta[:, 2]
-    half = 0.5 * angle
-    small = np.abs(angle) < _SMALL_ANGLE
-    # (a/2) cot(a/2), with its series 1 - a^2/12 near zero.
-    safe = np.where(small, 1.0, half)
-    diag = np.where(small, 1.0 - angle**2 / 12.0, safe / np.tan(safe))
-    twists = np.empty((len(delta), 3))
-    twists[:, 0] = (diag * forward + half * left) / dt
-    twists[:, 1] = (-half * forward + diag * left) / dt
-    twists[:, 2] = angle / dt
-    return twists
-
 
 class ReferenceWindow:
-    """Samples a trajectory over the horizon; preallocated for the control loop."""
+    """Samples a trajectory over the horizon into preallocated arrays.
 
-    def __init__(self, trajectory: Trajectory, horizon: int, dt: float) -> None:
+    The returned arrays are reused by the next call: copy what you keep.
+    """
+
+    def __init__(self, trajectory: Trajectory, model: TrackingModel) -> None:
         self.trajectory = trajectory
-        self.offsets = dt * np.arange(horizon + 1)
-        self.dt = dt
+        n = model.horizon
+        self.offsets = model.dt * np.arange(n + 1)
+        # Zero-copy CasADi evaluation: (rows, 3) C-ordered arrays are 3 x rows column-major.
+        self._poses = np.zeros((n + 1, 3))
+        self._velocities = np.zeros((n + 1, 3))
+        self._feedforward = np.zeros((n, 3))
+        self._directions = np.zeros((n + 1, 2))
+        buffer, self._evaluate = model.reference_terms.buffer()
+        buffer.set_arg(0, memoryview(self._poses))
+        buffer.set_arg(1, memoryview(self._velocities))
+        buffer.set_res(0, memoryview(self._feedforward))
+        buffer.set_res(1, memoryview(self._directions))
+        self._buffer = buffer  # keeps the views alive
 
     def at(self, time: float, heading: float) -> tuple[FloatArray, FloatArray, FloatArray]:
         """The window from ``time`` [s]: poses (N+1, 3), feedforward (N, 3), directions (N+1, 2).
 
         The reference heading is shifted by a multiple of 2 pi so that its
         first value lies within pi of ``heading`` (the robot's), which makes
-        the quadratic heading cost measure the wrapped error. A direction is
-        the reference's world velocity over ``sqrt(|v|^2 + DIRECTION_SPEED^2)``:
-        the unit direction of travel, fading to zero when the reference stops.
+        the quadratic heading cost measure the wrapped error.
         """
         sample = self.trajectory.sample(time + self.offsets)
-        poses = sample.pose
+        poses = self._poses
+        poses[:] = sample.pose
         turns = math.floor((poses[0, 2] - heading) / (2.0 * math.pi) + 0.5)
         if turns:
-            poses = poses.copy()
             poses[:, 2] -= 2.0 * math.pi * turns
-        velocity = sample.velocity[:, :2]
-        scale = np.sqrt((velocity * velocity).sum(axis=1) + DIRECTION_SPEED**2)
-        return poses, feedforward_twists(poses, self.dt), velocity / scale[:, None]
+        self._velocities[:] = sample.velocity
+        self._evaluate()
+        return poses, self._feedforward, self._directions
