@@ -1,0 +1,227 @@
+"""Reports from synthetic results: files written, values shown, loading errors."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+
+from benchmarks.report import ReportError, load_results, run_id, write_report
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+TICKS = 50
+DT = 0.05
+
+MECANUM = {"name": "mecanum", "kind": "swedish",
+           "wheel_positions": [[0.15, 0.125], [0.15, -0.125], [-0.15, 0.125], [-0.15, -0.125]]}
+SWERVE = {"name": "swerve", "kind": "swerve",
+          "wheel_positions": [[0.3, 0.3], [0.3, -0.3], [-0.3, 0.3], [-0.3, -0.3]]}
+
+# (layout, trajectory, speed, peak ratio, robot) x (controller, RMS position error [m])
+SCENARIOS = [("mecanum", "circle", "inside", 0.8, MECANUM),
+             ("swerve", "figure8", "beyond", 1.3, SWERVE)]
+CONTROLLERS = [("mpc-osqp", 0.0123), ("ff-p-clip", 0.0456)]
+
+
+def _series(rng: np.random.Generator, trajectory: str, baseline: bool) -> dict:
+    time = np.arange(TICKS) * DT
+    phase = 2 * np.pi * time / (TICKS * DT)
+    if trajectory == "circle":
+        xy = np.column_stack([np.cos(phase), np.sin(phase)])
+    else:
+        xy = np.column_stack([np.sin(phase), np.sin(2 * phase) / 2])
+    theta = np.unwrap(np.arctan2(np.gradient(xy[:, 1]), np.gradient(xy[:, 0])))
+    reference = np.column_stack([xy, theta])
+    pose = reference + rng.normal(scale=[0.01, 0.01, 0.05], size=reference.shape)
+    pose[:, 2] += 2 * np.pi  # a whole turn must not show as heading error
+    commands = 20 * np.sin(phase[:, None] + np.arange(4)) + rng.normal(size=(TICKS, 4))
+    status = ["solved"] * TICKS
+    if not baseline:
+        status[10:13] = ["previous_plan"] * 3
+    return {
+        "time": time.tolist(),
+        "pose": pose.tolist(),
+        "reference": reference.tolist(),
+        "wheel_command": commands.tolist(),
+        "wheel_limit": [20.0, 20.0, 20.0, 0.0 if baseline else 20.0],
+        "tick_time": (rng.lognormal(np.log(3e-4), 0.3, TICKS)).tolist(),
+        "solve_time": [0.0] * TICKS if baseline else rng.uniform(5e-5, 1e-4, TICKS).tolist(),
+        "status": status,
+        "dt": DT,
+    }
+
+
+def _results() -> dict:
+    rng = np.random.default_rng(7)
+    runs = []
+    for layout, trajectory, speed, ratio, robot in SCENARIOS:
+        for controller, rms in CONTROLLERS:
+            baseline = controller.startswith("ff")
+            runs.append({
+                "layout": layout, "trajectory": trajectory, "speed": speed,
+                "peak_ratio": ratio, "controller": controller,
+                "metrics": {
+                    "rms_position_error": rms, "max_position_error": 3 * rms,
+                    "rms_cross_track_error": rms / 2, "max_cross_track_error": 0.0789,
+                    "rms_heading_error": math.radians(2.5), "max_heading_error": 0.2,
+                    # a baseline with a failed wheel (limit 0): an infinite ratio
+                    "max_wheel_speed_ratio": math.inf if baseline else ratio,
+                    "limit_violations": 7 if baseline else 0, "accel_violations": 0,
+                    "control_effort": 1.0, "tick_time_p50": 3e-4, "tick_time_p95": 4e-4,
+                    "tick_time_p99": 5e-4, "tick_time_max": 6e-4,
+                    "solve_time_p50": 0.0 if baseline else 8e-5,
+                    "solve_time_p99": 0.0 if baseline else 1e-4,
+                    "deadline_misses": 0, "failures": 0 if baseline else 3,
+                    "failures_by_status": {} if baseline else {"previous_plan": 3},
+                },
+                "series": _series(rng, trajectory, baseline),
+                "robot": robot,
+            })
+    return {
+        "meta": {"command": "mpc-bench --quick", "created": "2026-11-23T10:00:00+00:00",
+                 "machine": {"platform": "Linux <test>", "python": "3.11.7", "cpu_count": 2,
+                             "processor": "x86_64"},
+                 "settings": {"horizon": 20, "dt": DT, "duration": TICKS * DT,
+                              "plant": "ideal", "skip": 0.0}},
+        "runs": runs,
+    }
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    out_dir = tmp_path_factory.mktemp("report")
+    progress: list[tuple[int, int]] = []
+    index = write_report(_results(), out_dir / "nested", lambda i, n: progress.append((i, n)))
+    return index, progress
+
+
+def test_index_references_every_figure_and_run(report):
+    index, _ = report
+    assert index.name == "index.html" and index.is_file()
+    page = index.read_text(encoding="utf-8")
+    assert 'src="summary.png"' in page
+    for run in _results()["runs"]:
+        rid = run_id(run)
+        assert f'src="figures/{rid}.png"' in page
+        assert f'id="{rid}"' in page and f'href="#{rid}"' in page
+
+
+def test_index_shows_metadata_escaped(report):
+    page = report[0].read_text(encoding="utf-8")
+    assert "mpc-bench --quick" in page and "2026-11-23T10:00:00+00:00" in page
+    assert "Linux &lt;test&gt;" in page and "<test>" not in page
+
+
+def test_index_formats_table_values(report):
+    page = report[0].read_text(encoding="utf-8")
+    # 0.0123 m -> 12.3 mm is the best of its scenario, 45.6 mm is not
+    assert page.count('<td class="best"><b>12.3</b></td>') == 2
+    assert page.count("<td>45.6</td>") == 2
+    assert "<td>78.9</td>" in page  # max cross-track [mm]
+    assert "<td>2.5</td>" in page  # RMS heading [deg]
+    assert "<td>0.3</td>" in page and "<td>0.5</td>" in page  # tick p50, p99 [ms]
+    assert "<td>inf</td>" in page
+    assert "<td>3 (previous_plan: 3)</td>" in page
+
+
+def test_figures_are_png(report):
+    index, _ = report
+    pngs = [index.parent / "summary.png"]
+    pngs += [index.parent / "figures" / f"{run_id(run)}.png" for run in _results()["runs"]]
+    assert sorted((index.parent / "figures").iterdir()) == sorted(pngs[1:])
+    for png in pngs:
+        data = png.read_bytes()
+        assert len(data) > 1000 and data[:8] == PNG_MAGIC
+
+
+def test_progress_called_per_figure(report):
+    assert report[1] == [(1, 5), (2, 5), (3, 5), (4, 5), (5, 5)]
+
+
+def test_summary_markdown_has_a_row_per_run(report):
+    lines = (report[0].parent / "summary.md").read_text(encoding="utf-8").splitlines()
+    assert lines[0].startswith("| layout | trajectory | speed |") and set(lines[1]) <= set("|- ")
+    rows = lines[2:]
+    assert len(rows) == 4
+    for row, run in zip(rows, _results()["runs"], strict=True):
+        cells = [cell.strip() for cell in row.strip("|").split("|")]
+        assert cells[:5] == [run["layout"], run["trajectory"], run["speed"],
+                             f"{run['peak_ratio']:.2f}", run["controller"]]
+        assert cells[5] == ("**12.3**" if run["controller"] == "mpc-osqp" else "45.6")
+
+
+def test_run_id_is_a_safe_file_name():
+    run = {"layout": "omni 3", "trajectory": "figure8", "speed": "beyond/1.3",
+           "controller": "mpc-osqp"}
+    assert run_id(run) == "omni_3-figure8-beyond_1.3-mpc-osqp"
+    assert re.fullmatch(r"[A-Za-z0-9._+-]+", run_id(run))
+
+
+def test_repeated_run_ids_get_distinct_figures(tmp_path):
+    results = _results()
+    results["runs"] = [results["runs"][0], results["runs"][0]]
+    write_report(results, tmp_path)
+    rid = run_id(results["runs"][0])
+    assert {p.name for p in (tmp_path / "figures").iterdir()} == {f"{rid}.png", f"{rid}-2.png"}
+
+
+def test_load_results_round_trip(tmp_path):
+    results = _results()
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps(results), encoding="utf-8")  # inf is written as Infinity
+    loaded = load_results(path)
+    assert loaded["meta"] == results["meta"]
+    assert loaded["runs"][1]["metrics"]["max_wheel_speed_ratio"] == math.inf
+    assert loaded["runs"][0]["series"]["pose"] == results["runs"][0]["series"]["pose"]
+
+
+def test_load_results_errors(tmp_path):
+    with pytest.raises(ReportError, match="not found"):
+        load_results(tmp_path / "missing.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json", encoding="utf-8")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        load_results(bad)
+    bad.write_text(json.dumps({"meta": {}}), encoding="utf-8")
+    with pytest.raises(ReportError, match='"runs"'):
+        load_results(bad)
+    run = _results()["runs"][0]
+    del run["metrics"], run["series"]["pose"]
+    bad.write_text(json.dumps({"runs": [run]}), encoding="utf-8")
+    with pytest.raises(ReportError, match="run 0 lacks the keys 'metrics'"):
+        load_results(bad)
+
+
+def test_write_report_rejects_bad_series(tmp_path):
+    results = _results()
+    del results["runs"][1]["series"]["reference"]
+    with pytest.raises(ReportError, match="run 1 .*series lacks 'reference'"):
+        write_report(results, tmp_path)
+    results = _results()
+    results["runs"][0]["series"]["pose"] = [[0.0, 0.0]] * TICKS
+    with pytest.raises(ReportError, match=r"'pose' should have shape \(K, 3\)"):
+        write_report(results, tmp_path)
+
+
+def test_degenerate_runs_do_not_crash(tmp_path):
+    """No robot, no ticks, a two-wheel robot, infinite limits, null metrics, numeric labels."""
+    results = _results()
+    no_robot, empty, two_wheels = (results["runs"][i] for i in (0, 1, 2))
+    del no_robot["robot"]
+    no_robot["series"]["wheel_limit"] = [math.inf] * 4
+    del no_robot["series"]["dt"], no_robot["series"]["status"]
+    no_robot["metrics"]["rms_position_error"] = None
+    empty["series"] = {"time": [], "pose": [], "reference": [], "wheel_command": [],
+                       "wheel_limit": [], "tick_time": [], "solve_time": [], "status": []}
+    empty["speed"] = 1.3
+    two_wheels["robot"]["wheel_positions"] = [[0.0, 0.2], [0.0, -0.2]]
+    two_wheels["series"]["tick_time"] = [1e-3] * TICKS
+    index = write_report(results, tmp_path)
+    page = index.read_text(encoding="utf-8")
+    assert "<td>-</td>" in page and "swerve-figure8-1.3-ff-p-clip" not in page
+    assert "mecanum-circle-1.3-ff-p-clip.png" in page
+    for png in (tmp_path / "figures").iterdir():
+        assert png.read_bytes()[:8] == PNG_MAGIC
