@@ -23,7 +23,9 @@ from trajectories import Circle, FigureEight, SpinHeading, Trajectory, Waypoints
 #: Named speeds: the reference's peak wheel speed / limit.
 SPEEDS: dict[str, float] = {"inside": 0.8, "beyond": 1.3}
 TRAJECTORIES: tuple[str, ...] = ("circle", "figure8")
-CONTROLLERS: tuple[str, ...] = ("mpc-osqp", "mpc-ipopt", "ff-p-clip", "ff-p-desat")
+#: mpc-osqp-ts is the fast path with time scaling: it slows the reference
+#: down where the wheels cannot follow it (path following over timing).
+CONTROLLERS: tuple[str, ...] = ("mpc-osqp", "mpc-ipopt", "mpc-osqp-ts", "ff-p-clip", "ff-p-desat")
 HEADINGS: tuple[str, ...] = ("fixed", "tangent", "spin")
 
 #: Size of the shapes [m] and the period used to measure their wheel load [s].
@@ -125,6 +127,9 @@ def controller(name: str, robot: Robot, trajectory: Trajectory,
         return Controller(robot, trajectory, settings.horizon, settings.dt, solver="osqp")
     if name == "mpc-ipopt":
         return Controller(robot, trajectory, settings.horizon, settings.dt, solver="ipopt")
+    if name == "mpc-osqp-ts":
+        return Controller(robot, trajectory, settings.horizon, settings.dt, solver="osqp",
+                          time_scaling=True)
     saturation = "clip" if name == "ff-p-clip" else "desaturate"
     return FeedforwardPController(robot, trajectory, settings.dt, saturation=saturation)
 

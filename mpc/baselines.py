@@ -124,7 +124,7 @@ class FeedforwardPController:
             wheel_speeds=speeds, twist=twist, steer_angles=steer_angles,
             predicted_poses=reference.pose[None, :], status=Status.SOLVED,
             solver_status="none", solve_time=0.0, tick_time=time.perf_counter() - start,
-            iterations=0, consecutive_failures=0, clamped=clamped,
+            iterations=0, consecutive_failures=0, clamped=clamped, reference_time=float(t),
         )
 
     def _clip(self, wheels: FloatArray) -> FloatArray:

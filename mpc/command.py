@@ -44,6 +44,8 @@ class Command:
         iterations: solver iterations.
         consecutive_failures: solver failures in a row, this tick included.
         clamped: whether the safety clamp had to change the twist.
+        reference_time: the time on the reference the plan starts from [s]:
+            ``t`` (plus the known delay), less any lag from time scaling.
     """
 
     wheel_speeds: FloatArray
@@ -57,3 +59,4 @@ class Command:
     iterations: int
     consecutive_failures: int
     clamped: bool
+    reference_time: float

@@ -24,6 +24,10 @@ from trajectories import Trajectory
 #: Valid ``solver=`` names: the OSQP fast path and the exact IPOPT path.
 SOLVERS: tuple[str, ...] = ("osqp", "ipopt")
 
+#: With time scaling, the fraction of a wheel's limit the reference's own
+#: feedforward may use; the rest is left for feedback.
+REFERENCE_MARGIN = 0.9
+
 
 class Controller:
     """Model-predictive tracking of a reference trajectory within wheel limits.
@@ -36,6 +40,15 @@ class Controller:
     the shifted previous plan (while it lasts, ``horizon`` ticks), then from
     the reference feedforward scaled into the limits (another ``horizon``
     ticks), then from a stop ramp; :attr:`Command.status` says which.
+
+    Time scaling (``time_scaling=True``; off by default): if the reference
+    window's own feedforward would need more than ``REFERENCE_MARGIN`` of a
+    wheel's limit, the controller plays the reference slower (it tracks the
+    reference at an internal time that lags ``t``) so that the robot slows
+    down on the path instead of chasing a point it cannot reach and cutting
+    corners; it catches up when the reference allows. On references inside
+    the limits nothing changes. ``Command.reference_time`` says where on the
+    reference the controller is.
 
     Swerve steering rate: modules steer at a finite rate, so the cost
     penalises the change of every module's ground velocity between ticks
@@ -56,6 +69,8 @@ class Controller:
         time_limit: solver time per tick at most [s]; 0 for none.
         delay_ticks: known command latency in whole ticks; the controller
             predicts the pose forward through the commands already sent.
+        time_scaling: slow the reference down where it asks for more than the
+            wheels can give (see above); False tracks ``t`` strictly.
     """
 
     def __init__(
@@ -71,6 +86,7 @@ class Controller:
         max_iter: int | None = None,
         time_limit: float = 0.0,
         delay_ticks: int = 0,
+        time_scaling: bool = False,
     ) -> None:
         if not isinstance(robot, Robot):
             raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
@@ -92,6 +108,7 @@ class Controller:
         self.horizon = int(horizon)
         self.dt = float(dt)
         self.delay_ticks = int(delay_ticks)
+        self.time_scaling = bool(time_scaling)
         self.weights = make_weights(weights)
         self.model = TrackingModel(robot, self.horizon, self.dt, self.weights)
         self.solver: QpSolver | NlpSolver
@@ -103,6 +120,9 @@ class Controller:
         self.solver_name = solver
         self._reference = ReferenceWindow(trajectory, self.model)
         self._jacobian = robot.wheel_blocks[:, 0, :]  # Swedish wheels: speeds = J @ twist
+        working = robot.max_wheel_speed > 0.0  # a failed wheel does not slow the reference
+        self._scaling_blocks = robot.wheel_blocks[working].reshape(-1, 3)
+        self._scaling_limits = robot.max_wheel_speed[working]
         self.reset()
 
     @staticmethod
@@ -139,6 +159,8 @@ class Controller:
         self._guess: tuple[FloatArray, FloatArray] | None = None
         self._plan_twists: FloatArray | None = None
         self._failures = 0
+        self._lag = 0.0  # [s] how far the reference time lags t (time scaling)
+        self._previous_t: float | None = None
         self._steer = np.zeros(self.robot.n_wheels) if isinstance(self.robot, SwerveRobot) else None
         self.solver.reset()
 
@@ -156,7 +178,11 @@ class Controller:
         for twist in self._sent:  # commands still in the pipe (known delay)
             x0 = self.model.dynamics(x0, twist).full().ravel()
         t_plan = float(t) + self.delay_ticks * self.dt
-        poses_ref, twists_ref, directions = self._reference.at(t_plan, float(x0[2]))
+        if self.time_scaling:
+            t_plan, (poses_ref, twists_ref, directions) = self._scaled_reference(
+                float(t), t_plan, float(x0[2]))
+        else:
+            poses_ref, twists_ref, directions = self._reference.at(t_plan, float(x0[2]))
         guess_poses, guess_twists = self._warm_start(x0, poses_ref, twists_ref)
         result = self.solver.solve(x0, poses_ref, twists_ref, directions, self._last,
                                    guess_poses, guess_twists)
@@ -196,7 +222,31 @@ class Controller:
             iterations=result.iterations,
             consecutive_failures=self._failures,
             clamped=clamped,
+            reference_time=t_plan,
         )
+
+    def _scaled_reference(
+        self, t: float, t_plan: float, heading: float
+    ) -> tuple[float, tuple[FloatArray, FloatArray, FloatArray]]:
+        """The reference window at the lagging internal time, played at a feasible rate."""
+        elapsed = None if self._previous_t is None else t - self._previous_t
+        self._previous_t = t
+        if elapsed is None or not 0.0 < elapsed <= 2.0 * self.dt:
+            self._lag = 0.0  # first tick, or the caller jumped in time: resynchronise
+            elapsed = self.dt
+        time_ref = t_plan - self._lag
+        window = self._reference.at(time_ref, heading)
+        velocity = (window[1] @ self._scaling_blocks.T).reshape(self.horizon, -1,
+                                                                 self.robot.wheel_dim)
+        need = (np.sqrt((velocity * velocity).sum(axis=2)) / self._scaling_limits).max()
+        room = REFERENCE_MARGIN / need if need > 0.0 else math.inf
+        # Slow down where the reference is too fast; catch up over a horizon when it allows.
+        rate = min(room, 1.0 + self._lag / (self.horizon * self.dt))
+        if rate != 1.0:
+            rate = max(rate, 0.0)
+            window = self._reference.at(time_ref, heading, rate)
+        self._lag = max(0.0, self._lag + (1.0 - rate) * elapsed)
+        return time_ref, window
 
     def _check_pose(self, pose: ArrayLike) -> FloatArray:
         try:

@@ -43,14 +43,17 @@ class ReferenceWindow:
         buffer.set_res(1, memoryview(self._directions))
         self._buffer = buffer  # keeps the views alive
 
-    def at(self, time: float, heading: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def at(
+        self, time: float, heading: float, rate: float = 1.0
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """The window from ``time`` [s]: poses (N+1, 3), feedforward (N, 3), directions (N+1, 2).
 
+        ``rate`` < 1 plays the reference slower (stage k at ``time + rate k dt``).
         The reference heading is shifted by a multiple of 2 pi so that its
         first value lies within pi of ``heading`` (the robot's), which makes
         the quadratic heading cost measure the wrapped error.
         """
-        sample = self.trajectory.sample(time + self.offsets)
+        sample = self.trajectory.sample(time + rate * self.offsets)
         poses = self._poses
         poses[:] = sample.pose
         turns = math.floor((poses[0, 2] - heading) / (2.0 * math.pi) + 0.5)

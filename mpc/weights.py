@@ -56,7 +56,7 @@ class Weights:
     twist: FloatArray = field(default_factory=lambda: np.array([1.0, 1.0, 0.1]))
     rate: FloatArray = field(default_factory=lambda: np.array([0.2, 0.2, 0.02]))
     terminal: FloatArray = field(default_factory=lambda: np.array([400.0, 400.0, 100.0]))
-    along_track: float = 0.2
+    along_track: float = 1.0
     module_rate: float = 1.0
 
     def __post_init__(self) -> None:
