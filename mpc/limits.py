@@ -49,8 +49,9 @@ def clamp_command(
 ) -> tuple[FloatArray, bool]:
     """Bring ``target`` within every wheel limit, moving it as little as the rules allow.
 
-    1. Speed: scale ``target`` uniformly into the speed limits (a solver's
-       output is off by its tolerance at most, so this is a tiny scaling).
+    1. Speed: project out any motion of a failed wheel (limit 0), then
+       scale ``target`` uniformly into the speed limits (a solver's output
+       is off by its tolerance at most, so this is a tiny scaling).
     2. Acceleration: step from ``last`` towards that twist only as far as
        every wheel's acceleration limit allows. Both ends lie in the convex
        speed-limit set, so the whole step does too.
@@ -60,26 +61,29 @@ def clamp_command(
     acceleration cannot be honoured as well; the speed limits win.
     """
     blocks = robot.wheel_blocks
+    original = target
+    if robot.rest_projector is not None:
+        target = robot.rest_projector @ target
     wheels = blocks @ target  # (n, d) wheel velocities asked for
     speed = np.sqrt((wheels * wheels).sum(axis=1))
     limit = robot.max_wheel_speed
-    over = speed > limit
+    over = speed > limit + 1e-12  # [rad/s]: rounding left by the projection
     safe = target
     if over.any():
         # The smallest limit / speed over the wheels; a failed wheel (limit 0) stops the robot.
         safe = target * (limit[over] / speed[over]).min() * (1.0 - 1e-12)
     accel = robot.max_wheel_accel
     if accel is None:
-        return safe, safe is not target
+        return safe, safe is not original
     start = blocks @ last
     if ((start * start).sum(axis=1) > (limit * (1 + 1e-9) + 1e-12) ** 2).any():
-        return safe, safe is not target
+        return safe, safe is not original
     change = blocks @ safe - start
     size = np.sqrt((change * change).sum(axis=1))
     moving = size > 0.0
     if not moving.any():
-        return safe, safe is not target
+        return safe, safe is not original
     fraction = (accel[moving] * dt / size[moving]).min()
     if fraction >= 1.0:
-        return safe, safe is not target
+        return safe, safe is not original
     return last + fraction * (1.0 - 1e-12) * (safe - last), True

@@ -96,6 +96,9 @@ class Robot(abc.ABC):
     wheel_blocks: FloatArray = field(init=False, repr=False)  # (n, d, 3) [rad/s per twist unit]
     nominal_max_wheel_speed: FloatArray = field(init=False, repr=False)  # (n,) [rad/s]
     nominal_max_wheel_accel: FloatArray | None = field(init=False, repr=False)  # (n,) [rad/s^2]
+    #: Projects a twist onto those that keep every failed wheel (limit 0) at
+    #: rest, ``I - pinv(W_f) W_f``; None when no wheel has failed.
+    rest_projector: FloatArray | None = field(init=False, repr=False, default=None)
 
     def _check_derating(self) -> None:
         if self.derating is None:
@@ -107,6 +110,10 @@ class Robot(abc.ABC):
             )
         if np.any(factors < 0.0) or np.any(factors > 1.0):
             raise RobotError(f"derating factors must lie in [0, 1], got {self.derating!r}")
+        failed = self.wheel_blocks[factors == 0.0].reshape(-1, 3)
+        if failed.size:
+            projector = np.eye(3) - np.linalg.pinv(failed) @ failed
+            object.__setattr__(self, "rest_projector", readonly(projector))
 
     @property
     def n_wheels(self) -> int:
