@@ -1,0 +1,225 @@
+"""Robustness under real-robot faults (issue 5): delay, failed wheels, solver trouble,
+large initial error, noisy realistic plants and invariance over random set-ups."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from mpc import Controller, Status
+from mpc.plant import PlantConfig
+from mpc.robots import mecanum, omni, preset, swerve
+from mpc.simulation import simulate
+from trajectories import (
+    Circle,
+    FigureEight,
+    FunctionHeading,
+    PathDerivatives,
+    Trajectory,
+    feasibility,
+)
+
+
+def _rms_after(result, skip=2.0):
+    return result.metrics(skip=skip)["rms_position_error"]
+
+
+def test_delay_compensation_restores_tracking():
+    """A 2-tick command delay: compensated tracking stays near the no-delay case."""
+    robot = preset("mecanum")
+    trajectory = FigureEight(1.0, 16.0, heading=0.0)
+    delayed = PlantConfig(delay_ticks=2)
+    ideal = _rms_after(simulate(Controller(robot, trajectory), 8.0))
+    blind = _rms_after(simulate(Controller(robot, trajectory), 8.0, plant=delayed))
+    aware = _rms_after(simulate(Controller(robot, trajectory, delay_ticks=2), 8.0, plant=delayed))
+    # Measured: ideal ~2e-6 m, aware ~6e-6 m, blind ~3.4e-3 m.
+    assert aware < 1e-4
+    assert blind > 20 * aware
+    assert aware < ideal + 1e-4
+
+
+def test_weakened_mecanum_wheel_is_respected():
+    robot = preset("mecanum").derated({1: 0.5})
+    trajectory = FigureEight(1.0, 12.0, heading=0.0)
+    result = simulate(Controller(robot, trajectory), 8.0)
+    metrics = result.metrics(skip=2.0)
+    assert metrics["limit_violations"] == 0
+    assert np.abs(result.wheel_command[:, 1]).max() <= 10.0 * (1 + 1e-6)
+    assert metrics["failures"] == 0
+
+
+@pytest.mark.parametrize("solver", ["osqp", "ipopt"])
+def test_omni4_with_a_dead_wheel_tracks_a_slow_circle(solver):
+    """Wheel 0 held at rest: every twist must keep J_0 u = 0, which ties the spin to the
+    direction of travel. With the heading left free, the position still tracks."""
+    robot = preset("omni4").derated({0: 0.0})
+    trajectory = Circle(0.5, 20.0, heading=0.0)
+    free_heading = {"pose": [200.0, 200.0, 0.0], "terminal": [400.0, 400.0, 0.0]}
+    result = simulate(Controller(robot, trajectory, weights=free_heading, solver=solver), 15.0)
+    metrics = result.metrics(skip=5.0)
+    assert np.abs(result.wheel_command[:, 0]).max() < 1e-9
+    assert metrics["limit_violations"] == 0
+    assert metrics["rms_position_error"] < 0.005  # measured 0.6 mm
+
+
+def test_solver_starved_of_iterations_falls_back_safely():
+    robot = preset("mecanum")
+    trajectory = FigureEight(1.0, 16.0, heading=0.0)
+    control = Controller(robot, trajectory, max_iter=1)
+    result = simulate(control, 4.0, initial_pose=trajectory.sample(0.0).pose + [0.2, 0, 0.3])
+    metrics = result.metrics()
+    assert metrics["failures"] > 0
+    assert set(metrics["failures_by_status"]) <= {"previous_plan", "feedforward", "stopping"}
+    assert np.all(np.isfinite(result.wheel_command))
+    assert metrics["limit_violations"] == 0 and metrics["accel_violations"] == 0
+
+
+def test_recovers_when_the_solver_does(monkeypatch):
+    robot = preset("omni3")
+    trajectory = Circle(1.0, 12.0, heading=0.0)
+    control = Controller(robot, trajectory)
+    real = control.solver.solve
+    broken = {"on": False}
+
+    def flaky(*args):
+        result = real(*args)
+        if broken["on"]:
+            return type(result)(False, "injected", result.poses * np.nan, result.twists * np.nan,
+                                0.0, 0)
+        return result
+
+    monkeypatch.setattr(control.solver, "solve", flaky)
+    pose = trajectory.sample(0.0).pose
+    statuses = []
+    for k in range(120):
+        broken["on"] = 30 <= k < 90
+        command = control.step(pose, k * control.dt)
+        statuses.append(command.status)
+        assert np.all(np.isfinite(command.wheel_speeds))
+        assert robot.is_feasible(command.twist, rtol=1e-6)
+        pose = control.model.dynamics(pose, command.twist).full().ravel()
+    assert statuses[31] is Status.PREVIOUS_PLAN
+    assert Status.FEEDFORWARD in statuses[30:90] and Status.STOPPING in statuses[30:90]
+    assert all(s is Status.SOLVED for s in statuses[95:])
+
+
+@pytest.mark.parametrize("solver", ["osqp", "ipopt"])
+def test_large_initial_error_converges_within_limits(solver):
+    robot = preset("mecanum")
+    trajectory = FigureEight(1.0, 16.0, heading=0.0)
+    start = trajectory.sample(0.0).pose + [2.0, 0.0, math.pi]
+    result = simulate(Controller(robot, trajectory, solver=solver), 8.0, initial_pose=start)
+    metrics = result.metrics(skip=4.0)
+    assert metrics["max_position_error"] < 1e-3
+    assert metrics["max_heading_error"] < 1e-3
+    full = result.metrics()
+    assert full["limit_violations"] == 0 and full["accel_violations"] == 0
+
+
+def test_realistic_plant_every_controller_within_limits():
+    robot = preset("swerve")
+    trajectory = FigureEight(1.0, 14.0, heading="tangent")
+    result = simulate(Controller(robot, trajectory, delay_ticks=1), 8.0, plant="realistic", seed=3)
+    metrics = result.metrics(skip=2.0)
+    assert metrics["limit_violations"] == 0
+    # Lag, noise (2 mm) and 3% slip: centimetre-level tracking, not micrometres.
+    assert metrics["rms_position_error"] < 0.03
+
+
+@st.composite
+def setups(draw):
+    """A random robot, a reference inside or beyond its limits, a random start."""
+    kind = draw(st.sampled_from(["omni", "mecanum", "swerve"]))
+    speed = draw(st.floats(5.0, 40.0))
+    if kind == "omni":
+        robot = omni(n_wheels=draw(st.integers(3, 5)), base_radius=draw(st.floats(0.1, 0.4)),
+                     wheel_radius=draw(st.floats(0.02, 0.08)), max_wheel_speed=speed,
+                     first_wheel_angle=draw(st.floats(0.0, 2.0)), max_wheel_accel=4 * speed)
+    elif kind == "mecanum":
+        robot = mecanum(wheelbase=draw(st.floats(0.15, 0.6)), track=draw(st.floats(0.15, 0.6)),
+                        wheel_radius=draw(st.floats(0.02, 0.08)), max_wheel_speed=speed,
+                        max_wheel_accel=4 * speed)
+    else:
+        half = draw(st.floats(0.1, 0.4))
+        robot = swerve(module_positions=[[half, half], [half, -half], [-half, half],
+                                         [-half, -half]],
+                       wheel_radius=draw(st.floats(0.02, 0.08)), max_wheel_speed=speed,
+                       max_steer_rate=10.0, max_wheel_accel=4 * speed)
+    heading = draw(st.sampled_from([0.0, "tangent"]))
+    shape = draw(st.sampled_from([Circle, FigureEight]))
+    ratio = draw(st.floats(0.3, 1.5))
+    probe = shape(1.0, 10.0, heading=heading)
+    trajectory = shape(1.0, 10.0 * feasibility(probe, robot).peak_ratio / ratio, heading=heading)
+    offset = np.array([draw(st.floats(-0.5, 0.5)), draw(st.floats(-0.5, 0.5)),
+                       draw(st.floats(-3.0, 3.0))])
+    return robot, trajectory, offset
+
+
+@settings(max_examples=12, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(setups())
+def test_random_setups_stay_finite_and_within_limits(setup):
+    robot, trajectory, offset = setup
+    control = Controller(robot, trajectory, horizon=10)
+    result = simulate(control, 2.0, initial_pose=trajectory.sample(0.0).pose + offset)
+    metrics = result.metrics()
+    assert np.all(np.isfinite(result.wheel_command))
+    assert metrics["limit_violations"] == 0
+    assert metrics["accel_violations"] == 0
+
+
+class Moved(Trajectory):
+    """``base`` seen from another world frame: rotated by ``angle``, shifted by ``shift``."""
+
+    def __init__(self, base: Trajectory, angle: float, shift: tuple[float, float]) -> None:
+        self.base = base
+        c, s = math.cos(angle), math.sin(angle)
+        self.rotation = np.array([[c, -s], [s, c]])
+        self.shift = np.asarray(shift)
+        super().__init__(FunctionHeading(
+            lambda t: base.sample(t).pose[..., 2] + angle,
+            rate=lambda t: base.sample(t).velocity[..., 2],
+            accel=lambda t: base.sample(t).acceleration[..., 2],
+        ))
+
+    @property
+    def period(self) -> float | None:
+        return self.base.period
+
+    def _path(self, t):
+        path = self.base.path(t)
+        turn = self.rotation.T
+        return PathDerivatives(path.position @ turn + self.shift, path.velocity @ turn,
+                               path.acceleration @ turn, path.jerk @ turn)
+
+
+@pytest.mark.parametrize("solver", ["osqp", "ipopt"])
+@pytest.mark.parametrize(("angle", "shift"), [(0.7, (2.0, -1.0)), (-2.5, (-3.0, 0.5))])
+def test_rotating_and_shifting_the_world_does_not_change_tracking(solver, angle, shift):
+    """The same task described in a rotated and translated world frame gives the same
+    errors and the same wheel commands (beyond the limits, so the limits matter too)."""
+    robot = preset("omni3")
+    probe = FigureEight(1.0, 10.0, heading="tangent")
+    base = FigureEight(1.0, 10.0 * feasibility(probe, robot).peak_ratio / 1.2, heading="tangent")
+    moved = Moved(base, angle, shift)
+    offset = np.array([0.1, -0.05, 0.2])  # in the body frame of the start pose
+    runs = []
+    for trajectory in (base, moved):
+        start = trajectory.sample(0.0).pose
+        c, s = math.cos(start[2]), math.sin(start[2])
+        initial = start + np.array([c * offset[0] - s * offset[1],
+                                    s * offset[0] + c * offset[1], offset[2]])
+        runs.append(simulate(Controller(robot, trajectory, solver=solver), 4.0,
+                             initial_pose=initial))
+    first, second = runs
+    # IPOPT solves to 1e-8: the runs agree to rounding. OSQP's scaling (Ruiz
+    # equilibration) acts on coordinates, so its iterates differ within its 1e-4
+    # tolerance, and saturation amplifies that: measured 2 mm on errors of 200 mm.
+    atol = 1e-6 if solver == "ipopt" else 5e-3
+    np.testing.assert_allclose(second.position_error(), first.position_error(), atol=atol)
+    np.testing.assert_allclose(second.heading_error(), first.heading_error(), atol=atol)
+    np.testing.assert_allclose(second.wheel_command, first.wheel_command, atol=1e3 * atol)
