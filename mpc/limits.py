@@ -60,13 +60,11 @@ def clamp_command(
     ``last`` itself breaks a speed limit (the limits were just derated),
     acceleration cannot be honoured as well; the speed limits win.
     """
-    blocks = robot.wheel_blocks
     original = target
     if robot.rest_projector is not None:
         target = robot.rest_projector @ target
-    wheels = blocks @ target  # (n, d) wheel velocities asked for
-    speed = np.sqrt((wheels * wheels).sum(axis=1))
     limit = robot.max_wheel_speed
+    speed = _magnitudes(robot, target)
     over = speed > limit + 1e-12  # [rad/s]: rounding left by the projection
     safe = target
     if over.any():
@@ -75,15 +73,17 @@ def clamp_command(
     accel = robot.max_wheel_accel
     if accel is None:
         return safe, safe is not original
-    start = blocks @ last
-    if ((start * start).sum(axis=1) > (limit * (1 + 1e-9) + 1e-12) ** 2).any():
+    if (_magnitudes(robot, last) > limit * (1 + 1e-9) + 1e-12).any():
         return safe, safe is not original
-    change = blocks @ safe - start
-    size = np.sqrt((change * change).sum(axis=1))
-    moving = size > 0.0
-    if not moving.any():
-        return safe, safe is not original
-    fraction = (accel[moving] * dt / size[moving]).min()
+    fraction = (accel * dt / np.maximum(_magnitudes(robot, safe - last), 1e-300)).min()
     if fraction >= 1.0:
         return safe, safe is not original
     return last + fraction * (1.0 - 1e-12) * (safe - last), True
+
+
+def _magnitudes(robot: Robot, twist: FloatArray) -> FloatArray:
+    """Each wheel's speed ``||W_i twist||`` [rad/s], shape (n,)."""
+    velocity = robot.flat_wheel_blocks @ twist
+    if robot.wheel_dim == 1:
+        return np.abs(velocity)
+    return np.hypot(velocity[0::2], velocity[1::2])

@@ -120,6 +120,11 @@ class Robot(abc.ABC):
         return int(self.wheel_blocks.shape[0])
 
     @property
+    def flat_wheel_blocks(self) -> FloatArray:
+        """``wheel_blocks`` stacked into (n * d, 3): wheel i's rows are i*d .. i*d + d - 1."""
+        return self.wheel_blocks.reshape(-1, 3)
+
+    @property
     def wheel_dim(self) -> int:
         """1 for Swedish wheels (signed speed), 2 for swerve modules (velocity vector)."""
         return int(self.wheel_blocks.shape[1])
