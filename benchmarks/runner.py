@@ -93,8 +93,8 @@ def run_all(
             metrics = result.metrics(skip=min(skip, 0.5 * length))
             runs.append(pack_run(scenario, name, metrics, result))
             log(f"[{len(runs):3d}/{total}] {scenario.layout:8s} {scenario.trajectory_name:8s} "
-                f"{scenario.speed:8s} {name:10s} rms {metrics['rms_position_error'] * 1e3:8.2f} mm"
-                f"  cross {metrics['max_cross_track_error'] * 1e3:7.2f} mm"
+                f"{scenario.speed:8s} {name:10s} rms {metrics['rms_position_error'] * 1e3:8.3g} mm"
+                f"  cross {metrics['max_cross_track_error'] * 1e3:8.3g} mm"
                 f"  peak {metrics['max_wheel_speed_ratio']:.3f}"
                 f"  tick p50 {metrics['tick_time_p50'] * 1e3:6.3f} ms"
                 f"  ({time.perf_counter() - started:.1f} s)")
@@ -182,8 +182,8 @@ def summary_table(runs: list[dict[str, Any]]) -> str:
         m = run["metrics"]
         lines.append(
             f"{run['layout']:8s} {run['trajectory']:8s} {run['speed']:8s} {run['controller']:10s} "
-            f"{m['rms_position_error'] * 1e3:9.2f} {m['max_cross_track_error'] * 1e3:9.2f} "
-            f"{math.degrees(m['rms_heading_error']):8.2f} {m['max_wheel_speed_ratio']:6.3f} "
+            f"{m['rms_position_error'] * 1e3:9.3g} {m['max_cross_track_error'] * 1e3:9.3g} "
+            f"{math.degrees(m['rms_heading_error']):8.3g} {m['max_wheel_speed_ratio']:6.3f} "
             f"{m['limit_violations']:4d} {m['failures']:4d} {m['tick_time_p50'] * 1e3:9.3f}"
         )
     return "\n".join(lines)
