@@ -11,8 +11,10 @@ from mpc.robots.base import FloatArray
 class Status(enum.Enum):
     """How this tick's command was obtained.
 
-    ``SOLVED``: the solver converged; its first twist (clamped into the
-    wheel limits) is the command. The others are the fallbacks, in order:
+    ``SOLVED``: the solver converged (or, OSQP only, ran out of iterations
+    with an iterate whose residual is small: ``Command.solver_status`` then
+    says "maximum iterations reached"); its first twist, clamped into the
+    wheel limits, is the command. The others are the fallbacks, in order:
     the shifted previous plan, the reference feedforward scaled into the
     limits, a stop ramp within the acceleration limits.
     """

@@ -33,6 +33,14 @@ from mpc.robots.base import FloatArray
 from mpc.solution import SolveResult
 
 _ACCEPTED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
+#: Out of work before converging: the iterate may still be a usable plan.
+_UNFINISHED = (osqp.SolverStatus.OSQP_MAX_ITER_REACHED, osqp.SolverStatus.OSQP_TIME_LIMIT_REACHED)
+
+#: An unfinished iterate is used if its primal residual (the largest violation
+#: of the linearised dynamics [m, rad] or of a wheel row [rad/s]) is below this.
+#: Real-time iteration uses the iterate it has; the final clamp keeps the
+#: command within the wheel limits whatever the residual.
+USABLE_RESIDUAL = 0.05
 
 
 class _Pattern:
@@ -274,7 +282,9 @@ class QpSolver:
         dual = self._zero_dual if self._dual is None else self._dual[self._dual_shift]
         info, solution, multipliers = self._run_osqp(guess, dual)
         # A sum is non-finite if any entry is (or if it overflows: then too, distrust it).
-        success = info.status_val in _ACCEPTED and math.isfinite(solution.sum())
+        usable = info.status_val in _ACCEPTED or (
+            info.status_val in _UNFINISHED and info.prim_res <= USABLE_RESIDUAL)
+        success = usable and math.isfinite(solution.sum())
         self._dual = multipliers.copy() if success else None
         poses, twists = model.split(solution)
         return SolveResult(
