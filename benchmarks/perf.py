@@ -54,19 +54,22 @@ def main(argv: list[str]) -> int:
     try:
         horizons = [int(h) for h in args.horizons.split(",")]
     except ValueError:
-        raise ValueError(f"--horizons must be a comma list of integers, got {args.horizons!r}")
+        raise ValueError(
+            f"--horizons must be a comma list of integers, got {args.horizons!r}") from None
     if not horizons or min(horizons) < 1 or args.ticks < 20 or args.ipopt_ticks < 20:
         raise ValueError("horizons must be >= 1 and --ticks, --ipopt-ticks >= 20")
 
     rows = []
     print(f"{'solver':6s} {'N':>4s} {'tick p50':>9s} {'solve p50':>9s} {'overhead':>9s} "
           f"{'tick/solve':>10s} {'iters':>6s} {'rms err':>9s}")
-    print(f"{'':6s} {'':>4s} {'[ms]':>9s} {'[ms]':>9s} {'[ms]':>9s} {'':>10s} {'':>6s} {'[mm]':>9s}")
+    print(f"{'':6s} {'':>4s} {'[ms]':>9s} {'[ms]':>9s} {'[ms]':>9s} {'':>10s} {'':>6s} "
+          f"{'[mm]':>9s}")
     plan = [("osqp", h, args.ticks) for h in horizons] + [("ipopt", 20, args.ipopt_ticks)]
     for solver, horizon, ticks in plan:
         row = measure(solver, horizon, ticks)
         rows.append(row)
-        print(f"{solver:6s} {horizon:4d} {row['tick_p50'] * 1e3:9.3f} {row['solve_p50'] * 1e3:9.3f} "
+        print(f"{solver:6s} {horizon:4d} {row['tick_p50'] * 1e3:9.3f} "
+              f"{row['solve_p50'] * 1e3:9.3f} "
               f"{row['overhead_p50'] * 1e3:9.3f} {row['tick_p50'] / row['solve_p50']:10.2f} "
               f"{row['iterations_p50']:6.0f} {row['rms_position_error'] * 1e3:9.4f}", flush=True)
     osqp = {r["horizon"]: r for r in rows if r["solver"] == "osqp"}

@@ -44,8 +44,8 @@ def build_scenarios(robots: dict[str, Robot], trajectories: list[str], speeds: d
     for layout, robot in robots.items():
         for name in trajectories:
             for label, ratio in speeds.items():
-                scenarios.append(Scenario(layout, robot, name, reference(name, heading, robot, ratio),
-                                          label, heading))
+                trajectory = reference(name, heading, robot, ratio)
+                scenarios.append(Scenario(layout, robot, name, trajectory, label, heading))
         if csv_trajectory is not None:
             scenarios.append(Scenario(layout, robot, "csv", csv_trajectory, "as-given", "csv"))
     return scenarios
@@ -141,9 +141,10 @@ def pack_run(scenario: Scenario, name: str, metrics: dict[str, Any],
 
 def results_document(runs: list[dict[str, Any]], command: str,
                      settings: dict[str, Any]) -> dict[str, Any]:
+    created = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
     return {
         "meta": {"command": command,
-                 "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+                 "created": created,
                  "machine": machine(), "settings": settings},
         "runs": runs,
     }
@@ -164,7 +165,8 @@ def write_csv(runs: list[dict[str, Any]], path: Path) -> None:
                          *CSV_METRICS, "failures_by_status"])
         for run in runs:
             metrics = run["metrics"]
-            by_status = ";".join(f"{k}:{v}" for k, v in sorted(metrics["failures_by_status"].items()))
+            failures = sorted(metrics["failures_by_status"].items())
+            by_status = ";".join(f"{k}:{v}" for k, v in failures)
             writer.writerow([run["layout"], run["trajectory"], run["heading"], run["speed"],
                              run["peak_ratio"], run["controller"],
                              *(metrics[key] for key in CSV_METRICS), by_status])

@@ -254,7 +254,8 @@ class Controller:
         except (TypeError, ValueError):
             raise ControllerError(f"pose must be 3 numbers (x, y, theta), got {pose!r}") from None
         if x0.shape != (3,):
-            raise ControllerError(f"pose must have shape (3,) as (x, y, theta), got shape {x0.shape}")
+            raise ControllerError(
+                f"pose must have shape (3,) as (x, y, theta), got shape {x0.shape}")
         if not math.isfinite(x0.sum()):  # a NaN or an infinity anywhere
             raise ControllerError(f"pose must be finite, got {x0.tolist()}")
         return x0

@@ -140,8 +140,9 @@ class QpSolver:
         dyn_rows = 3 + 3 * stage + r3  # (N, 3, 3)
         pattern.add(dyn_rows, 3 * (stage + 1) + c3, eye)
         # Column-major ids so that they line up with CasADi's vec(A_k), vec(B_k).
-        ids_a = pattern.add(dyn_rows, 3 * stage + c3, 0.0).transpose(0, 2, 1).reshape(n, 9)
-        ids_b = pattern.add(dyn_rows, n_poses + 3 * stage + c3, 0.0).transpose(0, 2, 1).reshape(n, 9)
+        ids_a = pattern.add(dyn_rows, 3 * stage + c3, 0.0)
+        ids_b = pattern.add(dyn_rows, n_poses + 3 * stage + c3, 0.0)
+        ids_a, ids_b = (ids.transpose(0, 2, 1).reshape(n, 9) for ids in (ids_a, ids_b))
         m_rows = 3 * (n + 1)
         n_limit = rows.shape[0]
         limit_rows = m_rows + n_limit * stage[:, :, 0] + np.arange(n_limit)  # (N, m)

@@ -158,8 +158,8 @@ class SimResult:
         if self.wheel_accel_limit is None:
             return 0
         twists = np.vstack([np.zeros((1, 3)), self.twist_command])
-        change = np.linalg.norm(np.einsum("ndj,kj->knd", self.wheel_blocks, np.diff(twists, axis=0)),
-                                axis=-1)
+        steps = np.diff(twists, axis=0)
+        change = np.linalg.norm(np.einsum("ndj,kj->knd", self.wheel_blocks, steps), axis=-1)
         bound = self.wheel_accel_limit * self.dt
         return int((change > bound * (1 + LIMIT_RTOL) + 1e-12).any(axis=1).sum())
 

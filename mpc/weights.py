@@ -84,6 +84,7 @@ def make_weights(weights: Weights | dict[str, ArrayLike] | None) -> Weights:
         known = {item.name for item in fields(Weights)}
         unknown = sorted(set(weights) - known)
         if unknown:
-            raise ControllerError(f"unknown weight name(s) {unknown}; expected some of {sorted(known)}")
+            raise ControllerError(
+                f"unknown weight name(s) {unknown}; expected some of {sorted(known)}")
         return Weights(**weights)  # type: ignore[arg-type]
     raise ControllerError(f"weights must be Weights, a dict or None, got {type(weights).__name__}")
