@@ -73,6 +73,9 @@ class Controller:
             wheels can give (see above); False tracks ``t`` strictly.
     """
 
+    _guess: tuple[FloatArray, FloatArray] | None  # last plan (poses, twists), for the warm start
+    _plan_twists: FloatArray | None  # last successful plan's twists, for the fallback
+
     def __init__(
         self,
         robot: Robot,
@@ -156,8 +159,8 @@ class Controller:
             raise ControllerError(f"last_twist must be a finite (3,) twist, got {last_twist!r}")
         self._last = last
         self._sent: deque[FloatArray] = deque([last] * self.delay_ticks, maxlen=self.delay_ticks)
-        self._guess: tuple[FloatArray, FloatArray] | None = None
-        self._plan_twists: FloatArray | None = None
+        self._guess = None
+        self._plan_twists = None
         self._failures = 0
         self._lag = 0.0  # [s] how far the reference time lags t (time scaling)
         self._previous_t: float | None = None

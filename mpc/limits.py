@@ -17,10 +17,10 @@ import math
 import numpy as np
 
 from mpc.errors import ControllerError
-from mpc.robots.base import FloatArray, Robot
+from mpc.robots.base import FloatArray, IntArray, Robot
 
 
-def polygon_rows(robot: Robot, polygon_sides: int) -> tuple[FloatArray, FloatArray]:
+def polygon_rows(robot: Robot, polygon_sides: int) -> tuple[FloatArray, IntArray]:
     """Rows ``C`` (m, 3) and per-row wheel index (m,) so ``|C u| <= factor * limit``.
 
     For Swedish wheels the rows are ``J`` and the factor is 1; for swerve

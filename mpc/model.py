@@ -17,7 +17,9 @@ quadratic in ``z``) and one mapped call of :attr:`linearization` each tick.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -51,6 +53,31 @@ def twist_integral(pose: ca.SX, twist: ca.SX, dt: float) -> ca.SX:
     c, s = ca.cos(pose[2]), ca.sin(pose[2])
     return ca.vertcat(pose[0] + c * forward - s * left, pose[1] + s * forward + c * left,
                       pose[2] + angle)
+
+
+class BufferedFunction:
+    """Zero-copy evaluation of a CasADi function into preallocated NumPy arrays.
+
+    CasADi reads a C-ordered (rows, cols) array as its cols x rows column-major
+    input, so a (N, 3) array is a 3 x N argument. Calling the object evaluates
+    the function from ``inputs`` into ``outputs`` (which must stay alive: the
+    object keeps references), with none of the per-call conversion cost of
+    ``function(...)``.
+    """
+
+    def __init__(self, function: ca.Function, inputs: Sequence[FloatArray],
+                 outputs: Sequence[FloatArray]) -> None:
+        self.arrays = (*inputs, *outputs)
+        buffer: Any
+        buffer, self._evaluate = function.buffer()
+        for index, array in enumerate(inputs):
+            buffer.set_arg(index, array.data)
+        for index, array in enumerate(outputs):
+            buffer.set_res(index, array.data)
+        self._buffer = buffer
+
+    def __call__(self) -> None:
+        self._evaluate()
 
 
 def twist_logarithm(start: ca.SX, end: ca.SX, dt: float) -> ca.SX:
@@ -193,7 +220,7 @@ class TrackingModel:
             relief = (1.0 - weights.along_track) * float(min(diagonal[0], diagonal[1]))
             return ca.bilin(ca.DM(np.diag(diagonal)), error, error) - relief * along**2
 
-        total = 0
+        total = ca.SX(0)
         for k in range(n):
             if k > 0:
                 total += pose_cost(k, weights.pose)

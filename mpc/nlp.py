@@ -9,8 +9,11 @@ swerve modules (and the same on consecutive twists for acceleration).
 
 from __future__ import annotations
 
+from typing import Any
+
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mpc.model import TrackingModel
 from mpc.robots.base import FloatArray
@@ -42,8 +45,8 @@ class NlpSolver:
         z, p, poses, twists = model.symbols()
         following = model.dynamics.map(n)(poses[:, :-1], twists)
         constraints = [poses[:, 0] - p[:3], ca.vec(poses[:, 1:] - following)]
-        lower = [np.zeros(3 * (n + 1))]
-        upper = [np.zeros(3 * (n + 1))]
+        lower: list[ArrayLike] = [np.zeros(3 * (n + 1))]
+        upper: list[ArrayLike] = [np.zeros(3 * (n + 1))]
 
         blocks = [ca.DM(robot.wheel_blocks[i]) for i in range(robot.n_wheels)]
         speed = robot.max_wheel_speed
@@ -62,7 +65,7 @@ class NlpSolver:
                     upper.append(self._upper(block, bound))
         problem = {"x": z, "p": p, "f": model.cost(poses, twists, p),
                    "g": ca.vertcat(*constraints)}
-        options = {
+        options: dict[str, Any] = {
             "expand": True,
             "print_time": False,
             "record_time": True,

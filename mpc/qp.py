@@ -26,10 +26,11 @@ import casadi as ca
 import numpy as np
 import osqp
 import scipy.sparse as sp
+from numpy.typing import ArrayLike
 
 from mpc.limits import polygon_factor, polygon_rows
-from mpc.model import TrackingModel
-from mpc.robots.base import FloatArray
+from mpc.model import BufferedFunction, TrackingModel
+from mpc.robots.base import FloatArray, IntArray
 from mpc.solution import SolveResult
 
 _ACCEPTED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
@@ -52,7 +53,7 @@ class _Pattern:
         self.values: list[FloatArray] = []
         self.count = 0
 
-    def add(self, row: FloatArray, col: FloatArray, value: FloatArray) -> FloatArray:
+    def add(self, row: ArrayLike, col: ArrayLike, value: ArrayLike) -> IntArray:
         """Add entries; return their COO ids."""
         row, col, value = np.broadcast_arrays(row, col, value)
         ids = self.count + np.arange(row.size).reshape(row.shape)
@@ -62,7 +63,7 @@ class _Pattern:
         self.count += row.size
         return ids
 
-    def to_csc(self, shape: tuple[int, int]) -> tuple[sp.csc_matrix, FloatArray]:
+    def to_csc(self, shape: tuple[int, int]) -> tuple[sp.csc_matrix, IntArray]:
         """CSC matrix with every entry kept, and ``position[id]`` in its data."""
         rows, cols = np.concatenate(self.rows), np.concatenate(self.cols)
         tagged = sp.coo_matrix((np.arange(1, self.count + 1, dtype=float), (rows, cols)),
@@ -115,11 +116,7 @@ class QpSolver:
         self._params = np.zeros(model.n_parameters)
         self._p_data = np.zeros(sparsity.nnz())
         self._q = np.zeros(model.n_variables)
-        buffer, self._evaluate_cost = cost_terms.buffer()
-        buffer.set_arg(0, memoryview(self._params))
-        buffer.set_res(0, memoryview(self._p_data))
-        buffer.set_res(1, memoryview(self._q))
-        self._cost_buffer = buffer  # keeps the views alive
+        self._evaluate_cost = BufferedFunction(cost_terms, [self._params], [self._p_data, self._q])
         colind, row = sparsity.get_ccs()
         self._evaluate_cost()
         hessian_matrix = sp.csc_matrix(
@@ -201,11 +198,8 @@ class QpSolver:
         self._lin_poses = np.zeros((n, 3))
         self._lin_twists = np.zeros((n, 3))
         self._lin_out = np.zeros((n, 21))
-        buffer, self._linearize = model.linearization.buffer()
-        buffer.set_arg(0, memoryview(self._lin_poses))
-        buffer.set_arg(1, memoryview(self._lin_twists))
-        buffer.set_res(0, memoryview(self._lin_out))
-        self._lin_buffer = buffer  # keeps the views alive
+        self._linearize = BufferedFunction(
+            model.linearization, [self._lin_poses, self._lin_twists], [self._lin_out])
         self._dual_shift = self._stage_shift(
             [(0, 3, 1), (3, 3, n), (3 * (n + 1), n_limit, n)]
             + ([(self._accel_start, n_limit, n)] if accel is not None else []),
@@ -236,7 +230,7 @@ class QpSolver:
         return result.info, result.x, result.y
 
     @staticmethod
-    def _stage_shift(blocks: list[tuple[int, int, int]], size: int) -> FloatArray:
+    def _stage_shift(blocks: list[tuple[int, int, int]], size: int) -> IntArray:
         """Index map moving each per-stage block one stage earlier (last repeated)."""
         index = np.arange(size)
         for start, width, stages in blocks:

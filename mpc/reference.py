@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from mpc.model import TrackingModel
+from mpc.model import BufferedFunction, TrackingModel
 from mpc.robots.base import FloatArray
 from trajectories import Trajectory
 
@@ -31,17 +31,13 @@ class ReferenceWindow:
         self.trajectory = trajectory
         n = model.horizon
         self.offsets = model.dt * np.arange(n + 1)
-        # Zero-copy CasADi evaluation: (rows, 3) C-ordered arrays are 3 x rows column-major.
         self._poses = np.zeros((n + 1, 3))
         self._velocities = np.zeros((n + 1, 3))
         self._feedforward = np.zeros((n, 3))
         self._directions = np.zeros((n + 1, 2))
-        buffer, self._evaluate = model.reference_terms.buffer()
-        buffer.set_arg(0, memoryview(self._poses))
-        buffer.set_arg(1, memoryview(self._velocities))
-        buffer.set_res(0, memoryview(self._feedforward))
-        buffer.set_res(1, memoryview(self._directions))
-        self._buffer = buffer  # keeps the views alive
+        self._evaluate = BufferedFunction(model.reference_terms,
+                                          [self._poses, self._velocities],
+                                          [self._feedforward, self._directions])
 
     def at(
         self, time: float, heading: float, rate: float = 1.0

@@ -210,7 +210,7 @@ def simulate(
     sim = Plant(true_robot, dt, start, config, np.random.default_rng(seed))
     controller.reset()
     n = true_robot.n_wheels
-    time = dt * np.arange(ticks)
+    time: FloatArray = dt * np.arange(ticks, dtype=np.float64)
     poses, measured = np.empty((ticks, 3)), np.empty((ticks, 3))
     commands, actual = np.empty((ticks, n)), np.empty((ticks, n))
     twists = np.empty((ticks, 3))

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from mpc.errors import RobotError
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
 
 
 def positive_finite(name: str, value: object) -> float:

@@ -107,5 +107,6 @@ def preset(name: str) -> Robot:
     """A shipped robot by name, one of :data:`PRESETS`."""
     if name not in PRESETS:
         raise RobotError(f"unknown robot preset {name!r}; expected one of {list(PRESETS)}")
-    text = resources.files("mpc.robots").joinpath("presets", f"{name}.toml").read_text("utf-8")
+    folder = resources.files("mpc.robots").joinpath("presets")
+    text = folder.joinpath(f"{name}.toml").read_text("utf-8")
     return from_dict(tomllib.loads(text), source=f"preset {name!r}")

@@ -98,7 +98,8 @@ class SwedishRobot(Robot):
         elif any(a is None for a in accels):
             raise RobotError("either every wheel has max_accel or none has")
         else:
-            object.__setattr__(self, "nominal_max_wheel_accel", readonly(accels))
+            object.__setattr__(self, "nominal_max_wheel_accel",
+                               readonly([float(a) for a in accels if a is not None]))
         object.__setattr__(self, "_pinv", readonly(np.linalg.pinv(jacobian)))
         self._check_derating()
 
