@@ -15,6 +15,7 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from benchmarks import perf, soak
 from benchmarks.runner import build_scenarios, results_document, run_all, summary_table, write_csv
@@ -23,6 +24,7 @@ from benchmarks.scenarios import (
     HEADINGS,
     PRESETS,
     TRAJECTORIES,
+    Parser,
     ScenarioError,
     Settings,
     choose,
@@ -36,7 +38,7 @@ from trajectories import TrajectoryError
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="mpc-bench",
         description="Benchmark MPC tracking against feedforward + P baselines on holonomic "
                     "robots. Subcommands: 'report RESULTS', 'perf', 'soak' (see --help of each).",
@@ -114,7 +116,7 @@ def run(argv: list[str]) -> int:
     return 0
 
 
-def _write_report(document: dict, folder: Path) -> None:
+def _write_report(document: dict[str, Any], folder: Path) -> None:
     from benchmarks.report import write_report  # matplotlib only when asked for
 
     def progress(done: int, total: int) -> None:
@@ -126,7 +128,7 @@ def _write_report(document: dict, folder: Path) -> None:
 
 
 def report(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="mpc-bench report",
+    parser = Parser(prog="mpc-bench report",
                                      description="Rebuild the report from a results.json.")
     parser.add_argument("results", help="path of results.json")
     parser.add_argument("--out", help="report folder (default: 'report' beside the results)")

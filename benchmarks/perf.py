@@ -10,7 +10,6 @@ time); ``overhead`` is the rest of ``step()``: Python, NumPy and CasADi.
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 from typing import Any
@@ -18,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.runner import machine
-from benchmarks.scenarios import reference
+from benchmarks.scenarios import Parser, reference
 from mpc import Controller
 from mpc.robots import preset
 from mpc.simulation import simulate
@@ -44,7 +43,7 @@ def measure(solver: str, horizon: int, ticks: int, dt: float = 0.05) -> dict[str
 
 
 def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="mpc-bench perf", description=__doc__.split("\n")[0])
+    parser = Parser(prog="mpc-bench perf", description=__doc__.split("\n")[0])
     parser.add_argument("--horizons", default="10,20,50,100",
                         help="OSQP horizons (10,20,50,100)")
     parser.add_argument("--ticks", type=int, default=400, help="ticks per OSQP run (400)")

@@ -9,10 +9,12 @@ rate of tangent and spinning profiles, scales with 1 / period).
 
 from __future__ import annotations
 
+import argparse
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NoReturn
 
 from mpc import Controller
 from mpc.baselines import FeedforwardPController
@@ -31,6 +33,13 @@ HEADINGS: tuple[str, ...] = ("fixed", "tangent", "spin")
 #: Size of the shapes [m] and the period used to measure their wheel load [s].
 SHAPE_SIZE = 1.0
 _PROBE_PERIOD = 10.0
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse, but a bad option is one line on stderr (no usage dump) and exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
 class ScenarioError(ValueError):
@@ -135,6 +144,7 @@ def controller(name: str, robot: Robot, trajectory: Trajectory,
 
 
 __all__ = [
-    "CONTROLLERS", "HEADINGS", "PRESETS", "SPEEDS", "TRAJECTORIES", "ScenarioError", "Settings",
+    "CONTROLLERS", "HEADINGS", "PRESETS", "SPEEDS", "TRAJECTORIES", "Parser", "ScenarioError",
+    "Settings",
     "choose", "controller", "csv_reference", "parse_speeds", "reference", "robots",
 ]

@@ -8,13 +8,12 @@ memory and the median tick time. Flat columns mean no leak and no drift.
 
 from __future__ import annotations
 
-import argparse
 import resource
 import time
 
 import numpy as np
 
-from benchmarks.scenarios import reference
+from benchmarks.scenarios import Parser, reference
 from mpc import Controller
 from mpc.robots import preset
 
@@ -30,7 +29,7 @@ def _rss_mib() -> float:
 
 
 def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="mpc-bench soak", description=__doc__.split("\n")[0])
+    parser = Parser(prog="mpc-bench soak", description=__doc__.split("\n")[0])
     parser.add_argument("--ticks", type=int, default=100_000, help="ticks in all (100000)")
     parser.add_argument("--blocks", type=int, default=10, help="report lines (10)")
     args = parser.parse_args(argv)
