@@ -18,6 +18,7 @@ from mpc.qp import QpSolver
 from mpc.reference import ReferenceWindow
 from mpc.robots.base import FloatArray, Robot
 from mpc.robots.swerve import SwerveRobot
+from mpc.solution import TrackingSolver
 from mpc.weights import Weights, make_weights
 from trajectories import Trajectory
 
@@ -114,7 +115,7 @@ class Controller:
         self.time_scaling = bool(time_scaling)
         self.weights = make_weights(weights)
         self.model = TrackingModel(robot, self.horizon, self.dt, self.weights)
-        self.solver: QpSolver | NlpSolver
+        self.solver: TrackingSolver
         if solver == "osqp":
             self.solver = QpSolver(self.model, polygon_sides=polygon_sides,
                                    max_iter=max_iter or 500, time_limit=time_limit)
