@@ -105,11 +105,12 @@ def _robot_info(robot: Robot) -> dict[str, Any]:
     if isinstance(robot, SwerveRobot):
         positions = robot.module_positions
         kind = "swerve"
-    else:
-        assert isinstance(robot, SwedishRobot)
+    elif isinstance(robot, SwedishRobot):
         positions = np.array([[w.l * math.cos(w.alpha), w.l * math.sin(w.alpha)]
                               for w in robot.wheels])
         kind = "swedish"
+    else:
+        positions, kind = np.zeros((0, 2)), type(robot).__name__
     return {"name": robot.name, "kind": kind, "wheel_positions": positions.round(6).tolist()}
 
 

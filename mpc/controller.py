@@ -124,6 +124,7 @@ class Controller:
         self.solver_name = solver
         self._reference = ReferenceWindow(trajectory, self.model)
         self._jacobian = robot.wheel_blocks[:, 0, :]  # Swedish wheels: speeds = J @ twist
+        self._swerve = robot if isinstance(robot, SwerveRobot) else None
         working = robot.max_wheel_speed > 0.0  # a failed wheel does not slow the reference
         self._scaling_blocks = robot.wheel_blocks[working].reshape(-1, 3)
         self._scaling_limits = robot.max_wheel_speed[working]
@@ -165,7 +166,7 @@ class Controller:
         self._failures = 0
         self._lag = 0.0  # [s] how far the reference time lags t (time scaling)
         self._previous_t: float | None = None
-        self._steer = np.zeros(self.robot.n_wheels) if isinstance(self.robot, SwerveRobot) else None
+        self._steer = np.zeros(self.robot.n_wheels)  # swerve steer angles commanded last [rad]
         self.solver.reset()
 
     def step(self, pose: ArrayLike, t: float) -> Command:
@@ -208,9 +209,8 @@ class Controller:
         self._last = twist
         if self.delay_ticks:
             self._sent.append(twist)
-        if self._steer is not None:
-            assert isinstance(self.robot, SwerveRobot)
-            wheel_speeds, steer = self.robot.module_states(twist, self._steer)
+        if self._swerve is not None:
+            wheel_speeds, steer = self._swerve.module_states(twist, self._steer)
             self._steer = steer
         else:
             wheel_speeds, steer = self._jacobian @ twist, None

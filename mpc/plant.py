@@ -18,6 +18,7 @@ import numpy as np
 from mpc.command import Command
 from mpc.errors import MpcInputError
 from mpc.robots.base import FloatArray, Robot
+from mpc.robots.swedish import SwedishRobot
 from mpc.robots.swerve import SwerveRobot, wrap_angle
 
 
@@ -86,7 +87,9 @@ class Plant:
         self.rng = rng
         n = robot.n_wheels
         self.wheel_speeds = np.zeros(n)  # actual, signed [rad/s]
-        self.steer_angles = np.zeros(n) if isinstance(robot, SwerveRobot) else None
+        self._swerve = robot if isinstance(robot, SwerveRobot) else None
+        self._swedish = robot if isinstance(robot, SwedishRobot) else None
+        self.steer_angles = np.zeros(n) if self._swerve is not None else None
         rest = (np.zeros(n), None if self.steer_angles is None else np.zeros(n))
         self._pipe: deque[tuple[FloatArray, FloatArray | None]] = deque(
             [rest] * config.delay_ticks
@@ -115,24 +118,27 @@ class Plant:
             grip = np.ones(self.robot.n_wheels)
         for _ in range(config.substeps):
             self.wheel_speeds = keep * self.wheel_speeds + (1.0 - keep) * target_speeds
-            if self.steer_angles is not None and target_angles is not None:
-                self._steer(target_angles, h)
+            if self._swerve is not None and target_angles is not None:
+                self._steer(self._swerve, target_angles, h)
             self._integrate(self._twist(self.wheel_speeds * grip), h)
         return self.wheel_speeds * grip
 
-    def _steer(self, target: FloatArray, h: float) -> None:
-        assert isinstance(self.robot, SwerveRobot) and self.steer_angles is not None
-        error = wrap_angle(target - self.steer_angles)
+    def _steer(self, robot: SwerveRobot, target: FloatArray, h: float) -> None:
+        """Turn every module towards its commanded angle, at most ``max_steer_rate``."""
+        current = self.steer_angles if self.steer_angles is not None else np.zeros_like(target)
+        error = wrap_angle(target - current)
         if self.config.steer_rate_limited:
-            reach = self.robot.max_steer_rate * h
+            reach = robot.max_steer_rate * h
             error = np.clip(error, -reach, reach)
-        self.steer_angles = wrap_angle(self.steer_angles + error)
+        self.steer_angles = wrap_angle(current + error)
 
     def _twist(self, speeds: FloatArray) -> FloatArray:
-        if isinstance(self.robot, SwerveRobot):
-            assert self.steer_angles is not None
-            return self.robot.twist(speeds, self.steer_angles)
-        return self.robot.twist(speeds)  # type: ignore[attr-defined, no-any-return]
+        """Least-squares body twist of the wheels' actual motion."""
+        if self._swerve is not None and self.steer_angles is not None:
+            return self._swerve.twist(speeds, self.steer_angles)
+        if self._swedish is not None:
+            return self._swedish.twist(speeds)
+        raise MpcInputError(f"the plant cannot drive a {type(self.robot).__name__}")
 
     def _integrate(self, twist: FloatArray, h: float) -> None:
         """RK4 of d/dt pose = R(theta) twist over ``h`` seconds."""
