@@ -1,0 +1,211 @@
+"""Wheel limits: the safety clamp and the swerve polygon rows.
+
+``clamp_command`` first scales the target uniformly into the speed limits
+(``robot.desaturate``), then steps from the last command towards it only as
+far as every wheel's acceleration limit allows. So the result lies on the
+segment from ``last`` to the desaturated target, which is the segment from
+``last`` to ``target`` itself whenever the target is within the speed limits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mpc.errors import ControllerError
+from mpc.limits import clamp_command, polygon_factor, polygon_rows
+from mpc.robots import PRESETS, Robot, SwedishRobot, SwedishWheel, preset
+
+DT = 0.05
+
+
+def accel_ratio(robot: Robot, change: np.ndarray, dt: float = DT) -> float:
+    """Peak ||W_i change|| / (accel_i dt) over the wheels."""
+    assert robot.max_wheel_accel is not None
+    size = np.linalg.norm(robot.wheel_velocities(change), axis=-1)
+    return float((size / (robot.max_wheel_accel * dt)).max())
+
+
+def random_feasible(robot: Robot, rng: np.random.Generator) -> np.ndarray:
+    """A twist inside the speed limits, anywhere from rest to the boundary."""
+    direction = rng.normal(size=3) * np.array([1.0, 1.0, 3.0])
+    return robot.desaturate(direction * 100.0) * rng.uniform(0.0, 1.0)
+
+
+def random_target(robot: Robot, rng: np.random.Generator) -> np.ndarray:
+    """A twist from tiny changes near anything to three times beyond the limits."""
+    scale = rng.choice([0.01, 0.3, 1.0, 3.0])
+    return robot.desaturate(rng.normal(size=3) * np.array([1, 1, 3]) * 100.0) * scale * (
+        rng.uniform(0.0, 1.0))
+
+
+def segment_fraction(start: np.ndarray, end: np.ndarray, point: np.ndarray) -> tuple[float, float]:
+    """(fraction f, distance off the line) for point ~ start + f (end - start)."""
+    direction = end - start
+    length2 = float(direction @ direction)
+    if length2 == 0.0:
+        return 0.0, float(np.linalg.norm(point - start))
+    fraction = float((point - start) @ direction / length2)
+    return fraction, float(np.linalg.norm(start + fraction * direction - point))
+
+
+@pytest.mark.parametrize("robot_name", PRESETS)
+def test_clamp_respects_speed_and_acceleration_and_moves_along_the_segment(
+    robot_name: str,
+) -> None:
+    robot = preset(robot_name)
+    rng = np.random.default_rng(2024)
+    for _ in range(300):
+        last, target = random_feasible(robot, rng), random_target(robot, rng)
+        if rng.uniform() < 0.3:  # a target close to the last command (often feasible)
+            target = last + rng.normal(size=3) * 0.01
+        result, changed = clamp_command(robot, target, last, DT)
+
+        assert robot.is_feasible(result)
+        assert accel_ratio(robot, result - last) <= 1.0 + 1e-9
+        goal = robot.desaturate(target)
+        fraction, off_line = segment_fraction(last, goal, result)
+        assert -1e-9 <= fraction <= 1.0 + 1e-9
+        assert off_line <= 1e-9 * (1.0 + np.linalg.norm(goal))
+        if robot.is_feasible(target, rtol=0.0):
+            _, off_target_line = segment_fraction(last, target, result)
+            assert off_target_line <= 1e-9 * (1.0 + np.linalg.norm(target))
+        if fraction < 1.0 - 1e-9:  # stopped short: some wheel is at its acceleration limit
+            assert accel_ratio(robot, result - last) == pytest.approx(1.0, abs=1e-9)
+        assert changed == (not np.array_equal(result, target))
+
+
+@pytest.mark.parametrize("robot_name", PRESETS)
+def test_clamp_returns_a_feasible_target_unchanged(robot_name: str) -> None:
+    robot = preset(robot_name)
+    rng = np.random.default_rng(7)
+    for _ in range(100):
+        last = random_feasible(robot, rng)
+        # A target within the speed limits and within half of every acceleration limit.
+        step = rng.normal(size=3)
+        step *= 0.5 / accel_ratio(robot, step)
+        target = robot.desaturate(last + step)
+        if accel_ratio(robot, target - last) > 1.0:
+            continue
+        result, changed = clamp_command(robot, target, last, DT)
+        np.testing.assert_array_equal(result, target)
+        assert not changed
+
+
+def test_clamp_without_acceleration_limits_only_desaturates() -> None:
+    robot = preset("omni4")
+    assert isinstance(robot, SwedishRobot)
+    unlimited = SwedishRobot(name="omni4-free", wheels=tuple(
+        SwedishWheel(alpha=w.alpha, beta=w.beta, gamma=w.gamma, l=w.l, radius=w.radius,
+                     max_speed=w.max_speed) for w in robot.wheels))
+    assert unlimited.max_wheel_accel is None
+    target = np.array([3.0, -1.0, 2.0])
+    result, changed = clamp_command(unlimited, target, np.zeros(3), DT)
+    assert changed
+    np.testing.assert_allclose(result, unlimited.desaturate(target), rtol=1e-11)
+    assert unlimited.speed_ratio(result) == pytest.approx(1.0, abs=1e-11)
+
+
+def rest_projector(robot: Robot, wheel: int) -> np.ndarray:
+    """Orthogonal projector onto the twists that keep ``wheel`` at rest (null space of W_i)."""
+    block = robot.wheel_blocks[wheel]
+    return np.eye(3) - block.T @ np.linalg.solve(block @ block.T, block)
+
+
+@pytest.mark.parametrize("robot_name", PRESETS)
+def test_clamp_on_derated_robot_when_last_breaks_the_new_limit(robot_name: str) -> None:
+    """Wheel 0 failed (limit 0) while the robot was moving it: the speed limits win. The
+    command is the target with wheel 0's motion projected out, scaled into the limits,
+    even though that is a bigger step than the acceleration limit allows."""
+    robot = preset(robot_name)
+    derated = robot.derated({0: 0.0})
+    projector = rest_projector(robot, 0)
+    last = robot.desaturate(np.array([1.0, 0.5, 0.5])) * 0.9  # fast: wheel 0 moving
+    assert np.linalg.norm(robot.wheel_velocities(last)[0]) > 1.0
+    assert not derated.is_feasible(last)
+    rng = np.random.default_rng(5)
+    for target in [last, np.zeros(3), *rng.normal(size=(20, 3))]:
+        result, changed = clamp_command(derated, target, last, DT)
+        assert derated.is_feasible(result)
+        np.testing.assert_allclose(derated.wheel_velocities(result)[0], 0.0, atol=1e-12)
+        expected = derated.desaturate(projector @ target)
+        np.testing.assert_allclose(result, expected, rtol=1e-9, atol=1e-14)
+        if not np.allclose(target, 0.0):
+            assert changed
+
+
+def test_clamp_on_derated_robot_keeps_the_failed_wheel_at_rest_within_acceleration() -> None:
+    """From a last command that already holds the failed wheel at rest, every limit holds."""
+    robot = preset("mecanum")
+    derated = robot.derated({1: 0.0})
+    projector = rest_projector(robot, 1)
+    rng = np.random.default_rng(6)
+    for _ in range(100):
+        last = derated.desaturate(projector @ random_feasible(robot, rng))
+        target = random_target(robot, rng)
+        result, _ = clamp_command(derated, target, last, DT)
+        assert derated.is_feasible(result)
+        assert abs(derated.wheel_speeds(result)[1]) <= 1e-12
+        assert accel_ratio(derated, result - last) <= 1.0 + 1e-9
+
+
+def test_clamp_on_derated_robot_from_a_feasible_last_keeps_acceleration() -> None:
+    robot = preset("mecanum").derated({2: 0.5})
+    rng = np.random.default_rng(8)
+    for _ in range(100):
+        last, target = random_feasible(robot, rng), random_target(preset("mecanum"), rng)
+        result, _ = clamp_command(robot, target, last, DT)
+        assert robot.is_feasible(result)
+        assert accel_ratio(robot, result - last) <= 1.0 + 1e-9
+
+
+# Polygon rows ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("robot_name", ["omni3", "omni4", "mecanum"])
+def test_polygon_rows_for_swedish_wheels_are_the_jacobian(robot_name: str) -> None:
+    robot = preset(robot_name)
+    assert isinstance(robot, SwedishRobot)
+    rows, wheel = polygon_rows(robot, polygon_sides=16)
+    np.testing.assert_array_equal(rows, robot.jacobian)
+    np.testing.assert_array_equal(wheel, np.arange(robot.n_wheels))
+    assert polygon_factor(robot, 16) == 1.0
+
+
+@pytest.mark.parametrize("sides", [4, 8, 16, 64])
+def test_swerve_polygon_is_the_inscribed_regular_polygon(sides: int) -> None:
+    """For each module, twists mapping to the polygon's vertices and edge points satisfy
+    every row bound (the adjacent rows tightly), lie inside the speed disk, and points
+    just outside the polygon violate a row."""
+    robot = preset("swerve")
+    rows, wheel = polygon_rows(robot, sides)
+    factor = polygon_factor(robot, sides)
+    assert factor == pytest.approx(math.cos(math.pi / sides))
+    assert rows.shape == (robot.n_wheels * sides // 2, 3)
+    bound = robot.max_wheel_speed[wheel] * factor
+    limit = robot.max_wheel_speed[0]
+    vertex_angles = 2 * math.pi * (np.arange(sides) + 0.5) / sides
+    vertices = limit * np.stack([np.cos(vertex_angles), np.sin(vertex_angles)], axis=1)
+    for module in range(robot.n_wheels):
+        inverse = np.linalg.pinv(robot.wheel_blocks[module])  # (3, 2): W_i @ inverse = I
+        mine = wheel == module
+        for m in range(sides):
+            for s in (0.0, 0.3, 0.5):  # a vertex and points along the edge to the next one
+                point = (1 - s) * vertices[m] + s * vertices[(m + 1) % sides]
+                twist = inverse @ point
+                np.testing.assert_allclose(robot.wheel_velocities(twist)[module], point,
+                                           atol=1e-12)
+                values = np.abs(rows[mine] @ twist)
+                assert np.all(values <= bound[mine] * (1 + 1e-12))
+                assert values.max() == pytest.approx(bound[mine][0], rel=1e-12)  # on an edge
+                assert np.linalg.norm(point) <= limit * (1 + 1e-12)  # inside the disk
+                outside = inverse @ (point * (1 + 1e-6))
+                assert np.any(np.abs(rows[mine] @ outside) > bound[mine])
+
+
+@pytest.mark.parametrize("sides", [2, 3, 5, 15])
+def test_polygon_sides_must_be_even_and_at_least_4(sides: int) -> None:
+    with pytest.raises(ControllerError, match="polygon_sides"):
+        polygon_rows(preset("swerve"), sides)

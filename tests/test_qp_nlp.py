@@ -1,0 +1,225 @@
+"""The fast path (OSQP, real-time iteration) against the exact path (IPOPT).
+
+Both solve the same tracking problem built from one CasADi model. One QP tick
+is a single linearisation (RTI) around the guess, so its first twist is not
+the NLP's optimum when the guess is far from it. Solving the QP again and
+again around its own solution (a full-step SQP with the cost's exact,
+constant Hessian) converges to a point where the linearisation is exact; its
+KKT conditions are then the NLP's, so the two must agree up to the solvers'
+tolerances:
+
+- OSQP at its default tolerance (eps_abs = eps_rel = 1e-4 on residuals scaled
+  by the problem's norms, ~1e2 here) leaves twist errors of ~1e-4..3e-3:
+  we allow 2e-3 on the first twist, against corrections of 0.1-0.5 m/s.
+- OSQP at tolerance 1e-9 agrees with IPOPT (tol 1e-8) to 1e-6.
+
+Swerve modules are disks in the NLP and inscribed 16-gons in the QP, so the
+two problems differ where a module limit is active; swerve is compared on a
+problem where every limit is inactive.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mpc.model import TrackingModel
+from mpc.nlp import NlpSolver
+from mpc.qp import USABLE_RESIDUAL, QpSolver
+from mpc.reference import ReferenceWindow
+from mpc.robots import PRESETS, Robot, preset
+from mpc.solution import SolveResult
+from mpc.weights import Weights
+from trajectories import FigureEight
+
+DT = 0.05
+HORIZON = 20
+TRAJECTORY = FigureEight(1.0, 16.0, heading="tangent")
+
+
+class Problem:
+    """One tick's inputs: start pose, reference window and last command."""
+
+    def __init__(self, robot_name: str, offset: tuple[float, float, float],
+                 last: str = "rest") -> None:
+        self.robot: Robot = preset(robot_name)
+        self.model = TrackingModel(self.robot, HORIZON, DT, Weights())
+        self.pose = TRAJECTORY.sample(0.0).pose + np.array(offset)
+        window = ReferenceWindow(TRAJECTORY, self.model)
+        self.poses_ref, self.feedforward, self.directions = (
+            a.copy() for a in window.at(0.0, float(self.pose[2])))
+        self.last = np.zeros(3) if last == "rest" else self.feedforward[0].copy()
+
+    def guess(self) -> tuple[np.ndarray, np.ndarray]:
+        poses = self.poses_ref.copy()
+        poses[0] = self.pose
+        return poses, self.feedforward.copy()
+
+    def solve(self, solver: QpSolver | NlpSolver, guess: tuple[np.ndarray, np.ndarray]
+              ) -> SolveResult:
+        return solver.solve(self.pose, self.poses_ref, self.feedforward, self.directions,
+                            self.last, *guess)
+
+    def iterate_qp(self, solver: QpSolver, rounds: int) -> SolveResult:
+        """Re-linearise around the QP's own solution ``rounds`` times (full-step SQP)."""
+        guess = self.guess()
+        for _ in range(rounds):
+            solver.reset()  # the dual shift is for receding horizons, not for re-solving
+            result = self.solve(solver, guess)
+            assert result.success, result.status
+            guess = (result.poses.copy(), result.twists.copy())
+        return result
+
+    def speed_ratio(self, twists: np.ndarray) -> float:
+        return float(np.max(self.robot.speed_ratio(twists)))
+
+    def accel_ratio(self, twists: np.ndarray) -> float:
+        changes = np.diff(np.vstack([self.last, twists]), axis=0)
+        size = np.linalg.norm(self.robot.wheel_velocities(changes), axis=-1)
+        accel = self.robot.max_wheel_accel
+        assert accel is not None
+        return float((size / (accel * DT)).max())
+
+
+FAR_OFF = (0.2, -0.1, 0.3)  # [m, m, rad]; from rest: the acceleration limits bind
+NEAR = (0.003, -0.0015, 0.003)  # continuing at the feedforward: no limit binds
+
+
+@pytest.mark.parametrize("robot_name", ["omni3", "omni4", "mecanum"])
+def test_converged_rti_matches_nlp_with_active_limits(robot_name: str) -> None:
+    problem = Problem(robot_name, FAR_OFF)
+    exact = problem.solve(NlpSolver(problem.model), problem.guess())
+    assert exact.success and exact.status == "Solve_Succeeded"
+    # The problem is not trivial: the plan departs from the feedforward and a limit binds.
+    assert np.abs(exact.twists[0] - problem.feedforward[0]).max() > 0.1
+    assert max(problem.speed_ratio(exact.twists), problem.accel_ratio(exact.twists)) > 0.999
+
+    default = problem.iterate_qp(QpSolver(problem.model), rounds=8)
+    np.testing.assert_allclose(default.twists[0], exact.twists[0], atol=2e-3)
+    np.testing.assert_allclose(default.twists, exact.twists, atol=1.5e-2)
+
+    tight = problem.iterate_qp(QpSolver(problem.model, tolerance=1e-9, max_iter=20000), 8)
+    np.testing.assert_allclose(tight.twists[0], exact.twists[0], atol=1e-6)
+    np.testing.assert_allclose(tight.twists, exact.twists, atol=2e-4)
+    np.testing.assert_allclose(tight.poses, exact.poses, atol=2e-5)
+
+
+@pytest.mark.parametrize("robot_name", PRESETS)
+def test_converged_rti_matches_nlp_with_inactive_limits(robot_name: str) -> None:
+    problem = Problem(robot_name, NEAR, last="feedforward")
+    exact = problem.solve(NlpSolver(problem.model), problem.guess())
+    assert exact.success
+    assert problem.speed_ratio(exact.twists) < 0.9 and problem.accel_ratio(exact.twists) < 0.9
+    assert np.abs(exact.twists[0] - problem.feedforward[0]).max() > 0.01  # feedback acts
+    tight = problem.iterate_qp(QpSolver(problem.model, tolerance=1e-9, max_iter=20000), 4)
+    np.testing.assert_allclose(tight.twists, exact.twists, atol=1e-6)
+    np.testing.assert_allclose(tight.poses, exact.poses, atol=1e-7)
+
+
+@pytest.mark.parametrize("robot_name", PRESETS)
+def test_single_rti_tick_matches_nlp_on_the_reference(robot_name: str) -> None:
+    """Starting on the reference with the feedforward, the optimum is within ~2e-2 of the
+    reference (the rate terms smooth the feedforward's changes along the horizon), so the
+    linearisation around the reference is nearly exact there: one QP tick agrees with the
+    NLP to second order, i.e. to OSQP's tolerance."""
+    problem = Problem(robot_name, (0.0, 0.0, 0.0), last="feedforward")
+    exact = problem.solve(NlpSolver(problem.model), problem.guess())
+    assert exact.success
+    np.testing.assert_allclose(exact.twists, problem.feedforward, atol=2.5e-2)
+    qp = problem.solve(QpSolver(problem.model), problem.guess())
+    assert qp.success and qp.status == "solved"
+    np.testing.assert_allclose(qp.twists[0], exact.twists[0], atol=2e-3)
+    np.testing.assert_allclose(qp.twists, exact.twists, atol=5e-3)
+    tight = problem.solve(QpSolver(problem.model, tolerance=1e-9, max_iter=20000),
+                          problem.guess())
+    np.testing.assert_allclose(tight.twists, exact.twists, atol=1e-5)
+
+
+def linearised_residual(model: TrackingModel, guess: tuple[np.ndarray, np.ndarray],
+                        result: SolveResult) -> float:
+    """Largest violation of x_{k+1} = c_k + A_k x_k + B_k u_k, (c, A, B) at the guess."""
+    rows = np.asarray(model.linearization(guess[0][:-1].T, guess[1].T).full())
+    worst = 0.0
+    for k in range(model.horizon):
+        c = rows[:3, k]
+        a = rows[3:12, k].reshape(3, 3, order="F")
+        b = rows[12:, k].reshape(3, 3, order="F")
+        predicted = c + a @ result.poses[k] + b @ result.twists[k]
+        worst = max(worst, float(np.abs(result.poses[k + 1] - predicted).max()))
+    return worst
+
+
+@pytest.mark.parametrize("robot_name", ["mecanum", "swerve"])
+def test_qp_pattern_is_fixed_and_every_update_is_applied(robot_name: str) -> None:
+    """A receding-horizon loop on the model itself for 60 ticks, with the guess perturbed
+    (seeded) so that consecutive linearisations differ: the number of entries of A never
+    changes, every tick solves, and every solution satisfies the linearisation around
+    *that tick's* guess to OSQP's tolerance (1e-7 here, residuals ~1e-6), while it misses
+    the previous tick's by ~1e-3: a rejected or misplaced update of A would show. The first
+    tick linearises at heading 0 and rest, where many Jacobian entries are exactly zero:
+    they must stay in the pattern for later updates to land."""
+    robot = preset(robot_name)
+    model = TrackingModel(robot, HORIZON, DT, Weights())
+    trajectory = FigureEight(1.0, 16.0, heading="tangent")
+    window = ReferenceWindow(trajectory, model)
+    solver = QpSolver(model, tolerance=1e-7, max_iter=20000)
+    entries = solver._a_data.size
+    rng = np.random.default_rng(0)
+    pose, last = np.zeros(3), np.zeros(3)
+    guess = (np.zeros((HORIZON + 1, 3)), np.zeros((HORIZON, 3)))
+    previous_guess = None
+    for tick in range(60):
+        poses_ref, feedforward, directions = window.at(tick * DT, float(pose[2]))
+        result = solver.solve(pose, poses_ref, feedforward, directions, last, *guess)
+        assert result.success and result.status == "solved", (tick, result.status)
+        assert solver._a_data.size == entries
+        assert linearised_residual(model, guess, result) < 2e-5, tick
+        if previous_guess is not None:
+            assert linearised_residual(model, previous_guess, result) > 2e-4, tick
+        np.testing.assert_allclose(result.poses[0], pose, atol=1e-5)
+        # Next tick: the robot moved exactly as the model says; shift and perturb the plan.
+        last = result.twists[0]
+        pose = np.asarray(model.dynamics(pose, last).full()).ravel()
+        poses = np.vstack([result.poses[1:], result.poses[-1:]])
+        twists = np.vstack([result.twists[1:], result.twists[-1:]])
+        poses[1:] += rng.normal(0.0, 0.05, (HORIZON, 3)) * np.array([1.0, 1.0, 3.0])
+        twists += rng.normal(0.0, 0.1, (HORIZON, 3))
+        poses[0] = pose
+        previous_guess, guess = guess, (poses, twists)
+    # Despite the perturbed guesses the robot reached the reference (from 0.79 rad off).
+    np.testing.assert_allclose(pose[:2], trajectory.sample(60 * DT).pose[:2], atol=5e-3)
+
+
+def test_qp_solution_respects_the_wheel_rows() -> None:
+    problem = Problem("mecanum", FAR_OFF)
+    result = problem.solve(QpSolver(problem.model), problem.guess())
+    assert result.success
+    # OSQP's primal tolerance (1e-4 abs + rel) on rows of size ~20 rad/s.
+    assert problem.speed_ratio(result.twists) <= 1.0 + 1e-3
+    assert problem.accel_ratio(result.twists) <= 1.0 + 1e-3
+    assert result.poses.shape == (HORIZON + 1, 3) and result.twists.shape == (HORIZON, 3)
+    assert result.iterations > 0 and result.solve_time > 0.0
+
+
+def test_statuses_when_the_solvers_run_out_of_iterations() -> None:
+    problem = Problem("mecanum", FAR_OFF)
+    qp = problem.solve(QpSolver(problem.model, max_iter=1), problem.guess())
+    assert not qp.success
+    assert qp.status == "maximum iterations reached"
+    assert qp.iterations == 1
+    nlp = problem.solve(NlpSolver(problem.model, max_iter=1), problem.guess())
+    assert not nlp.success
+    assert nlp.status == "Maximum_Iterations_Exceeded"
+
+
+def test_unfinished_qp_iterate_with_small_residual_is_used() -> None:
+    """RTI: out of iterations, an iterate whose primal residual is at most USABLE_RESIDUAL
+    counts as solved, and then it does satisfy the linearised dynamics to that residual."""
+    problem = Problem("mecanum", NEAR, last="feedforward")
+    guess = problem.guess()
+    result = problem.solve(QpSolver(problem.model, max_iter=3), guess)
+    assert result.success
+    assert result.status == "maximum iterations reached"
+    assert result.iterations == 3
+    assert np.all(np.isfinite(result.twists))
+    assert linearised_residual(problem.model, guess, result) <= USABLE_RESIDUAL
