@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mpc.command import Command, Status
-from mpc.errors import ControllerError
+from mpc.errors import ControllerError, is_finite_number
 from mpc.limits import clamp_command
 from mpc.robots.base import FloatArray, Robot
 from mpc.robots.swerve import SwerveRobot, wrap_angle
@@ -62,7 +62,7 @@ class FeedforwardPController:
             raise ControllerError(
                 f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}"
             )
-        if not isinstance(dt, (int, float)) or not math.isfinite(dt) or dt <= 0:
+        if not is_finite_number(dt) or dt <= 0:
             raise ControllerError(f"dt must be a finite number of seconds > 0, got {dt!r}")
         if saturation not in SATURATIONS:
             raise ControllerError(
@@ -92,7 +92,7 @@ class FeedforwardPController:
         x = np.asarray(pose, dtype=float)
         if x.shape != (3,) or not np.all(np.isfinite(x)):
             raise ControllerError(f"pose must be a finite (3,) pose, got {pose!r}")
-        if not math.isfinite(t):
+        if not is_finite_number(t):
             raise ControllerError(f"t must be a finite time in seconds, got {t!r}")
         # Feedforward at mid-tick: the command is held over [t, t + dt].
         reference = self.trajectory.sample(t)

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mpc.command import Command, Status
-from mpc.errors import ControllerError
+from mpc.errors import ControllerError, is_finite_number, is_integer
 from mpc.limits import clamp_command
 from mpc.model import TrackingModel
 from mpc.nlp import NlpSolver
@@ -36,11 +36,13 @@ class Controller:
     Each :meth:`step` plans ``horizon`` ticks of ``dt`` seconds from the
     measured pose and returns the first twist as wheel speeds. The command
     never exceeds a wheel's speed or acceleration limit: the solver plans
-    within them, and a final clamp along the segment from the last command
-    removes solver tolerance. If the solver fails, the command comes from
-    the shifted previous plan (while it lasts, ``horizon`` ticks), then from
-    the reference feedforward scaled into the limits (another ``horizon``
-    ticks), then from a stop ramp; :attr:`Command.status` says which.
+    within them, and a final clamp (:func:`~mpc.limits.clamp_command`: scale
+    into the speed limits, then step from the last command only as far as
+    the acceleration limits allow) removes solver tolerance. If the solver
+    fails, the command comes from the shifted previous plan (while it lasts,
+    ``horizon`` ticks), then from the reference feedforward scaled into the
+    limits (another ``horizon`` ticks), then from a stop ramp;
+    :attr:`Command.status` says which.
 
     Time scaling (``time_scaling=True``; off by default): if the reference
     window's own feedforward would need more than ``REFERENCE_MARGIN`` of a
@@ -76,6 +78,7 @@ class Controller:
 
     _guess: tuple[FloatArray, FloatArray] | None  # last plan (poses, twists), for the warm start
     _plan_twists: FloatArray | None  # last successful plan's twists, for the fallback
+    _previous_t: float | None  # t of the last step, for time scaling
 
     def __init__(
         self,
@@ -95,18 +98,17 @@ class Controller:
         if not isinstance(robot, Robot):
             raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
         self._check_trajectory(trajectory)
-        if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)) or horizon < 1:
+        if not is_integer(horizon) or horizon < 1:
             raise ControllerError(f"horizon must be an integer >= 1, got {horizon!r}")
-        if not isinstance(dt, (int, float)) or not math.isfinite(dt) or dt <= 0.0:
+        if not is_finite_number(dt) or dt <= 0.0:
             raise ControllerError(f"dt must be a finite number of seconds > 0, got {dt!r}")
         if solver not in SOLVERS:
             raise ControllerError(f"unknown solver {solver!r}; expected one of {list(SOLVERS)}")
-        if (isinstance(delay_ticks, bool) or not isinstance(delay_ticks, (int, np.integer))
-                or delay_ticks < 0):
+        if not is_integer(delay_ticks) or delay_ticks < 0:
             raise ControllerError(f"delay_ticks must be an integer >= 0, got {delay_ticks!r}")
-        if max_iter is not None and (not isinstance(max_iter, (int, np.integer)) or max_iter < 1):
+        if max_iter is not None and (not is_integer(max_iter) or max_iter < 1):
             raise ControllerError(f"max_iter must be an integer >= 1, got {max_iter!r}")
-        if not math.isfinite(time_limit) or time_limit < 0.0:
+        if not is_finite_number(time_limit) or time_limit < 0.0:
             raise ControllerError(f"time_limit must be a finite number >= 0, got {time_limit!r}")
         self.robot = robot
         self.horizon = int(horizon)
@@ -148,6 +150,8 @@ class Controller:
         self._reference = ReferenceWindow(trajectory, self.model)
         self._plan_twists = None
         self._guess = None
+        self._lag = 0.0
+        self._previous_t = None
         self.solver.reset()
 
     def reset(self, last_twist: ArrayLike | None = None) -> None:
@@ -165,7 +169,7 @@ class Controller:
         self._plan_twists = None
         self._failures = 0
         self._lag = 0.0  # [s] how far the reference time lags t (time scaling)
-        self._previous_t: float | None = None
+        self._previous_t = None
         self._steer = np.zeros(self.robot.n_wheels)  # swerve steer angles commanded last [rad]
         self.solver.reset()
 
@@ -178,7 +182,7 @@ class Controller:
         """
         start = time.perf_counter()
         x0 = self._check_pose(pose)
-        if not isinstance(t, (int, float, np.floating, np.integer)) or not math.isfinite(t):
+        if not is_finite_number(t):
             raise ControllerError(f"t must be a finite time in seconds, got {t!r}")
         for twist in self._sent:  # commands still in the pipe (known delay)
             x0 = self.model.dynamics(x0, twist).full().ravel()

@@ -7,6 +7,9 @@ and what arrived.
 
 from __future__ import annotations
 
+import math
+import numbers
+
 
 class MpcError(Exception):
     """Base class of every exception raised by :mod:`mpc`."""
@@ -26,3 +29,14 @@ class ControllerError(MpcInputError):
 
 class SolverFailedError(MpcError):
     """Raised only when a caller asks for an exception on solver failure."""
+
+
+def is_integer(value: object) -> bool:
+    """An integer (Python or NumPy), but not a bool."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
+def is_finite_number(value: object) -> bool:
+    """A finite real number (Python or NumPy), but not a bool."""
+    return (isinstance(value, numbers.Real) and not isinstance(value, bool)
+            and math.isfinite(float(value)))

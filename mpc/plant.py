@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mpc.command import Command
-from mpc.errors import MpcInputError
+from mpc.errors import MpcInputError, is_finite_number, is_integer
 from mpc.robots.base import FloatArray, Robot
 from mpc.robots.swedish import SwedishRobot
 from mpc.robots.swerve import SwerveRobot, wrap_angle
@@ -47,13 +47,13 @@ class PlantConfig:
     steer_rate_limited: bool = True
 
     def __post_init__(self) -> None:
-        if not isinstance(self.substeps, int) or self.substeps < 1:
+        if not is_integer(self.substeps) or self.substeps < 1:
             raise MpcInputError(f"substeps must be an integer >= 1, got {self.substeps!r}")
-        if not isinstance(self.delay_ticks, int) or self.delay_ticks < 0:
+        if not is_integer(self.delay_ticks) or self.delay_ticks < 0:
             raise MpcInputError(f"delay_ticks must be an integer >= 0, got {self.delay_ticks!r}")
         for name in ("motor_lag", "position_noise", "heading_noise", "slip"):
             value = getattr(self, name)
-            if not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+            if not is_finite_number(value) or value < 0:
                 raise MpcInputError(f"{name} must be a finite number >= 0, got {value!r}")
         if self.slip >= 0.5:
             raise MpcInputError(f"slip must be < 0.5 (a mean fraction), got {self.slip!r}")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -12,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mpc.command import Command
-from mpc.errors import MpcInputError
+from mpc.errors import MpcInputError, is_finite_number
 from mpc.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.robots.base import FloatArray, Robot
 from mpc.robots.swerve import wrap_angle
@@ -117,6 +116,8 @@ class SimResult:
         ``solve_time_p50/p99`` [s]; ``deadline_misses`` (ticks longer than
         dt); ``failures`` (ticks not solved) and ``failures_by_status``.
         """
+        if not is_finite_number(skip) or skip < 0:
+            raise MpcInputError(f"skip must be a finite number of seconds >= 0, got {skip!r}")
         keep = self.time >= self.time[0] + skip - 1e-12
         if not keep.any():
             raise MpcInputError(f"skip={skip} s leaves no ticks of a {self.duration:.3g} s run")
@@ -194,7 +195,7 @@ def simulate(
             wheel the controller does not know has failed); default the same.
         on_tick: called as ``on_tick(k, ticks)`` after each tick (progress).
     """
-    if not isinstance(duration, (int, float)) or not math.isfinite(duration) or duration <= 0:
+    if not is_finite_number(duration) or duration <= 0:
         raise MpcInputError(f"duration must be a finite number of seconds > 0, got {duration!r}")
     config = _plant_config(plant)
     dt = controller.dt

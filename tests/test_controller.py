@@ -395,16 +395,7 @@ def test_swerve_module_at_exactly_90_degrees_does_not_flip(
 # Reset, new trajectories, delay -------------------------------------------------------------
 
 
-@pytest.mark.parametrize(
-    "solver",
-    [
-        pytest.param("osqp", marks=pytest.mark.xfail(strict=True, reason=(
-            "BUG: QpSolver.reset()/Controller.reset() keep OSQP's adapted rho, so a second "
-            "simulate() with the same controller differs from the first (and from a fresh "
-            "controller) by ~5e-4 m in pose, ~0.1 rad/s in wheel commands"))),
-        "ipopt",
-    ],
-)
+@pytest.mark.parametrize("solver", ["osqp", "ipopt"])
 def test_reset_makes_a_second_run_repeat_the_first(solver: str) -> None:
     robot, trajectory = preset("mecanum"), Circle(1.0, 12.0, heading=0.0)
     controller = Controller(robot, trajectory, solver=solver)
@@ -446,10 +437,6 @@ def test_changing_the_trajectory_tracks_the_new_one() -> None:
     assert float(np.sqrt(np.mean(np.square(errors[40:])))) < RMS_TOLERANCE
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: the trajectory setter drops the plan but keeps the time-scaling lag of the old "
-    "trajectory: after 5 s on a circle 1.5x too fast (lag ~2 s), the next step on the new "
-    "trajectory plans from reference_time t - 1.99 s instead of t"))
 def test_new_trajectory_starts_without_the_old_time_scaling_lag() -> None:
     robot = preset("mecanum")
     too_fast = too_fast_circle(robot, overload=1.5)
