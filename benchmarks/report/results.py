@@ -1,0 +1,219 @@
+"""Saved benchmark results as the report reads them: loading, validation, values, series.
+
+Works on the plain dicts and lists of ``results.json`` (SI units: m, rad, s, rad/s);
+imports neither matplotlib nor a solver.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+REQUIRED_RUN_KEYS = ("layout", "trajectory", "speed", "controller", "metrics", "series")
+REQUIRED_SERIES_KEYS = ("time", "pose", "reference")
+
+Run = Mapping[str, Any]
+
+
+class ReportError(ValueError):
+    """A results file or dict cannot be reported: missing, not JSON or lacking keys."""
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def load_results(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """Read and validate a ``results.json`` written by the benchmark CLI.
+
+    Raises:
+        ReportError: the file is missing or unreadable, is not JSON, or lacks
+            ``"runs"`` or a required key of a run (the message names it).
+    """
+    file = Path(path)
+    try:
+        text = file.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ReportError(f"results file {file} not found") from None
+    except OSError as error:
+        raise ReportError(f"results file {file} cannot be read: {error}") from error
+    try:
+        results = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise ReportError(f"results file {file} is not valid JSON: {error}") from error
+    validate_results(results, source=str(file))
+    return results  # type: ignore[no-any-return]
+
+
+def validate_results(results: object, source: str = "results") -> None:
+    """Check the structure the report needs; raise :class:`ReportError` naming what lacks."""
+    if not isinstance(results, Mapping):
+        raise ReportError(f"{source}: expected a JSON object, got {type(results).__name__}")
+    if "runs" not in results:
+        raise ReportError(f'{source}: lacks the key "runs"')
+    runs = results["runs"]
+    if not isinstance(runs, list):
+        raise ReportError(f'{source}: "runs" should be a list, got {type(runs).__name__}')
+    for index, run in enumerate(runs):
+        _validate_run(run, f"{source}: run {index}")
+    meta = results.get("meta") or {}
+    if not isinstance(meta, Mapping):
+        raise ReportError(f'{source}: "meta" should be an object, got {type(meta).__name__}')
+
+
+def _validate_run(run: object, where: str) -> None:
+    if not isinstance(run, Mapping):
+        raise ReportError(f"{where} should be an object, got {type(run).__name__}")
+    missing = [key for key in REQUIRED_RUN_KEYS if key not in run]
+    if missing:
+        raise ReportError(f"{where} lacks the keys {', '.join(map(repr, missing))}")
+    for key in ("metrics", "series"):
+        if not isinstance(run[key], Mapping):
+            raise ReportError(f"{where}: {key!r} should be an object")
+    missing = [key for key in REQUIRED_SERIES_KEYS if key not in run["series"]]
+    if missing:
+        raise ReportError(f"{where} ({run_id(run)}): series lacks {', '.join(map(repr, missing))}")
+
+
+def run_id(run: Run) -> str:
+    """``"{layout}-{trajectory}-{speed}-{controller}"``, safe as a file name and an HTML id.
+
+    Characters other than letters, digits, ``.``, ``_``, ``+`` and ``-`` become ``_``.
+    """
+    parts = (run["layout"], run["trajectory"], run["speed"], run["controller"])
+    return "-".join(re.sub(r"[^A-Za-z0-9._+-]+", "_", str(part)) for part in parts)
+
+
+def unique_run_ids(runs: Sequence[Run]) -> list[str]:
+    """Run ids, with ``-2``, ``-3``... appended to repeats so no figure overwrites another."""
+    ids: list[str] = []
+    taken: set[str] = set()
+    for run in runs:
+        base = candidate = run_id(run)
+        repeat = 1
+        while candidate in taken:
+            repeat += 1
+            candidate = f"{base}-{repeat}"
+        taken.add(candidate)
+        ids.append(candidate)
+    return ids
+
+
+# --------------------------------------------------------------------------- values
+
+
+def metric_value(run: Run, key: str) -> float:
+    """A metric as a float; NaN when missing, null or not a number."""
+    value = run["metrics"].get(key)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return math.nan
+    return float(value)
+
+
+def format_value(value: object, scale: float = 1.0) -> str:
+    """Format a number for the tables: ints as is, floats to 3 significant digits.
+
+    ``value * scale`` is shown; infinities as ``inf``, missing values as ``-``.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return "-"
+    if isinstance(value, int) and scale == 1.0:
+        return str(value)
+    shown = float(value) * scale
+    if math.isnan(shown):
+        return "nan"
+    if math.isinf(shown):
+        return "inf" if shown > 0 else "-inf"
+    if shown == 0.0:
+        return "0"
+    return f"{shown:.0f}" if abs(shown) >= 1000 else f"{shown:.3g}"
+
+
+def scenario_of(run: Run) -> tuple[str, str, str]:
+    return str(run["layout"]), str(run["trajectory"]), str(run["speed"])
+
+
+def peak_ratio_text(run: Run) -> str:
+    ratio = run.get("peak_ratio")
+    if isinstance(ratio, (int, float)) and math.isfinite(ratio):
+        return f"{ratio:.2f}"
+    return "-"
+
+
+def run_title(run: Run) -> str:
+    """``"mecanum / circle / beyond (peak 1.30x limit) / mpc-osqp"``."""
+    layout, trajectory, speed = scenario_of(run)
+    peak = f"(peak {peak_ratio_text(run)}\u00d7 limit)"
+    return f"{layout} / {trajectory} / {speed} {peak} / {run['controller']}"
+
+
+# --------------------------------------------------------------------------- series
+
+
+@dataclass(frozen=True)
+class Series:
+    """One run's time series as arrays, truncated to a common length K."""
+
+    time: np.ndarray  # (K,) [s]
+    pose: np.ndarray  # (K, 3) [m, m, rad]
+    reference: np.ndarray  # (K, 3) [m, m, rad]
+    wheel_command: np.ndarray  # (K, n) [rad/s]
+    wheel_limit: np.ndarray  # (n,) [rad/s]
+    tick_time: np.ndarray  # (<=K,) [s]
+    fallback: np.ndarray  # (K,) bool, True where the status is not "solved"
+    dt: float  # [s]
+
+
+def _float_array(series: Mapping[str, Any], key: str, columns: int | None, name: str) -> np.ndarray:
+    """``series[key]`` as floats: flat if ``columns`` is None, else (K, columns), 0 for any width.
+
+    A missing or null entry is empty; a ragged or non-numeric one a :class:`ReportError`.
+    """
+    values = series.get(key)
+    try:
+        array = np.asarray(values if values is not None else [], dtype=float)
+    except (TypeError, ValueError) as error:
+        raise ReportError(f"run {name}: series {key!r} is not numeric: {error}") from error
+    if columns is None:
+        return array.reshape(-1)
+    if array.size == 0:
+        return np.empty((0, columns if columns > 0 else 0))
+    if array.ndim != 2 or (columns > 0 and array.shape[1] != columns):
+        raise ReportError(
+            f"run {name}: series {key!r} should have shape (K, {columns if columns else 'n'}), "
+            f"got {array.shape}"
+        )
+    return array
+
+
+def read_series(run: Run, name: str, default_dt: float) -> Series:
+    series = run["series"]
+    time = _float_array(series, "time", None, name)
+    pose = _float_array(series, "pose", 3, name)
+    reference = _float_array(series, "reference", 3, name)
+    count = min(len(time), len(pose), len(reference))
+    command = _float_array(series, "wheel_command", 0, name)[:count]
+    status = list(series.get("status") or [])[:count]
+    fallback = np.array(
+        [entry != "solved" for entry in status] + [False] * (count - len(status)), dtype=bool
+    )
+    dt = series.get("dt")
+    if not isinstance(dt, (int, float)) or not dt > 0:
+        dt = float(np.median(np.diff(time))) if len(time) > 1 else default_dt
+    return Series(
+        time=time[:count],
+        pose=pose[:count],
+        reference=reference[:count],
+        wheel_command=command,
+        wheel_limit=_float_array(series, "wheel_limit", None, name),
+        tick_time=_float_array(series, "tick_time", None, name)[:count],
+        fallback=fallback,
+        dt=float(dt),
+    )

@@ -1,0 +1,98 @@
+"""The summary table: one row per run, grouped by scenario, in Markdown (and cells for HTML)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from .results import Run, format_value, metric_value, peak_ratio_text, scenario_of
+
+# --------------------------------------------------------------------------- tables
+
+
+@dataclass(frozen=True)
+class _Column:
+    """A metric column: header with unit, metric key, scale from SI to the shown unit."""
+
+    title: str
+    metric: str
+    scale: float = 1.0
+
+
+_METRIC_COLUMNS = (
+    _Column("RMS pos. err. [mm]", "rms_position_error", 1e3),
+    _Column("max pos. err. [mm]", "max_position_error", 1e3),
+    _Column("RMS heading err. [deg]", "rms_heading_error", 180.0 / math.pi),
+    _Column("max cross-track [mm]", "max_cross_track_error", 1e3),
+    _Column("max wheel ratio", "max_wheel_speed_ratio"),
+    _Column("limit viol.", "limit_violations"),
+    _Column("accel viol.", "accel_violations"),
+    _Column("failures", "failures"),
+    _Column("tick p50 [ms]", "tick_time_p50", 1e3),
+    _Column("tick p99 [ms]", "tick_time_p99", 1e3),
+    _Column("deadline misses", "deadline_misses"),
+)
+TABLE_HEADERS = ("layout", "trajectory", "speed", "peak ratio", "controller") + tuple(
+    column.title for column in _METRIC_COLUMNS
+)
+RMS_CELL = TABLE_HEADERS.index("RMS pos. err. [mm]")
+CONTROLLER_CELL = TABLE_HEADERS.index("controller")
+
+
+def failures_text(metrics: Mapping[str, Any]) -> str:
+    """``"3 (previous_plan: 3)"``; just the count when there is no breakdown."""
+    count = format_value(metrics.get("failures"))
+    by_status = metrics.get("failures_by_status")
+    if not isinstance(by_status, Mapping) or not by_status:
+        return count
+    details = ", ".join(f"{status}: {format_value(n)}" for status, n in by_status.items())
+    return f"{count} ({details})"
+
+
+def _row_cells(run: Run) -> list[str]:
+    """The plain-text cells of one run's table row, in the order of TABLE_HEADERS."""
+    cells = [*scenario_of(run), peak_ratio_text(run), str(run["controller"])]
+    for column in _METRIC_COLUMNS:
+        if column.metric == "failures":
+            cells.append(failures_text(run["metrics"]))
+        else:
+            cells.append(format_value(run["metrics"].get(column.metric), column.scale))
+    return cells
+
+
+Row = tuple[str, list[str], bool]  # run id, plain-text cells, has the best RMS of its scenario
+
+
+def grouped_rows(runs: Sequence[Run], ids: Sequence[str]) -> list[list[Row]]:
+    """Rows grouped by scenario: ``(run id, cells, has the best RMS of its scenario)``."""
+    groups: dict[tuple[str, str, str], list[int]] = {}
+    for index, run in enumerate(runs):
+        groups.setdefault(scenario_of(run), []).append(index)
+    table = []
+    for members in groups.values():
+        rms = [metric_value(runs[i], "rms_position_error") for i in members]
+        finite = [value for value in rms if math.isfinite(value)]
+        best = min(finite) if finite else math.nan
+        table.append(
+            [
+                (ids[i], _row_cells(runs[i]), value == best)
+                for i, value in zip(members, rms, strict=True)
+            ]
+        )
+    return table
+
+
+def markdown_table(groups: Sequence[Sequence[Row]]) -> str:
+    def line(cells: Sequence[str]) -> str:
+        return "| " + " | ".join(cell.replace("|", "\\|") for cell in cells) + " |"
+
+    lines = [line(TABLE_HEADERS), line(["---"] * len(TABLE_HEADERS))]
+    for group in groups:
+        for _, cells, best in group:
+            shown = list(cells)
+            if best:
+                shown[RMS_CELL] = f"**{shown[RMS_CELL]}**"
+            lines.append(line(shown))
+    return "\n".join(lines) + "\n"
