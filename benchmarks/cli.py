@@ -54,6 +54,10 @@ def _parser() -> argparse.ArgumentParser:
                         help="heading profile of the shapes (default: fixed)")
     parser.add_argument("--horizon", type=int, default=20, help="MPC horizon in ticks (20)")
     parser.add_argument("--dt", type=float, default=0.05, help="control tick [s] (0.05)")
+    parser.add_argument("--polygon-sides", type=int, default=16,
+                        help="sides of the polygon inscribed in a swerve module's speed disk in "
+                             "the OSQP path (even, >= 4; fewer: faster ticks, a little less "
+                             "speed; default 16)")
     parser.add_argument("--duration", type=float,
                         help="simulated seconds per run (default: one lap + settling time)")
     parser.add_argument("--skip", type=float, default=2.0,
@@ -82,13 +86,17 @@ def run(argv: list[str]) -> int:
         args.skip = min(args.skip, 1.0)
     if args.horizon < 1 or not args.dt > 0 or (args.duration is not None and not args.duration > 0):
         raise ScenarioError("--horizon must be >= 1, --dt and --duration > 0")
+    if args.polygon_sides < 4 or args.polygon_sides % 2:
+        raise ScenarioError(
+            f"--polygon-sides must be an even integer >= 4, got {args.polygon_sides}"
+        )
     layouts = choose("layout", args.layouts, PRESETS)
     chosen_robots = robots(layouts, args.robot)
     trajectories = choose("trajectory", args.trajectories, TRAJECTORIES)
     controllers = choose("controller", args.controllers, CONTROLLERS)
     speeds = parse_speeds(args.speeds)
     csv_trajectory = csv_reference(args.trajectory_csv) if args.trajectory_csv else None
-    settings = Settings(horizon=args.horizon, dt=args.dt)
+    settings = Settings(horizon=args.horizon, dt=args.dt, polygon_sides=args.polygon_sides)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
 
@@ -101,7 +109,8 @@ def run(argv: list[str]) -> int:
     document = results_document(
         runs,
         command=" ".join(["mpc-bench", *argv]),
-        settings={"horizon": args.horizon, "dt": args.dt, "duration": args.duration,
+        settings={"horizon": args.horizon, "dt": args.dt, "polygon_sides": args.polygon_sides,
+                  "duration": args.duration,
                   "plant": args.plant, "skip": args.skip, "heading": args.heading,
                   "seed": args.seed},
     )

@@ -127,18 +127,20 @@ class Settings:
 
     horizon: int = 20
     dt: float = 0.05
+    polygon_sides: int = 16  # sides of the polygon standing in for a swerve module's disk
 
 
 def controller(name: str, robot: Robot, trajectory: Trajectory,
                settings: Settings) -> TrackingController:
     """A controller by its benchmark name (one of :data:`CONTROLLERS`)."""
     if name == "mpc-osqp":
-        return Controller(robot, trajectory, settings.horizon, settings.dt, solver="osqp")
+        return Controller(robot, trajectory, settings.horizon, settings.dt, solver="osqp",
+                          polygon_sides=settings.polygon_sides)
     if name == "mpc-ipopt":
         return Controller(robot, trajectory, settings.horizon, settings.dt, solver="ipopt")
     if name == "mpc-osqp-ts":
         return Controller(robot, trajectory, settings.horizon, settings.dt, solver="osqp",
-                          time_scaling=True)
+                          polygon_sides=settings.polygon_sides, time_scaling=True)
     saturation = "clip" if name == "ff-p-clip" else "desaturate"
     return FeedforwardPController(robot, trajectory, settings.dt, saturation=saturation)
 

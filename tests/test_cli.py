@@ -52,6 +52,22 @@ def test_report_subcommand_rebuilds_the_report(quick_run, tmp_path):
     assert len(list((tmp_path / "again" / "figures").glob("*.png"))) == 2 * len(CONTROLLERS)
 
 
+def test_polygon_sides_reach_the_swerve_qp(tmp_path):
+    def run(sides: str) -> dict:
+        out = tmp_path / sides
+        assert main(["--layouts", "swerve", "--trajectories", "circle", "--speeds", "beyond",
+                     "--controllers", "mpc-osqp", "--duration", "1.5", "--no-report",
+                     "--polygon-sides", sides, "--out", str(out)]) == 0
+        return json.loads((out / "results.json").read_text())
+
+    square, fine = run("4"), run("16")
+    assert square["meta"]["settings"]["polygon_sides"] == 4
+    rms = [doc["runs"][0]["metrics"]["rms_position_error"] for doc in (square, fine)]
+    assert rms[0] != pytest.approx(rms[1], rel=1e-3)  # a square plans other commands
+    for doc in (square, fine):
+        assert doc["runs"][0]["metrics"]["max_wheel_speed_ratio"] <= 1.0 + 1e-6
+
+
 def test_robot_file_and_csv_trajectory(tmp_path):
     robot = tmp_path / "robot.toml"
     robot.write_text('type = "omni"\nname = "tri"\nn_wheels = 3\nbase_radius = 0.2\n'
@@ -82,6 +98,7 @@ def test_robot_file_and_csv_trajectory(tmp_path):
         (["--trajectory-csv", "/no/such/path.csv", "--quick"], "path.csv"),
         (["report", "/no/such/results.json"], "not found"),
         (["--horizon", "0"], "--horizon must be >= 1"),
+        (["--polygon-sides", "5"], "--polygon-sides must be an even integer >= 4, got 5"),
         (["--bogus"], "unrecognized arguments: --bogus"),
     ],
 )
