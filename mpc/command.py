@@ -24,10 +24,6 @@ class Status(enum.Enum):
     FEEDFORWARD = "feedforward"
     STOPPING = "stopping"
 
-    @property
-    def is_fallback(self) -> bool:
-        return self is not Status.SOLVED
-
 
 @dataclass(frozen=True, eq=False)
 class Command:
