@@ -32,9 +32,8 @@ from benchmarks.scenarios import (
     parse_speeds,
     robots,
 )
-from mpc.errors import MpcInputError
-from mpc.plant import PLANT_PRESETS
-from trajectories import TrajectoryError
+from mpc.errors import MpcError
+from mpc.sim import PLANT_PRESETS
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -158,9 +157,10 @@ def main(argv: list[str] | None = None) -> int:
         if argv and argv[0] in commands:
             return commands[argv[0]](argv[1:])
         return run(argv)
-    except (ScenarioError, MpcInputError, TrajectoryError, ValueError, OSError) as error:
-        # Every bad option, file or value is a ValueError subclass of ours (the
+    except (MpcError, OSError) as error:
+        # Every bad option, file or value raises one of the project's errors (the
         # report's ReportError included) or an OSError: one line, no traceback.
+        # Anything else is a bug and keeps its traceback.
         print(f"mpc-bench: error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 
 from benchmarks.runner import machine
-from benchmarks.scenarios import Parser, reference
+from benchmarks.scenarios import Parser, ScenarioError, reference
 from mpc import Controller
 from mpc.robots import preset
-from mpc.simulation import simulate
+from mpc.sim import simulate
 
 
 def measure(solver: str, horizon: int, ticks: int, dt: float = 0.05) -> dict[str, Any]:
@@ -53,10 +53,10 @@ def main(argv: list[str]) -> int:
     try:
         horizons = [int(h) for h in args.horizons.split(",")]
     except ValueError:
-        raise ValueError(
+        raise ScenarioError(
             f"--horizons must be a comma list of integers, got {args.horizons!r}") from None
     if not horizons or min(horizons) < 1 or args.ticks < 20 or args.ipopt_ticks < 20:
-        raise ValueError("horizons must be >= 1 and --ticks, --ipopt-ticks >= 20")
+        raise ScenarioError("horizons must be >= 1 and --ticks, --ipopt-ticks >= 20")
 
     rows = []
     print(f"{'solver':6s} {'N':>4s} {'tick p50':>9s} {'solve p50':>9s} {'overhead':>9s} "

@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from benchmarks.scenarios import Settings, controller, reference
-from mpc.robots import Robot, SwedishRobot, SwerveRobot
-from mpc.simulation import SimResult, simulate
+from mpc.robots import Robot
+from mpc.sim import SimResult, simulate
 from trajectories import Trajectory, feasibility
 
 
@@ -102,16 +102,8 @@ def run_all(
 
 
 def _robot_info(robot: Robot) -> dict[str, Any]:
-    if isinstance(robot, SwerveRobot):
-        positions = robot.module_positions
-        kind = "swerve"
-    elif isinstance(robot, SwedishRobot):
-        positions = np.array([[w.l * math.cos(w.alpha), w.l * math.sin(w.alpha)]
-                              for w in robot.wheels])
-        kind = "swedish"
-    else:
-        positions, kind = np.zeros((0, 2)), type(robot).__name__
-    return {"name": robot.name, "kind": kind, "wheel_positions": positions.round(6).tolist()}
+    return {"name": robot.name, "kind": robot.kind,
+            "wheel_positions": robot.wheel_positions.round(6).tolist()}
 
 
 def _list(array: np.ndarray, decimals: int = 7) -> list[Any]:

@@ -17,9 +17,9 @@ from pathlib import Path
 from typing import NoReturn
 
 from mpc import Controller
-from mpc.baselines import FeedforwardPController
+from mpc.errors import MpcError
 from mpc.robots import PRESETS, Robot, load, preset
-from mpc.simulation import TrackingController
+from mpc.sim import FeedforwardPController, TrackingController
 from trajectories import Circle, FigureEight, SpinHeading, Trajectory, Waypoints, feasibility
 
 #: Named speeds: the reference's peak wheel speed / limit.
@@ -42,7 +42,7 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
-class ScenarioError(ValueError):
+class ScenarioError(MpcError):
     """An unknown name or an unusable file among the benchmark's options."""
 
 
@@ -133,14 +133,15 @@ class Settings:
 def controller(name: str, robot: Robot, trajectory: Trajectory,
                settings: Settings) -> TrackingController:
     """A controller by its benchmark name (one of :data:`CONTROLLERS`)."""
+    sides = settings.polygon_sides if robot.kind == "swerve" else None
     if name == "mpc-osqp":
         return Controller(robot, trajectory, settings.horizon, settings.dt, solver="osqp",
-                          polygon_sides=settings.polygon_sides)
+                          polygon_sides=sides)
     if name == "mpc-ipopt":
         return Controller(robot, trajectory, settings.horizon, settings.dt, solver="ipopt")
     if name == "mpc-osqp-ts":
         return Controller(robot, trajectory, settings.horizon, settings.dt, solver="osqp",
-                          polygon_sides=settings.polygon_sides, time_scaling=True)
+                          polygon_sides=sides, time_scaling=True)
     saturation = "clip" if name == "ff-p-clip" else "desaturate"
     return FeedforwardPController(robot, trajectory, settings.dt, saturation=saturation)
 

@@ -13,8 +13,9 @@ import time
 
 import numpy as np
 
-from benchmarks.scenarios import Parser, reference
+from benchmarks.scenarios import Parser, ScenarioError, reference
 from mpc import Controller
+from mpc.model import integrate
 from mpc.robots import preset
 
 
@@ -34,7 +35,7 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--blocks", type=int, default=10, help="report lines (10)")
     args = parser.parse_args(argv)
     if args.ticks < args.blocks or args.blocks < 1:
-        raise ValueError("--ticks must be >= --blocks >= 1")
+        raise ScenarioError("--ticks must be >= --blocks >= 1")
     robot = preset("mecanum")
     trajectory = reference("figure8", "fixed", robot, 0.8)
     control = Controller(robot, trajectory)
@@ -51,7 +52,7 @@ def main(argv: list[str]) -> int:
             k = b * block + i
             command = control.step(pose, k * dt)
             times[i] = command.tick_time
-            pose = control.model.dynamics(pose, command.twist).full().ravel()
+            pose = integrate(pose, command.twist, dt)
         rss = _rss_mib()
         first_rss = first_rss or rss
         print(f"{(b + 1) * block:8d} {rss:10.1f} {np.median(times) * 1e3:14.3f} "

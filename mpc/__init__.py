@@ -1,13 +1,35 @@
 """holonomic-mpc: model-predictive trajectory tracking for holonomic robots.
 
 The public entry point is :class:`Controller`; robots live in
-:mod:`mpc.robots`, reference trajectories in the ``trajectories`` package.
+:mod:`mpc.robots`, reference trajectories in the ``trajectories`` package,
+the simulation harness in :mod:`mpc.sim`.
+
+Layers, each importing only those before it: :mod:`mpc.errors` ->
+:mod:`mpc.robots` (and ``trajectories``) -> :mod:`mpc.model` ->
+:mod:`mpc.solvers` -> :mod:`mpc.control` -> :mod:`mpc.sim`.
+
+The names below load on first use, so ``import mpc.errors`` (which the
+``trajectories`` package does) does not pull in the solvers.
 """
 
-from mpc.command import Command, Status
-from mpc.controller import SOLVERS, Controller
-from mpc.errors import ControllerError, MpcError, MpcInputError, RobotError, SolverFailedError
-from mpc.weights import Weights
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+from mpc.errors import ControllerError, MpcError, RobotError, SimulationError, TrajectoryError
+
+if TYPE_CHECKING:
+    from mpc.control import SOLVERS, Command, Controller, Status
+    from mpc.model.weights import Weights
+
+_LAZY = {
+    "SOLVERS": "mpc.control",
+    "Command": "mpc.control",
+    "Controller": "mpc.control",
+    "Status": "mpc.control",
+    "Weights": "mpc.model.weights",
+}
 
 __all__ = [
     "SOLVERS",
@@ -15,9 +37,25 @@ __all__ = [
     "Controller",
     "ControllerError",
     "MpcError",
-    "MpcInputError",
     "RobotError",
-    "SolverFailedError",
+    "SimulationError",
     "Status",
+    "TrajectoryError",
     "Weights",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    if name in ("MpcInputError", "SolverFailedError"):
+        from mpc import errors
+
+        return getattr(errors, name)
+    raise AttributeError(f"module 'mpc' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,42 +1,56 @@
-"""The project's exceptions: a small typed hierarchy.
+"""The project's exceptions: one root, a subclass per area.
 
-Every bad input raises a subclass of :class:`MpcInputError`, which is a
-``ValueError``, so callers can catch either. Messages say what was expected
-and what arrived.
+Every error holonomic-mpc raises on bad input or an unusable file derives
+from :class:`MpcError`, which is a ``ValueError``, so ``except mpc.MpcError``
+(or ``except ValueError``) catches all of them. Messages name the input, say
+what was expected and what arrived.
+
+=======================  ==============================================
+exception                raised for
+=======================  ==============================================
+``MpcError``             the root; nothing raises it directly
+``RobotError``           robot geometry, limits, presets, robot files
+``TrajectoryError``      trajectory arguments, waypoint files
+``ControllerError``      controller options, ``step()`` arguments
+``SimulationError``      plant settings, simulation arguments
+=======================  ==============================================
+
+This module imports nothing from the project, so every layer (the
+``trajectories`` package included) can use it.
 """
 
 from __future__ import annotations
 
-import math
-import numbers
+
+class MpcError(ValueError):
+    """Root of every exception raised by holonomic-mpc on bad input."""
 
 
-class MpcError(Exception):
-    """Base class of every exception raised by :mod:`mpc`."""
-
-
-class MpcInputError(MpcError, ValueError):
-    """An argument has the wrong shape, type, value or name."""
-
-
-class RobotError(MpcInputError):
+class RobotError(MpcError):
     """A robot description is invalid (geometry, limits, file or preset)."""
 
 
-class ControllerError(MpcInputError):
+class TrajectoryError(MpcError):
+    """A trajectory argument has the wrong type, shape or value, or a file is unusable."""
+
+
+class ControllerError(MpcError):
     """A controller option or a ``step()`` argument is invalid."""
 
 
-class SolverFailedError(MpcError):
-    """Raised only when a caller asks for an exception on solver failure."""
+class SimulationError(MpcError):
+    """A plant setting or a simulation argument is invalid."""
 
 
-def is_integer(value: object) -> bool:
-    """An integer (Python or NumPy), but not a bool."""
-    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+def __getattr__(name: str) -> type[MpcError]:
+    if name == "MpcInputError":
+        import warnings
 
-
-def is_finite_number(value: object) -> bool:
-    """A finite real number (Python or NumPy), but not a bool."""
-    return (isinstance(value, numbers.Real) and not isinstance(value, bool)
-            and math.isfinite(float(value)))
+        warnings.warn("mpc.errors.MpcInputError is now mpc.errors.MpcError (the one root)",
+                      DeprecationWarning, stacklevel=2)
+        return MpcError
+    if name == "SolverFailedError":
+        raise AttributeError(
+            "SolverFailedError was never raised and has been removed: a failed solve is "
+            "reported in Command.status and Command.consecutive_failures")
+    raise AttributeError(f"module 'mpc.errors' has no attribute {name!r}")

@@ -16,9 +16,8 @@ import numpy as np
 import pytest
 from numpy.typing import ArrayLike
 
-from mpc.model import SMALL_ROTATION, TrackingModel, twist_integral
+from mpc.model import SMALL_ROTATION, TrackingModel, Weights, integrate, twist_integral
 from mpc.robots import SwerveRobot, preset
-from mpc.weights import Weights
 
 DT = 0.05
 HORIZON = 6
@@ -205,15 +204,12 @@ def test_linearization_structure_at_theta_zero_and_rest() -> None:
 def hand_cost(model: TrackingModel, z: np.ndarray, p: np.ndarray) -> float:
     """The cost written from Weights' docstring, in NumPy, independent of the CasADi code."""
     n, w, robot = model.horizon, model.weights, model.robot
-    poses = z[: 3 * (n + 1)].reshape(n + 1, 3)
-    twists = z[3 * (n + 1):].reshape(n, 3)
-    cursor = 3
-    poses_ref = p[cursor : cursor + 3 * (n + 1)].reshape(n + 1, 3)
-    cursor += 3 * (n + 1)
-    twists_ref = p[cursor : cursor + 3 * n].reshape(n, 3)
-    cursor += 3 * n
-    directions = p[cursor : cursor + 2 * (n + 1)].reshape(n + 1, 2)
-    last = p[-3:]
+    variables, parameters = model.layouts
+    poses, twists = variables.view(z, "poses"), variables.view(z, "twists")
+    poses_ref = parameters.view(p, "poses_ref")
+    twists_ref = parameters.view(p, "twists_ref")
+    directions = parameters.view(p, "directions")
+    last = parameters.view(p, "last_twist")
 
     def pose_term(k: int, diagonal: np.ndarray) -> float:
         error = poses[k] - poses_ref[k]
@@ -221,7 +217,7 @@ def hand_cost(model: TrackingModel, z: np.ndarray, p: np.ndarray) -> float:
         relief = (1.0 - w.along_track) * min(diagonal[0], diagonal[1])
         return float(error @ (diagonal * error) - relief * along**2)
 
-    positions = getattr(robot, "module_positions", None)
+    positions = robot.wheel_positions if robot.steered else None
     total = 0.0
     for k in range(n):
         if k > 0:
@@ -245,12 +241,12 @@ CUSTOM_WEIGHTS = Weights(pose=np.array([150.0, 90.0, 30.0]), twist=np.array([2.0
 @pytest.mark.parametrize("weights", [Weights(), CUSTOM_WEIGHTS], ids=["default", "custom"])
 def test_cost_matches_hand_written_cost(robot_name: str, weights: Weights) -> None:
     model = make_model(robot_name, weights)
-    z, p, poses, twists = model.symbols()
-    cost = ca.Function("cost", [z, p], [model.cost(poses, twists, p)])
+    z, p = model.symbols()
+    cost = ca.Function("cost", [z, p], [model.cost(z, p)])
     rng = np.random.default_rng(7)
     for _ in range(5):
-        zv = rng.normal(size=model.n_variables)
-        pv = rng.normal(size=model.n_parameters)
+        zv = rng.normal(size=model.layouts.variables.size)
+        pv = rng.normal(size=model.layouts.parameters.size)
         expected = hand_cost(model, zv, pv)
         assert float(cost(zv, pv)) == pytest.approx(expected, rel=1e-12, abs=1e-12)
 
@@ -270,43 +266,63 @@ def test_swerve_rate_term_includes_module_ground_velocity() -> None:
     np.testing.assert_array_equal(swedish.rate_matrix, np.diag(Weights().rate))
 
 
-def test_pack_parameters_layout_matches_cost_parameter_layout() -> None:
+def test_layouts_are_the_documented_concatenations() -> None:
+    """The one written statement of z and p (mpc.model.layout), checked against the
+    concatenation its docstring describes; NumPy views and CasADi symbols agree."""
     model = make_model()
     rng = np.random.default_rng(5)
     n = HORIZON
-    parts = (rng.normal(size=3), rng.normal(size=(n + 1, 3)), rng.normal(size=(n, 3)),
-             rng.normal(size=(n + 1, 2)), rng.normal(size=3))
-    packed = model.pack_parameters(*parts)
-    np.testing.assert_array_equal(packed, np.concatenate([a.ravel() for a in parts]))
-    assert packed.size == model.n_parameters
-    z = rng.normal(size=model.n_variables)
-    poses, twists = model.split(z)
-    np.testing.assert_array_equal(poses, z[: 3 * (n + 1)].reshape(n + 1, 3))
-    np.testing.assert_array_equal(twists, z[3 * (n + 1):].reshape(n, 3))
+    parts = {"x0": rng.normal(size=3), "poses_ref": rng.normal(size=(n + 1, 3)),
+             "twists_ref": rng.normal(size=(n, 3)), "directions": rng.normal(size=(n + 1, 2)),
+             "last_twist": rng.normal(size=3)}
+    packed = np.concatenate([a.ravel() for a in parts.values()])
+    variables, parameters = model.layouts
+    assert parameters.size == packed.size
+    symbol = ca.SX.sym("p", parameters.size)
+    for name, value in parts.items():
+        np.testing.assert_array_equal(parameters.view(packed, name), value)
+        column_major = ca.Function("f", [symbol], [parameters.symbol(symbol, name)])(packed)
+        np.testing.assert_array_equal(np.asarray(column_major).T.reshape(value.shape), value)
+    z = rng.normal(size=variables.size)
+    assert variables.size == 3 * (n + 1) + 3 * n
+    np.testing.assert_array_equal(variables.view(z, "poses"), z[: 3 * (n + 1)].reshape(n + 1, 3))
+    np.testing.assert_array_equal(variables.view(z, "twists"), z[3 * (n + 1):].reshape(n, 3))
 
 
 @pytest.mark.parametrize("robot_name", ["omni3", "swerve"])
 def test_cost_is_quadratic_in_z(robot_name: str) -> None:
     """f(z) = f(0) + g'z + z'Hz/2 exactly, with H, g from CasADi at z = 0 (what the QP uses)."""
     model = make_model(robot_name, CUSTOM_WEIGHTS)
-    z, p, poses, twists = model.symbols()
-    cost_expr = model.cost(poses, twists, p)
+    z, p = model.symbols()
+    cost_expr = model.cost(z, p)
     hessian, gradient = ca.hessian(cost_expr, z)
     terms = ca.Function("terms", [z, p], [cost_expr, gradient, hessian])
     rng = np.random.default_rng(11)
-    pv = rng.normal(size=model.n_parameters)
+    pv = rng.normal(size=model.layouts.parameters.size)
     # Directions of travel are unit vectors fading to 0 (|t_k| <= 1), as reference_terms makes them.
     n = model.horizon
-    first = 3 + 3 * (n + 1) + 3 * n
-    directions = rng.normal(size=(n + 1, 2))
+    directions = model.layouts.parameters.view(pv, "directions")
+    directions[:] = rng.normal(size=(n + 1, 2))
     directions *= rng.uniform(0.0, 1.0, (n + 1, 1)) / np.linalg.norm(directions, axis=1)[:, None]
-    pv[first : first + 2 * (n + 1)] = directions.ravel()
-    f0, g0, h0 = (np.asarray(v.full()) for v in terms(np.zeros(model.n_variables), pv))
+    size = model.layouts.variables.size
+    f0, g0, h0 = (np.asarray(v.full()) for v in terms(np.zeros(size), pv))
     for _ in range(3):
-        zv = rng.normal(size=model.n_variables)
+        zv = rng.normal(size=size)
         f, _, h = (np.asarray(v.full()) for v in terms(zv, pv))
         np.testing.assert_allclose(h, h0, rtol=0, atol=1e-10)  # Hessian independent of z
         quadratic = f0.item() + g0.ravel() @ zv + 0.5 * zv @ h0 @ zv
         assert f.item() == pytest.approx(quadratic, rel=1e-10)
     # With |t_k| <= 1 and along_track in [0, 1] the Hessian is positive semidefinite (a convex QP).
     assert np.linalg.eigvalsh(h0).min() > -1e-9
+
+
+@pytest.mark.parametrize("rotation", [0.0, 1e-9, 0.999e-3, 1.001e-3, 0.4, -3.0])
+def test_numpy_integral_matches_the_casadi_dynamics(rotation: float) -> None:
+    """The NumPy twin (delay prediction) agrees with the CasADi model on both branches."""
+    function = integral_function(DT)
+    rng = np.random.default_rng(12)
+    for _ in range(5):
+        pose = rng.uniform([-3, -3, -4], [3, 3, 4])
+        twist = np.array([*rng.uniform(-2, 2, 2), rotation / DT])
+        np.testing.assert_allclose(integrate(pose, twist, DT), evaluate(function, pose, twist),
+                                   rtol=0, atol=1e-14)

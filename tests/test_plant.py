@@ -8,10 +8,9 @@ import numpy as np
 import pytest
 
 from mpc import Command, Controller, Status
-from mpc.errors import MpcInputError
-from mpc.plant import PLANT_PRESETS, Plant, PlantConfig
+from mpc.errors import MpcError
 from mpc.robots import PRESETS, Robot, SwerveRobot, preset
-from mpc.simulation import simulate
+from mpc.sim import PLANT_PRESETS, Plant, PlantConfig, simulate
 from trajectories import Circle
 
 DT = 0.05
@@ -205,5 +204,5 @@ def test_each_fault_makes_tracking_worse_than_the_ideal_plant(
     ],
 )
 def test_invalid_plant_config_raises(options: dict[str, object], message: str) -> None:
-    with pytest.raises(MpcInputError, match=message):
+    with pytest.raises(MpcError, match=message):
         PlantConfig(**options)  # type: ignore[arg-type]

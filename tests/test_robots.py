@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mpc.errors import MpcInputError, RobotError
+from mpc.errors import MpcError, RobotError
 from mpc.robots import (
     PRESETS,
     SwedishRobot,
@@ -242,11 +242,102 @@ def test_parallel_wheels_are_not_holonomic():
     [([1.0, 0.0], r"shape \(3,\) or \(k, 3\)"), ([np.nan, 0.0, 0.0], "finite")],
 )
 def test_bad_twists(twist, match):
-    with pytest.raises(MpcInputError, match=match):
+    with pytest.raises(MpcError, match=match):
         MECANUM.wheel_speeds(twist)
 
 
 def test_errors_are_value_errors():
     assert issubclass(RobotError, ValueError)
+    assert issubclass(RobotError, MpcError)
     with pytest.raises(ValueError):
         MECANUM.twist([1.0, 2.0])
+
+
+def test_swedish_robot_takes_its_wheels_positionally():
+    wheels = preset("omni3").wheels  # type: ignore[attr-defined]
+    robot = SwedishRobot(wheels, name="three")
+    assert robot.name == "three" and robot.n_wheels == 3
+    with pytest.raises(RobotError, match="at least 3 SwedishWheel"):
+        SwedishRobot(wheels[:2])
+
+
+@pytest.mark.parametrize("index", [1.9, True, "1", -1, 4])
+def test_derating_index_must_be_a_wheel_number(index):
+    with pytest.raises(RobotError, match="wheel index must be an integer in 0..3"):
+        MECANUM.derated({index: 0.5})
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_forward_kinematics_inverts_the_commands(name):
+    """The plant's forward map recovers the twist from what wheel_commands sends."""
+    robot = preset(name)
+    rng = np.random.default_rng(3)
+    steer = robot.initial_steer_angles()
+    for twist in rng.normal(size=(20, 3)):
+        speeds, steer = robot.wheel_commands(twist, steer)
+        np.testing.assert_allclose(robot.forward_kinematics(speeds, steer), twist, atol=1e-12)
+        np.testing.assert_allclose(robot.wheel_magnitudes(twist), np.abs(speeds), rtol=1e-12)
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_casadi_limits_agree_with_wheel_magnitudes(name):
+    """The NLP's limit expression holds exactly when every wheel is within its bound."""
+    import casadi as ca
+
+    robot = preset(name)
+    symbol = ca.SX.sym("u", 3)
+    bounds = robot.max_wheel_speed
+    g, low, high = robot.casadi_limits(symbol, bounds)
+    values = ca.Function("g", [symbol], [g])
+    rng = np.random.default_rng(4)
+    for twist in rng.normal(size=(50, 3)) * 0.8:
+        inside = bool(np.all(robot.wheel_magnitudes(twist) <= bounds))
+        value = np.asarray(values(twist)).ravel()
+        assert inside == bool(np.all((low <= value) & (value <= high)))
+# QP speed rows (the swerve polygon) ----------------------------------------
+
+
+@pytest.mark.parametrize("robot_name", ["omni3", "omni4", "mecanum"])
+def test_polygon_rows_for_swedish_wheels_are_the_jacobian(robot_name: str) -> None:
+    robot = preset(robot_name)
+    assert isinstance(robot, SwedishRobot)
+    rows, wheel, scale = robot.qp_speed_rows(polygon_sides=16)
+    np.testing.assert_array_equal(rows, robot.jacobian)
+    np.testing.assert_array_equal(wheel, np.arange(robot.n_wheels))
+    assert scale == 1.0
+
+
+@pytest.mark.parametrize("sides", [4, 8, 16, 64])
+def test_swerve_polygon_is_the_inscribed_regular_polygon(sides: int) -> None:
+    """For each module, twists mapping to the polygon's vertices and edge points satisfy
+    every row bound (the adjacent rows tightly), lie inside the speed disk, and points
+    just outside the polygon violate a row."""
+    robot = preset("swerve")
+    rows, wheel, factor = robot.qp_speed_rows(sides)
+    assert factor == pytest.approx(math.cos(math.pi / sides))
+    assert rows.shape == (robot.n_wheels * sides // 2, 3)
+    bound = robot.max_wheel_speed[wheel] * factor
+    limit = robot.max_wheel_speed[0]
+    vertex_angles = 2 * math.pi * (np.arange(sides) + 0.5) / sides
+    vertices = limit * np.stack([np.cos(vertex_angles), np.sin(vertex_angles)], axis=1)
+    for module in range(robot.n_wheels):
+        inverse = np.linalg.pinv(robot.wheel_blocks[module])  # (3, 2): W_i @ inverse = I
+        mine = wheel == module
+        for m in range(sides):
+            for s in (0.0, 0.3, 0.5):  # a vertex and points along the edge to the next one
+                point = (1 - s) * vertices[m] + s * vertices[(m + 1) % sides]
+                twist = inverse @ point
+                np.testing.assert_allclose(robot.wheel_velocities(twist)[module], point,
+                                           atol=1e-12)
+                values = np.abs(rows[mine] @ twist)
+                assert np.all(values <= bound[mine] * (1 + 1e-12))
+                assert values.max() == pytest.approx(bound[mine][0], rel=1e-12)  # on an edge
+                assert np.linalg.norm(point) <= limit * (1 + 1e-12)  # inside the disk
+                outside = inverse @ (point * (1 + 1e-6))
+                assert np.any(np.abs(rows[mine] @ outside) > bound[mine])
+
+
+@pytest.mark.parametrize("sides", [2, 3, 5, 15])
+def test_polygon_sides_must_be_even_and_at_least_4(sides: int) -> None:
+    with pytest.raises(RobotError, match="polygon_sides"):
+        preset("swerve").qp_speed_rows(sides)

@@ -11,9 +11,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mpc import Controller, Status
-from mpc.plant import PlantConfig
 from mpc.robots import mecanum, omni, preset, swerve
-from mpc.simulation import simulate
+from mpc.sim import PlantConfig, simulate
 from trajectories import (
     Circle,
     FigureEight,

@@ -9,9 +9,9 @@ import pytest
 from numpy.typing import ArrayLike
 
 from mpc import Command, Controller, Status
-from mpc.errors import MpcInputError
+from mpc.errors import MpcError
 from mpc.robots import Robot, preset
-from mpc.simulation import SimResult, simulate
+from mpc.sim import SimResult, simulate
 from trajectories import Circle, Trajectory
 
 DT = 0.05
@@ -105,7 +105,7 @@ def test_skip_excludes_the_first_seconds_from_tracking_errors() -> None:
 
 @pytest.mark.parametrize("skip", [TICKS * DT, 100.0])
 def test_skip_leaving_no_ticks_raises(skip: float) -> None:
-    with pytest.raises(MpcInputError, match="leaves no ticks"):
+    with pytest.raises(MpcError, match="leaves no ticks"):
         synthetic().metrics(skip=skip)
 
 
@@ -235,7 +235,7 @@ def test_simulate_defaults_to_the_reference_start_and_noise_is_seeded() -> None:
 @pytest.mark.parametrize("duration", [0.0, -1.0, math.nan, math.inf, "5"])
 def test_simulate_rejects_bad_durations(duration: object) -> None:
     stub = ConstantTwist(ROBOT, CIRCLE, [0.0, 0.0, 0.0])
-    with pytest.raises(MpcInputError, match="duration must be a finite number of seconds > 0"):
+    with pytest.raises(MpcError, match="duration must be a finite number of seconds > 0"):
         simulate(stub, duration)  # type: ignore[arg-type]
     assert stub.resets == 0
 
@@ -250,7 +250,7 @@ def test_simulate_rejects_bad_durations(duration: object) -> None:
 )
 def test_simulate_rejects_bad_options(options: dict[str, object], message: str) -> None:
     stub = ConstantTwist(ROBOT, CIRCLE, [0.0, 0.0, 0.0])
-    with pytest.raises(MpcInputError, match=message):
+    with pytest.raises(MpcError, match=message):
         simulate(stub, 1.0, **options)  # type: ignore[arg-type]
 
 

@@ -13,7 +13,7 @@ profile (fixed, tangent, spinning, or a function of time)::
     twists = body_twist(sample)  # (vx, vy, omega) in the body frame, (21, 3)
 """
 
-from .base import PathDerivatives, Trajectory, TrajectorySample, body_twist
+from .base import Trajectory, TrajectorySample, body_twist
 from .errors import TrajectoryError
 from .feasibility import FeasibilityReport, WheelLimitedRobot, feasibility
 from .heading import (
@@ -26,6 +26,7 @@ from .heading import (
     TangentHeading,
     make_heading,
 )
+from .path import PathDerivatives, TimedPath
 from .shapes import Circle, FigureEight
 from .waypoints import Waypoints, read_waypoint_csv
 
@@ -41,6 +42,7 @@ __all__ = [
     "PathDerivatives",
     "SpinHeading",
     "TangentHeading",
+    "TimedPath",
     "Trajectory",
     "TrajectoryError",
     "TrajectorySample",

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -20,6 +19,7 @@ import numpy.typing as npt
 from ._validation import FloatArray, as_times
 from .errors import TrajectoryError
 from .heading import HeadingProfile, HeadingSpec, make_heading
+from .path import PathDerivatives
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,15 +36,6 @@ class TrajectorySample:
     pose: FloatArray
     velocity: FloatArray
     acceleration: FloatArray
-
-
-class PathDerivatives(NamedTuple):
-    """The path (x, y) and its first three time derivatives, each (..., 2), world frame."""
-
-    position: FloatArray  # [m]
-    velocity: FloatArray  # [m/s]
-    acceleration: FloatArray  # [m/s^2]
-    jerk: FloatArray  # [m/s^3]
 
 
 def body_twist(sample: TrajectorySample) -> FloatArray:

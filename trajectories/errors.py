@@ -1,11 +1,10 @@
-"""The exception raised by :mod:`trajectories` for every bad argument."""
+"""The exception raised by :mod:`trajectories` for every bad argument or unusable file.
 
-from __future__ import annotations
+It is :class:`mpc.errors.TrajectoryError`, a subclass of the project's one
+root :class:`mpc.errors.MpcError` (a ``ValueError``). Messages say what was
+expected and what arrived, e.g. ``radius must be a finite number > 0, got -1.0``.
+"""
 
+from mpc.errors import TrajectoryError
 
-class TrajectoryError(ValueError):
-    """An argument has the wrong type, shape or value, or a file is unusable.
-
-    Messages say what was expected and what arrived, e.g.
-    ``radius must be a finite number > 0, got -1.0``.
-    """
+__all__ = ["TrajectoryError"]

@@ -16,16 +16,14 @@ import abc
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, NamedTuple, TypeAlias
+from typing import NamedTuple, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
 from ._validation import FloatArray, finite_number, is_real_scalar, shown
 from .errors import TrajectoryError
-
-if TYPE_CHECKING:
-    from .base import PathDerivatives, Trajectory
+from .path import PathDerivatives, TimedPath
 
 TWO_PI = 2.0 * math.pi
 
@@ -50,7 +48,7 @@ class HeadingDerivatives(NamedTuple):
 class HeadingProfile(abc.ABC):
     """How theta(t) is chosen; subclasses are frozen dataclasses."""
 
-    def bind(self, trajectory: Trajectory) -> HeadingProfile:
+    def bind(self, trajectory: TimedPath) -> HeadingProfile:
         """The profile ready to evaluate along ``trajectory`` (default: itself)."""
         return self
 
@@ -211,7 +209,7 @@ class TangentHeading(HeadingProfile):
             self, "offset", finite_number("TangentHeading offset [rad]", self.offset)
         )
 
-    def bind(self, trajectory: Trajectory) -> TangentHeading:
+    def bind(self, trajectory: TimedPath) -> TangentHeading:
         """A copy holding the unwrapped tangent angle of ``trajectory`` on a grid."""
         bound = TangentHeading(self.offset)
         object.__setattr__(bound, "_branch", _tangent_branch(trajectory))
@@ -248,7 +246,7 @@ class TangentHeading(HeadingProfile):
         return HeadingDerivatives(angle + self.offset, rate, accel)
 
 
-def _tangent_branch(trajectory: Trajectory) -> _TangentBranch:
+def _tangent_branch(trajectory: TimedPath) -> _TangentBranch:
     period = trajectory.period
     start = trajectory.start_time
     end = trajectory.end_time
@@ -285,7 +283,7 @@ def _tangent_branch(trajectory: Trajectory) -> _TangentBranch:
     return _TangentBranch(start, times, angles, period, winding)
 
 
-def _grid_tangent_angles(trajectory: Trajectory, grid: FloatArray, periodic: bool) -> FloatArray:
+def _grid_tangent_angles(trajectory: TimedPath, grid: FloatArray, periodic: bool) -> FloatArray:
     """Unwrapped direction of motion on ``grid`` [rad]; raises where the path stops."""
     path = trajectory.path(grid)
     direction = np.array(path.velocity)

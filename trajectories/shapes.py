@@ -9,8 +9,9 @@ import numpy as np
 import numpy.typing as npt
 
 from ._validation import FloatArray, finite_number, point2, positive_number
-from .base import PathDerivatives, Trajectory
+from .base import Trajectory
 from .heading import HeadingSpec
+from .path import PathDerivatives
 
 
 class _SinusoidPath:

@@ -14,9 +14,10 @@ import numpy.typing as npt
 from scipy.interpolate import CubicSpline
 
 from ._validation import FloatArray, shown
-from .base import PathDerivatives, Trajectory
+from .base import Trajectory
 from .errors import TrajectoryError
 from .heading import HeadingDerivatives, HeadingProfile, HeadingSpec
+from .path import PathDerivatives
 
 _CSV_COLUMNS = ("t", "x", "y", "theta")
 

@@ -17,13 +17,15 @@ from typing import Any
 
 import numpy as np
 
+from mpc.errors import MpcError
+
 REQUIRED_RUN_KEYS = ("layout", "trajectory", "speed", "controller", "metrics", "series")
 REQUIRED_SERIES_KEYS = ("time", "pose", "reference")
 
 Run = Mapping[str, Any]
 
 
-class ReportError(ValueError):
+class ReportError(MpcError):
     """A results file or dict cannot be reported: missing, not JSON or lacking keys."""
 
 

@@ -1,25 +1,34 @@
 """Robot descriptions: Swedish-wheel (omni, Mecanum) and swerve layouts.
 
-Conventions (binding, from ``kinematics.md``): REP-103 body frame (x forward,
-y left), twists ``(vx, vy, omega)`` in m/s and rad/s, wheel speeds in rad/s.
+Conventions: REP-103 body frame (x forward, y left, yaw counter-clockwise),
+twists ``(vx, vy, omega)`` in m/s and rad/s, wheel speeds in rad/s. Wheel
+orders: Mecanum FL, FR, RL, RR; omni counter-clockwise from
+``first_wheel_angle``; swerve as ``module_positions`` lists them. A new
+wheel type is a :class:`Robot` subclass plus a factory passed to
+:func:`register`.
 """
 
-from mpc.robots.base import Robot
+from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.files import PRESETS, from_dict, load, preset
+from mpc.robots.registry import register, robot_types
 from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
 from mpc.robots.swerve import SwerveRobot, swerve, wrap_angle
 
 __all__ = [
     "PRESETS",
     "Robot",
+    "SpeedRows",
     "SwedishRobot",
     "SwedishWheel",
     "SwerveRobot",
+    "WheelCommands",
     "from_dict",
     "load",
     "mecanum",
     "omni",
     "preset",
+    "register",
+    "robot_types",
     "swerve",
     "wrap_angle",
 ]

@@ -1,59 +1,67 @@
-"""What every drive layout shares: wheel velocity maps and their limits.
+"""The robot interface: what the controller, both solvers and the plant ask of a layout.
 
-Every layout is described to the controller the same way. Wheel ``i`` has a
-small matrix ``W_i`` (shape ``(d, 3)``) mapping the body twist
-``xi = (vx, vy, omega)`` to its wheel velocity ``W_i @ xi`` in rad/s:
+Every layout is described the same way. Wheel ``i`` has a small matrix
+``W_i`` (shape ``(d, 3)``) mapping the body twist ``xi = (vx, vy, omega)``
+[m/s, m/s, rad/s] to its wheel velocity ``W_i @ xi`` [rad/s]. The limits are
 
-- Swedish wheels (omni, Mecanum): ``d = 1``, the row ``J_i`` of the
-  inverse-kinematics Jacobian; the speed is signed.
-- Swerve modules: ``d = 2``, the module's ground velocity divided by the
-  wheel radius; the speed is its norm.
+    ||W_i @ xi|| <= max_wheel_speed[i]                       (speed)
+    ||W_i @ (xi_k - xi_{k-1})|| <= max_wheel_accel[i] * dt   (acceleration)
 
-The limits are ``||W_i @ xi|| <= max_wheel_speed[i]`` and
-``||W_i @ (xi_k - xi_{k-1})|| <= max_wheel_accel[i] * dt``: linear rows for
-Swedish wheels, disks for swerve modules.
+A layout owns everything that depends on its wheel type, as methods:
+
+- :meth:`Robot.wheel_magnitudes`: each wheel's speed for a twist (the clamp's measure);
+- :meth:`Robot.qp_speed_rows`: the limits as two-sided linear rows for the QP;
+- :meth:`Robot.casadi_limits`: the limits as CasADi expressions for the NLP;
+- :meth:`Robot.wheel_commands` / :meth:`Robot.commands_from_velocities`: what to
+  send the wheels (signed speeds, and steer angles for steered wheels);
+- :meth:`Robot.forward_kinematics`: the twist the wheels' actual motion gives (the plant);
+- :meth:`Robot.module_velocity_gram`: the cost weight that keeps steering smooth.
+
+A new wheel type is a subclass implementing the abstract methods plus a
+factory registered with :func:`mpc.robots.register`.
 """
 
 from __future__ import annotations
 
 import abc
-import math
 from dataclasses import dataclass, field
+from typing import ClassVar, NamedTuple
 
+import casadi as ca
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from mpc.arrays import BoolArray, FloatArray, IntArray, readonly
 from mpc.errors import RobotError
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.intp]
+from mpc.validation import is_finite_number, is_integer
 
 
-def positive_finite(name: str, value: object) -> float:
-    """Return ``value`` as a float, or raise RobotError unless finite and > 0."""
-    try:
-        number = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise RobotError(f"{name} must be a finite number > 0, got {value!r}") from None
-    if not math.isfinite(number) or number <= 0.0:
-        raise RobotError(f"{name} must be a finite number > 0, got {value!r}")
-    return number
+class SpeedRows(NamedTuple):
+    """Wheel speed limits as linear rows: ``|rows @ xi| <= scale * max_wheel_speed[wheel]``.
+
+    ``rows`` (m, 3) [rad/s per twist unit], ``wheel`` (m,) the wheel each row
+    belongs to, ``scale`` <= 1 (1 where the rows are exact, the inscribed
+    polygon's apothem for a disk).
+    """
+
+    rows: FloatArray
+    wheel: IntArray
+    scale: float
 
 
-def finite(name: str, value: object) -> float:
-    """Return ``value`` as a float, or raise RobotError unless finite."""
-    try:
-        number = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise RobotError(f"{name} must be a finite number, got {value!r}") from None
-    if not math.isfinite(number):
-        raise RobotError(f"{name} must be a finite number, got {value!r}")
-    return number
+class WheelCommands(NamedTuple):
+    """What is sent to the wheels: signed speeds [rad/s] and steer angles [rad] or None."""
+
+    speeds: FloatArray
+    steer_angles: FloatArray | None
 
 
 def as_twists(twist: ArrayLike, name: str = "twist") -> FloatArray:
-    """Return a float array of shape (3,) or (k, 3), checked finite."""
-    array = np.asarray(twist, dtype=float)
+    """A float array of shape (3,) or (k, 3), checked finite."""
+    try:
+        array = np.asarray(twist, dtype=float)
+    except (TypeError, ValueError):
+        raise RobotError(f"{name} must be numbers (vx, vy, omega), got {twist!r}") from None
     if array.ndim not in (1, 2) or array.shape[-1] != 3:
         raise RobotError(
             f"{name} must have shape (3,) or (k, 3) as (vx, vy, omega), got shape {array.shape}"
@@ -61,12 +69,6 @@ def as_twists(twist: ArrayLike, name: str = "twist") -> FloatArray:
     if not np.all(np.isfinite(array)):
         raise RobotError(f"{name} must be finite, got {array}")
     return array
-
-
-def readonly(array: ArrayLike) -> FloatArray:
-    out = np.array(array, dtype=float)
-    out.setflags(write=False)
-    return out
 
 
 def check_holonomic(stacked_rows: FloatArray, what: str) -> None:
@@ -84,38 +86,57 @@ def check_holonomic(stacked_rows: FloatArray, what: str) -> None:
 class Robot(abc.ABC):
     """Common interface of every drive layout (see the module docstring).
 
-    Subclasses fill ``wheel_blocks``, ``nominal_max_wheel_speed`` and
-    ``nominal_max_wheel_accel`` in ``__post_init__``.
-    ``derating`` scales each wheel's limits, 1.0 for a healthy wheel and 0.0
-    for a failed one held at rest; see :meth:`derated`.
+    Subclasses set ``wheel_blocks``, ``nominal_max_wheel_speed`` and
+    ``nominal_max_wheel_accel`` in ``__post_init__`` and then call
+    :meth:`_finish`. ``derating`` scales each wheel's speed limit, 1.0 for a
+    healthy wheel and 0.0 for a failed one held at rest; see :meth:`derated`.
     """
 
-    name: str
+    #: Registry name of the wheel type (``"swedish"``, ``"swerve"``, ...).
+    kind: ClassVar[str] = ""
+    #: Whether the wheels are steered (commands carry steer angles).
+    steered: ClassVar[bool] = False
+
+    name: str = field(default="robot", kw_only=True)
     derating: tuple[float, ...] | None = field(default=None, kw_only=True)
 
-    # Filled by subclasses.
+    # Set by subclasses.
     wheel_blocks: FloatArray = field(init=False, repr=False)  # (n, d, 3) [rad/s per twist unit]
     nominal_max_wheel_speed: FloatArray = field(init=False, repr=False)  # (n,) [rad/s]
     nominal_max_wheel_accel: FloatArray | None = field(init=False, repr=False)  # (n,) [rad/s^2]
     #: Projects a twist onto those that keep every failed wheel (limit 0) at
     #: rest, ``I - pinv(W_f) W_f``; None when no wheel has failed.
     rest_projector: FloatArray | None = field(init=False, repr=False, default=None)
+    _flat_pinv: FloatArray = field(init=False, repr=False)  # (3, n * d) least squares
 
-    def _check_derating(self) -> None:
+    def _finish(self) -> None:
+        """Checks shared by every layout; subclasses call it last in ``__post_init__``."""
+        if not isinstance(self.name, str):
+            raise RobotError(f"name must be a string, got {self.name!r}")
+        flat = self.wheel_blocks.reshape(-1, 3)
+        check_holonomic(flat, f"robot {self.name!r}")
+        object.__setattr__(self, "_flat_pinv", readonly(np.linalg.pinv(flat)))
         if self.derating is None:
             return
-        factors = np.asarray(self.derating, dtype=float)
+        try:
+            factors = np.asarray(self.derating, dtype=float)
+        except (TypeError, ValueError):
+            raise RobotError(
+                f"derating must be {self.n_wheels} numbers in [0, 1], got {self.derating!r}"
+            ) from None
         if factors.shape != (self.n_wheels,) or not np.all(np.isfinite(factors)):
             raise RobotError(
                 f"derating must be {self.n_wheels} finite factors, got {self.derating!r}"
             )
         if np.any(factors < 0.0) or np.any(factors > 1.0):
             raise RobotError(f"derating factors must lie in [0, 1], got {self.derating!r}")
+        object.__setattr__(self, "derating", tuple(float(f) for f in factors))
         failed = self.wheel_blocks[factors == 0.0].reshape(-1, 3)
         if failed.size:
             projector = np.eye(3) - np.linalg.pinv(failed) @ failed
             object.__setattr__(self, "rest_projector", readonly(projector))
 
+    # ------------------------------------------------------------ description
     @property
     def n_wheels(self) -> int:
         return int(self.wheel_blocks.shape[0])
@@ -127,8 +148,13 @@ class Robot(abc.ABC):
 
     @property
     def wheel_dim(self) -> int:
-        """1 for Swedish wheels (signed speed), 2 for swerve modules (velocity vector)."""
+        """Rows of each wheel's velocity map ``W_i`` (1: a signed speed; 2: a velocity)."""
         return int(self.wheel_blocks.shape[1])
+
+    @property
+    @abc.abstractmethod
+    def wheel_positions(self) -> FloatArray:
+        """Wheel (or module) centres in the body frame [m], shape (n, 2)."""
 
     @property
     def max_wheel_speed(self) -> FloatArray:
@@ -139,12 +165,20 @@ class Robot(abc.ABC):
 
     @property
     def max_wheel_accel(self) -> FloatArray | None:
-        """Per-wheel acceleration limit [rad/s^2] after derating, or None if unlimited."""
-        # Derating limits speed only: a failed wheel is held at rest by its
-        # speed limit, and an acceleration limit of 0 would make the step
-        # from its last (moving) command to rest infeasible.
+        """Per-wheel acceleration limit [rad/s^2], or None if unlimited.
+
+        Derating limits speed only: a failed wheel is held at rest by its
+        speed limit, and an acceleration limit of 0 would make the step from
+        its last (moving) command to rest infeasible.
+        """
         return self.nominal_max_wheel_accel
 
+    @property
+    def max_steer_rates(self) -> FloatArray | None:
+        """Per-wheel steering rate limit [rad/s] of steered wheels, else None."""
+        return None
+
+    # ------------------------------------------------------------ kinematics
     def wheel_velocities(self, twist: ArrayLike) -> FloatArray:
         """Wheel velocity vectors ``W_i @ twist`` [rad/s], shape (..., n, d)."""
         xi = as_twists(twist)
@@ -154,6 +188,58 @@ class Robot(abc.ABC):
     def wheel_speeds(self, twist: ArrayLike) -> FloatArray:
         """Inverse kinematics: wheel speeds [rad/s] for body twist(s), shape (..., n)."""
 
+    @abc.abstractmethod
+    def wheel_magnitudes(self, twist: FloatArray) -> FloatArray:
+        """``||W_i @ twist||`` [rad/s] for one (3,) twist, shape (n,); unchecked (hot path)."""
+
+    def twist_from_velocities(self, velocities: FloatArray) -> FloatArray:
+        """Least-squares body twist of wheel velocities (n, d) [rad/s]."""
+        return self._flat_pinv @ velocities.reshape(-1)
+
+    @abc.abstractmethod
+    def forward_kinematics(self, wheel_speeds: FloatArray,
+                           steer_angles: FloatArray | None) -> FloatArray:
+        """The body twist the wheels' actual motion gives (least squares; slip otherwise).
+
+        Args:
+            wheel_speeds: signed wheel speeds [rad/s], shape (n,).
+            steer_angles: steer angles [rad], shape (n,), for steered wheels; else None.
+        """
+
+    # ------------------------------------------------------------ commands
+    def wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None) -> WheelCommands:
+        """What to send for one (3,) twist, given the present steer angles (steered wheels)."""
+        velocities = self.wheel_blocks @ twist  # (n, d)
+        return self.commands_from_velocities(velocities, steer_angles)
+
+    @abc.abstractmethod
+    def commands_from_velocities(self, velocities: FloatArray,
+                                 steer_angles: FloatArray | None) -> WheelCommands:
+        """What to send for wheel velocities (n, d) [rad/s] that need not come from one twist
+        (e.g. after per-wheel clipping), given the present steer angles."""
+
+    def initial_steer_angles(self) -> FloatArray | None:
+        """Steer angles of a robot at rest [rad] (steered wheels point forward), else None."""
+        return np.zeros(self.n_wheels) if self.steered else None
+
+    # ------------------------------------------------------------ limits for the solvers
+    @abc.abstractmethod
+    def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
+        """The wheel limits as two-sided linear rows in the twist (see :class:`SpeedRows`)."""
+
+    @abc.abstractmethod
+    def casadi_limits(self, twist: ca.SX, bounds: FloatArray) -> tuple[ca.SX, FloatArray,
+                                                                         FloatArray]:
+        """``(g, lower, upper)`` with ``lower <= g <= upper`` iff ``||W_i twist|| <= bounds[i]``
+        for every wheel, exactly (the NLP's constraint)."""
+
+    def module_velocity_gram(self) -> FloatArray:
+        """``sum_i G_i^T G_i`` over steered modules' ground-velocity maps ``G_i`` [m^2/s^2 per
+        twist unit^2], shape (3, 3): weights the change of module velocity between ticks.
+        Zero for wheels that are not steered."""
+        return np.zeros((3, 3))
+
+    # ------------------------------------------------------------ limit checks
     def speed_ratio(self, twist: ArrayLike) -> FloatArray | float:
         """Peak ``|wheel speed| / limit`` over the wheels (1.0 = at the limit).
 
@@ -170,7 +256,7 @@ class Robot(abc.ABC):
         peak = ratio.max(axis=-1)
         return float(peak) if np.ndim(peak) == 0 else peak
 
-    def is_feasible(self, twist: ArrayLike, rtol: float = 1e-9) -> bool | NDArray[np.bool_]:
+    def is_feasible(self, twist: ArrayLike, rtol: float = 1e-9) -> bool | BoolArray:
         """Whether every wheel is within its speed limit (relative tolerance ``rtol``)."""
         result = np.asarray(self.speed_ratio(twist)) <= 1.0 + rtol
         return bool(result) if result.ndim == 0 else result
@@ -187,8 +273,9 @@ class Robot(abc.ABC):
             scale = np.where(ratio > 1.0, 1.0 / ratio, 1.0)
         return xi * scale[..., None]
 
+    # ------------------------------------------------------------ derating
     def derated(self, factors: dict[int, float] | ArrayLike) -> Robot:
-        """A copy with per-wheel limits scaled by ``factors`` in [0, 1].
+        """A copy with per-wheel speed limits scaled by ``factors`` in [0, 1].
 
         ``{2: 0.0}`` models wheel 2 failed and held at rest; ``{0: 0.5}`` a
         wheel that reaches only half its speed. Acceleration limits are kept.
@@ -196,14 +283,21 @@ class Robot(abc.ABC):
         current = np.ones(self.n_wheels) if self.derating is None else np.array(self.derating)
         if isinstance(factors, dict):
             for index, value in factors.items():
-                if not 0 <= int(index) < self.n_wheels:
+                if not is_integer(index) or not 0 <= index < self.n_wheels:
                     raise RobotError(
-                        f"wheel index must be in 0..{self.n_wheels - 1}, got {index!r}"
+                        f"wheel index must be an integer in 0..{self.n_wheels - 1}, got {index!r}"
                     )
+                if not is_finite_number(value):
+                    raise RobotError(f"derating of wheel {index} must be a number in [0, 1], "
+                                     f"got {value!r}")
                 current[int(index)] = float(value)
-        else:
-            current = np.asarray(factors, dtype=float)
-        return self._with_derating(tuple(float(v) for v in current))
+            return self._with_derating(tuple(float(v) for v in current))
+        try:
+            values = np.asarray(factors, dtype=float)
+        except (TypeError, ValueError):
+            raise RobotError(f"derating factors must be {self.n_wheels} numbers in [0, 1], "
+                             f"got {factors!r}") from None
+        return self._with_derating(tuple(float(v) for v in np.atleast_1d(values)))
 
     @abc.abstractmethod
     def _with_derating(self, derating: tuple[float, ...]) -> Robot: ...

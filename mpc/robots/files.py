@@ -1,8 +1,9 @@
-"""Robots from TOML files, and the shipped presets.
+"""Robots from descriptions (TOML files, dicts) through the wheel-type registry, and presets.
 
-A robot file has a ``type`` and the keyword arguments of its factory::
+A robot file has a ``type`` (a registered wheel type) and the keyword
+arguments of its factory::
 
-    type = "mecanum"            # omni | mecanum | swerve | swedish
+    type = "mecanum"            # omni | mecanum | swerve | swedish | any registered type
     name = "my-chassis"         # optional
     wheelbase = 0.30            # [m]
     track = 0.25                # [m]
@@ -17,15 +18,14 @@ A robot file has a ``type`` and the keyword arguments of its factory::
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from mpc.errors import RobotError
 from mpc.robots.base import Robot
-from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
-from mpc.robots.swerve import swerve
+from mpc.robots.registry import robot_type
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -36,56 +36,23 @@ else:  # pragma: no cover
 PRESETS: tuple[str, ...] = ("omni3", "omni4", "mecanum", "swerve")
 
 
-def _swedish(*, name: str, wheels: list[Mapping[str, Any]]) -> SwedishRobot:
-    allowed = {"alpha", "beta", "gamma", "l", "radius", "max_speed", "max_accel"}
-    built = []
-    for index, table in enumerate(wheels):
-        if not isinstance(table, Mapping):
-            raise RobotError(f"wheels[{index}] must be a table, got {table!r}")
-        _check_keys(table, allowed, f"wheels[{index}]")
-        try:
-            built.append(SwedishWheel(**table))
-        except TypeError as error:
-            raise RobotError(f"wheels[{index}]: {error}") from None
-    return SwedishRobot(name=name, wheels=tuple(built))
-
-
-_FACTORIES: dict[str, Callable[..., Robot]] = {
-    "omni": omni,
-    "mecanum": mecanum,
-    "swerve": swerve,
-    "swedish": _swedish,
-}
-
-_KEYS: dict[str, set[str]] = {
-    "omni": {"n_wheels", "base_radius", "wheel_radius", "max_wheel_speed",
-             "first_wheel_angle", "max_wheel_accel"},
-    "mecanum": {"wheelbase", "track", "wheel_radius", "max_wheel_speed", "max_wheel_accel"},
-    "swerve": {"module_positions", "wheel_radius", "max_wheel_speed", "max_steer_rate",
-               "max_wheel_accel"},
-    "swedish": {"wheels"},
-}
-
-
-def _check_keys(table: Mapping[str, Any], allowed: set[str], where: str) -> None:
-    unknown = sorted(set(table) - allowed)
-    if unknown:
-        raise RobotError(
-            f"{where}: unknown key(s) {unknown}; expected some of {sorted(allowed)}"
-        )
-
-
 def from_dict(description: Mapping[str, Any], source: str = "robot description") -> Robot:
     """Build a robot from a parsed description (the contents of a TOML file)."""
-    kind = description.get("type")
-    if kind not in _FACTORIES:
-        raise RobotError(f"{source}: type must be one of {sorted(_FACTORIES)}, got {kind!r}")
-    params = {k: v for k, v in description.items() if k not in ("type", "name")}
-    _check_keys(params, _KEYS[kind], source)
-    name = str(description.get("name", kind))
+    if not isinstance(description, Mapping):
+        raise RobotError(f"{source}: expected a table of keys, got {type(description).__name__}")
+    entry = robot_type(description.get("type"), source)
+    params = {k: v for k, v in description.items() if k != "type"}
+    unknown = sorted(set(params) - entry.keys - {"name"})
+    if unknown:
+        raise RobotError(
+            f"{source}: unknown key(s) {unknown}; expected some of {sorted(entry.keys)}")
+    missing = sorted(entry.required - set(params))
+    if missing:
+        raise RobotError(f"{source}: missing key(s) {missing} for type {entry.name!r}")
+    params.setdefault("name", entry.name)
     try:
-        return _FACTORIES[kind](name=name, **params)
-    except TypeError as error:  # a missing required key
+        return entry.factory(**params)
+    except RobotError as error:
         raise RobotError(f"{source}: {error}") from None
 
 
@@ -93,9 +60,12 @@ def load(path: str | Path) -> Robot:
     """Load a robot from a TOML file (see the module docstring for the keys)."""
     file = Path(path)
     try:
-        text = file.read_text(encoding="utf-8")
+        text = file.read_text(encoding="utf-8-sig")
     except OSError as error:
         raise RobotError(f"cannot read robot file {str(file)!r}: {error.strerror}") from None
+    except UnicodeDecodeError as error:
+        raise RobotError(f"robot file {str(file)!r} is not UTF-8 text: {error.reason} "
+                         f"at byte {error.start}") from None
     try:
         description = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:

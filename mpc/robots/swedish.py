@@ -1,29 +1,34 @@
 """Swedish-wheel robots (omni and Mecanum), in Siegwart's general wheel model.
 
-Wheel ``i`` (see ``../shared/docs/kinematics.md``) obeys the rolling constraint
+Wheel ``i`` sits at polar angle ``alpha`` and distance ``l`` from the body
+origin; ``beta`` is the angle of its plane relative to that leg and ``gamma``
+the angle between its rollers and its plane (0 omni, +-45 deg Mecanum). Its
+rolling constraint in the body frame (REP-103: x forward, y left, yaw
+counter-clockwise) is
 
     [sin(a+b+g), -cos(a+b+g), -l cos(b+g)] @ xi = r * phidot * cos(g)
 
-so ``phidot = J @ xi`` with ``J_i = [sin(a+b+g), -cos(a+b+g), -l cos(b+g)] / (r cos g)``.
+so ``phidot = J @ xi`` with ``J_i = [sin(a+b+g), -cos(a+b+g), -l cos(b+g)] / (r cos g)``:
+a signed wheel speed [rad/s] per body twist ``xi = (vx, vy, omega)``. Each
+wheel's limit ``|J_i xi| <= max_speed`` is one exact linear row.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
 
+import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
-from mpc.robots.base import (
-    FloatArray,
-    Robot,
-    check_holonomic,
-    finite,
-    positive_finite,
-    readonly,
-)
+from mpc.robots.base import Robot, SpeedRows, WheelCommands
+from mpc.robots.registry import register
+from mpc.validation import finite, integer_at_least, positive
 
 
 @dataclass(frozen=True)
@@ -50,15 +55,16 @@ class SwedishWheel:
 
     def __post_init__(self) -> None:
         for name in ("alpha", "beta", "gamma"):
-            object.__setattr__(self, name, finite(name, getattr(self, name)))
-        length = finite("l", self.l)
+            object.__setattr__(self, name, finite(name, getattr(self, name), RobotError))
+        length = finite("l", self.l, RobotError)
         if length < 0.0:
             raise RobotError(f"l must be >= 0 (a distance), got {self.l!r}")
         object.__setattr__(self, "l", length)
-        object.__setattr__(self, "radius", positive_finite("radius", self.radius))
-        object.__setattr__(self, "max_speed", positive_finite("max_speed", self.max_speed))
+        object.__setattr__(self, "radius", positive("radius", self.radius, RobotError))
+        object.__setattr__(self, "max_speed", positive("max_speed", self.max_speed, RobotError))
         if self.max_accel is not None:
-            object.__setattr__(self, "max_accel", positive_finite("max_accel", self.max_accel))
+            object.__setattr__(self, "max_accel",
+                               positive("max_accel", self.max_accel, RobotError))
         if abs(math.cos(self.gamma)) < 1e-9:
             raise RobotError(
                 f"gamma must not be +-pi/2 (rollers parallel to the axle), got {self.gamma!r}"
@@ -71,49 +77,61 @@ class SwedishWheel:
         row = np.array([math.sin(a + b + g), -math.cos(a + b + g), -self.l * math.cos(b + g)])
         return row / (self.radius * math.cos(g))
 
+    @property
+    def position(self) -> tuple[float, float]:
+        """Wheel centre (x, y) in the body frame [m]."""
+        return self.l * math.cos(self.alpha), self.l * math.sin(self.alpha)
+
 
 @dataclass(frozen=True, eq=False)
 class SwedishRobot(Robot):
-    """A robot on Swedish wheels: ``wheel_speeds = J @ twist`` (signed, rad/s)."""
+    """A robot on Swedish wheels: ``wheel_speeds = J @ twist`` (signed, rad/s).
 
-    wheels: tuple[SwedishWheel, ...] = field(default=(), kw_only=True)
-    _pinv: FloatArray = field(init=False, repr=False)  # least-squares inverse of J
+    Args:
+        wheels: at least three :class:`SwedishWheel` whose rows span every twist.
+        name: a label.
+    """
+
+    kind = "swedish"
+
+    wheels: tuple[SwedishWheel, ...] = ()
 
     def __post_init__(self) -> None:
-        wheels = tuple(self.wheels)
+        wheels = tuple(self.wheels) if isinstance(self.wheels, Sequence) else ()
         if len(wheels) < 3 or not all(isinstance(w, SwedishWheel) for w in wheels):
             raise RobotError(
-                f"a Swedish robot needs at least 3 SwedishWheel objects, got {self.wheels!r}"
+                f"a Swedish robot needs a sequence of at least 3 SwedishWheel objects, "
+                f"got {self.wheels!r}"
             )
         object.__setattr__(self, "wheels", wheels)
         jacobian = np.array([w.jacobian_row for w in wheels])
-        check_holonomic(jacobian, f"robot {self.name!r}")
         object.__setattr__(self, "wheel_blocks", readonly(jacobian[:, None, :]))
-        object.__setattr__(
-            self, "nominal_max_wheel_speed", readonly([w.max_speed for w in wheels])
-        )
-        accels = [w.max_accel for w in wheels]
-        if all(a is None for a in accels):
-            object.__setattr__(self, "nominal_max_wheel_accel", None)
-        elif any(a is None for a in accels):
+        object.__setattr__(self, "nominal_max_wheel_speed",
+                           readonly([w.max_speed for w in wheels]))
+        accels = [w.max_accel for w in wheels if w.max_accel is not None]
+        if accels and len(accels) != len(wheels):
             raise RobotError("either every wheel has max_accel or none has")
-        else:
-            object.__setattr__(self, "nominal_max_wheel_accel",
-                               readonly([float(a) for a in accels if a is not None]))
-        object.__setattr__(self, "_pinv", readonly(np.linalg.pinv(jacobian)))
-        self._check_derating()
+        object.__setattr__(self, "nominal_max_wheel_accel", readonly(accels) if accels else None)
+        self._finish()
 
     @property
     def jacobian(self) -> FloatArray:
         """Inverse-kinematics Jacobian ``J`` (n x 3) [rad/s per twist unit]."""
         return self.wheel_blocks[:, 0, :]
 
+    @property
+    def wheel_positions(self) -> FloatArray:
+        return np.array([w.position for w in self.wheels])
+
     def wheel_speeds(self, twist: ArrayLike) -> FloatArray:
         """Signed wheel speeds ``J @ twist`` [rad/s], shape (n,) or (k, n)."""
         return self.wheel_velocities(twist)[..., 0]
 
+    def wheel_magnitudes(self, twist: FloatArray) -> FloatArray:
+        return np.abs(self.jacobian @ twist)
+
     def twist(self, wheel_speeds: ArrayLike) -> FloatArray:
-        """Forward kinematics: least-squares twist ``pinv(J) @ wheel_speeds``."""
+        """Forward kinematics: least-squares twist ``pinv(J) @ wheel_speeds``, (3,) or (k, 3)."""
         speeds = np.asarray(wheel_speeds, dtype=float)
         if speeds.ndim not in (1, 2) or speeds.shape[-1] != self.n_wheels:
             raise RobotError(
@@ -122,7 +140,22 @@ class SwedishRobot(Robot):
             )
         if not np.all(np.isfinite(speeds)):
             raise RobotError(f"wheel_speeds must be finite, got {speeds}")
-        return speeds @ self._pinv.T
+        return speeds @ self._flat_pinv.T
+
+    def forward_kinematics(self, wheel_speeds: FloatArray,
+                           steer_angles: FloatArray | None) -> FloatArray:
+        return self._flat_pinv @ wheel_speeds
+
+    def commands_from_velocities(self, velocities: FloatArray,
+                                 steer_angles: FloatArray | None) -> WheelCommands:
+        return WheelCommands(velocities[:, 0].copy(), None)
+
+    def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
+        return SpeedRows(self.jacobian.copy(), np.arange(self.n_wheels), 1.0)
+
+    def casadi_limits(self, twist: ca.SX, bounds: FloatArray) -> tuple[ca.SX, FloatArray,
+                                                                         FloatArray]:
+        return ca.DM(self.jacobian) @ twist, -np.asarray(bounds), np.asarray(bounds)
 
     def _with_derating(self, derating: tuple[float, ...]) -> SwedishRobot:
         return replace(self, derating=derating)
@@ -141,7 +174,9 @@ def omni(
     """Omni wheels on a circle, driving tangentially, counter-clockwise positive.
 
     ``r * phidot_i = -sin(alpha_i) vx + cos(alpha_i) vy + base_radius * omega`` with
-    ``alpha_i = first_wheel_angle + 2 pi i / n_wheels`` (Siegwart's beta = pi, gamma = 0).
+    ``alpha_i = first_wheel_angle + 2 pi i / n_wheels`` (Siegwart's beta = pi, gamma = 0):
+    a positive speed on every wheel spins the robot counter-clockwise. Wheel 0 is
+    the one at ``first_wheel_angle``; the order is counter-clockwise.
 
     Args:
         n_wheels: number of wheels, >= 3.
@@ -151,23 +186,15 @@ def omni(
         first_wheel_angle: polar angle of wheel 0's centre [rad].
         max_wheel_accel: [rad/s^2] or None.
     """
-    if isinstance(n_wheels, bool) or not isinstance(n_wheels, (int, np.integer)) or n_wheels < 3:
-        raise RobotError(f"n_wheels must be an integer >= 3, got {n_wheels!r}")
-    base = positive_finite("base_radius", base_radius)
-    first = finite("first_wheel_angle", first_wheel_angle)
+    count = integer_at_least("n_wheels", n_wheels, 3, RobotError)
+    base = positive("base_radius", base_radius, RobotError)
+    first = finite("first_wheel_angle", first_wheel_angle, RobotError)
     wheels = tuple(
-        SwedishWheel(
-            alpha=first + 2.0 * math.pi * i / n_wheels,
-            beta=math.pi,
-            gamma=0.0,
-            l=base,
-            radius=wheel_radius,
-            max_speed=max_wheel_speed,
-            max_accel=max_wheel_accel,
-        )
-        for i in range(int(n_wheels))
+        SwedishWheel(alpha=first + 2.0 * math.pi * i / count, beta=math.pi, gamma=0.0, l=base,
+                     radius=wheel_radius, max_speed=max_wheel_speed, max_accel=max_wheel_accel)
+        for i in range(count)
     )
-    return SwedishRobot(name=name, wheels=wheels)
+    return SwedishRobot(wheels, name=name)
 
 
 def mecanum(
@@ -182,7 +209,8 @@ def mecanum(
     """Four Mecanum wheels in the X ("ABAB") pattern, order FL, FR, RL, RR.
 
     ``r * phidot = (vx - vy - k w, vx + vy + k w, vx + vy - k w, vx - vy + k w)``
-    with ``k = (wheelbase + track) / 2``, as WPILib's ``MecanumDriveKinematics``.
+    with ``k = (wheelbase + track) / 2``, as WPILib's ``MecanumDriveKinematics``
+    (ROS 2's ``mecanum_drive_controller`` orders its commands FL, FR, RR, RL).
 
     Args:
         wheelbase: front-rear distance between wheel centres [m].
@@ -191,23 +219,39 @@ def mecanum(
         max_wheel_speed: [rad/s].
         max_wheel_accel: [rad/s^2] or None.
     """
-    half_x = positive_finite("wheelbase", wheelbase) / 2.0
-    half_y = positive_finite("track", track) / 2.0
+    half_x = positive("wheelbase", wheelbase, RobotError) / 2.0
+    half_y = positive("track", track, RobotError) / 2.0
     quarter = math.pi / 4.0
     corners = ((half_x, half_y, -quarter), (half_x, -half_y, quarter),
                (-half_x, half_y, quarter), (-half_x, -half_y, -quarter))
     wheels = []
     for x, y, gamma in corners:
         alpha = math.atan2(y, x)
-        wheels.append(
-            SwedishWheel(
-                alpha=alpha,
-                beta=math.pi / 2.0 - alpha,
-                gamma=gamma,
-                l=math.hypot(x, y),
-                radius=wheel_radius,
-                max_speed=max_wheel_speed,
-                max_accel=max_wheel_accel,
-            )
-        )
-    return SwedishRobot(name=name, wheels=tuple(wheels))
+        wheels.append(SwedishWheel(alpha=alpha, beta=math.pi / 2.0 - alpha, gamma=gamma,
+                                   l=math.hypot(x, y), radius=wheel_radius,
+                                   max_speed=max_wheel_speed, max_accel=max_wheel_accel))
+    return SwedishRobot(tuple(wheels), name=name)
+
+
+def _swedish(*, wheels: Sequence[Mapping[str, Any]], name: str = "swedish") -> SwedishRobot:
+    """A Swedish robot from wheel tables (the fields of :class:`SwedishWheel`)."""
+    allowed = {"alpha", "beta", "gamma", "l", "radius", "max_speed", "max_accel"}
+    required = allowed - {"max_accel"}
+    if not isinstance(wheels, Sequence) or isinstance(wheels, str):
+        raise RobotError(f"wheels must be a list of wheel tables, got {wheels!r}")
+    built = []
+    for index, table in enumerate(wheels):
+        if not isinstance(table, Mapping):
+            raise RobotError(f"wheels[{index}] must be a table, got {table!r}")
+        unknown = sorted(set(table) - allowed)
+        missing = sorted(required - set(table))
+        if unknown or missing:
+            raise RobotError(f"wheels[{index}]: unknown key(s) {unknown}, missing key(s) "
+                             f"{missing}; expected {sorted(allowed)}")
+        built.append(SwedishWheel(**table))
+    return SwedishRobot(tuple(built), name=name)
+
+
+register("omni", omni)
+register("mecanum", mecanum)
+register("swedish", _swedish)

@@ -1,10 +1,20 @@
 """Swerve drive: independently steered and driven modules.
 
-Module ``i`` at body position ``p_i = (x_i, y_i)`` moves at
-``v_i = (vx - omega y_i, vy + omega x_i)``; its wheel turns at
-``|v_i| / r`` along the steer angle ``atan2(v_iy, v_ix)``. The speed limit is a
-disk ``|v_i| <= r * max_wheel_speed``: exact in the nonlinear problem, an
-inscribed polygon in the QP.
+Module ``i`` at body position ``p_i = (x_i, y_i)`` [m] moves at
+``v_i = (vx - omega y_i, vy + omega x_i)`` [m/s]; its wheel turns at
+``|v_i| / r`` [rad/s] along the steer angle ``atan2(v_iy, v_ix)`` [rad]
+(0 = forward, counter-clockwise positive).
+
+- Speed limit: the disk ``|v_i| <= r * max_wheel_speed``, exact in the
+  nonlinear problem, an inscribed regular polygon in the QP
+  (``cos(2 pi m / M) v_ix + sin(2 pi m / M) v_iy <= r * max * cos(pi / M)``).
+- Acceleration limit: ``max_wheel_accel`` bounds the change of the module's
+  *velocity vector* per second, ``|v_i,k - v_i,k-1| <= r * max_wheel_accel * dt``
+  (a disk too), not only the change of its speed: turning a moving module
+  costs acceleration as well.
+- Flip rule: a module more than 90 degrees from its present angle steers to
+  ``angle + pi`` and drives backwards instead (exactly 90 degrees does not
+  flip); a module at (near) zero speed keeps its angle.
 """
 
 from __future__ import annotations
@@ -12,18 +22,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
-from mpc.robots.base import (
-    FloatArray,
-    Robot,
-    as_twists,
-    check_holonomic,
-    positive_finite,
-    readonly,
-)
+from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
+from mpc.robots.registry import register
+from mpc.validation import integer_at_least, positive
 
 #: Below this module speed [m/s] a module keeps its previous steer angle.
 STOPPED_MODULE_SPEED = 1e-6
@@ -40,22 +47,29 @@ class SwerveRobot(Robot):
     """A swerve base; wheel speeds are module speeds ``|v_i| / r`` [rad/s] >= 0.
 
     Attributes:
-        module_positions: (n, 2) module centres in the body frame [m].
+        module_positions: (n, 2) module centres in the body frame [m], n >= 2.
         wheel_radius: [m].
         max_speed: per-module wheel speed limit [rad/s].
         max_steer_rate: steering motor rate limit [rad/s].
-        max_accel: per-module wheel acceleration limit [rad/s^2] or None.
+        max_accel: per-module wheel acceleration limit [rad/s^2] (of the velocity
+            vector, see the module docstring) or None.
     """
 
-    module_positions: FloatArray = field(default_factory=lambda: np.zeros((0, 2)), kw_only=True)
+    kind = "swerve"
+    steered = True
+
+    module_positions: ArrayLike = field(default_factory=lambda: np.zeros((0, 2)))
     wheel_radius: float = field(default=0.05, kw_only=True)
     max_speed: float = field(default=1.0, kw_only=True)
     max_steer_rate: float = field(default=10.0, kw_only=True)
     max_accel: float | None = field(default=None, kw_only=True)
-    _pinv: FloatArray = field(init=False, repr=False)  # (3, 2n) least squares
 
     def __post_init__(self) -> None:
-        positions = np.asarray(self.module_positions, dtype=float)
+        try:
+            positions = np.array(self.module_positions, dtype=float)
+        except (TypeError, ValueError):
+            raise RobotError("module_positions must be an (n, 2) array of numbers [m], "
+                             f"got {self.module_positions!r}") from None
         if positions.ndim != 2 or positions.shape[1] != 2 or positions.shape[0] < 2:
             raise RobotError(
                 "module_positions must have shape (n, 2) with n >= 2 modules, "
@@ -64,37 +78,48 @@ class SwerveRobot(Robot):
         if not np.all(np.isfinite(positions)):
             raise RobotError(f"module_positions must be finite, got {positions.tolist()}")
         object.__setattr__(self, "module_positions", readonly(positions))
-        radius = positive_finite("wheel_radius", self.wheel_radius)
+        radius = positive("wheel_radius", self.wheel_radius, RobotError)
         object.__setattr__(self, "wheel_radius", radius)
-        object.__setattr__(self, "max_speed", positive_finite("max_wheel_speed", self.max_speed))
-        object.__setattr__(
-            self, "max_steer_rate", positive_finite("max_steer_rate", self.max_steer_rate)
-        )
+        object.__setattr__(self, "max_speed",
+                           positive("max_wheel_speed", self.max_speed, RobotError))
+        object.__setattr__(self, "max_steer_rate",
+                           positive("max_steer_rate", self.max_steer_rate, RobotError))
         if self.max_accel is not None:
-            object.__setattr__(
-                self, "max_accel", positive_finite("max_wheel_accel", self.max_accel)
-            )
+            object.__setattr__(self, "max_accel",
+                               positive("max_wheel_accel", self.max_accel, RobotError))
         n = positions.shape[0]
-        # Ground velocity of module i: [[1, 0, -y_i], [0, 1, x_i]] @ twist [m/s].
-        ground = np.zeros((n, 2, 3))
+        object.__setattr__(self, "wheel_blocks", readonly(self.ground_maps() / radius))
+        object.__setattr__(self, "nominal_max_wheel_speed", readonly(np.full(n, self.max_speed)))
+        object.__setattr__(
+            self, "nominal_max_wheel_accel",
+            None if self.max_accel is None else readonly(np.full(n, self.max_accel)))
+        self._finish()
+
+    def ground_maps(self) -> FloatArray:
+        """Module ground velocity per twist, ``[[1, 0, -y_i], [0, 1, x_i]]``, shape (n, 2, 3)."""
+        positions = np.asarray(self.module_positions, dtype=float)
+        ground = np.zeros((positions.shape[0], 2, 3))
         ground[:, 0, 0] = 1.0
         ground[:, 1, 1] = 1.0
         ground[:, 0, 2] = -positions[:, 1]
         ground[:, 1, 2] = positions[:, 0]
-        check_holonomic(ground.reshape(2 * n, 3), f"swerve robot {self.name!r}")
-        object.__setattr__(self, "wheel_blocks", readonly(ground / radius))
-        object.__setattr__(self, "nominal_max_wheel_speed", readonly(np.full(n, self.max_speed)))
-        object.__setattr__(
-            self,
-            "nominal_max_wheel_accel",
-            None if self.max_accel is None else readonly(np.full(n, self.max_accel)),
-        )
-        object.__setattr__(self, "_pinv", readonly(np.linalg.pinv(ground.reshape(2 * n, 3))))
-        self._check_derating()
+        return ground
+
+    @property
+    def wheel_positions(self) -> FloatArray:
+        return np.array(self.module_positions, dtype=float)
+
+    @property
+    def max_steer_rates(self) -> FloatArray:
+        return np.full(self.n_wheels, self.max_steer_rate)
 
     def wheel_speeds(self, twist: ArrayLike) -> FloatArray:
         """Module wheel speeds ``|v_i| / r`` [rad/s], non-negative, shape (n,) or (k, n)."""
         return np.linalg.norm(self.wheel_velocities(twist), axis=-1)
+
+    def wheel_magnitudes(self, twist: FloatArray) -> FloatArray:
+        velocity = self.flat_wheel_blocks @ twist
+        return np.hypot(velocity[0::2], velocity[1::2])
 
     def module_velocities(self, twist: ArrayLike) -> FloatArray:
         """Module ground velocities ``v_i`` [m/s], shape (..., n, 2)."""
@@ -105,11 +130,6 @@ class SwerveRobot(Robot):
     ) -> tuple[FloatArray, FloatArray]:
         """Signed wheel speeds [rad/s] and steer angles [rad] for one twist.
 
-        Rules (kinematics.md): a module more than 90 degrees from its current
-        angle flips (steers to ``angle + pi`` and drives backwards; exactly
-        90 degrees does not flip); a module at (near) zero speed keeps its
-        current angle. Angles are wrapped into (-pi, pi].
-
         Args:
             twist: body twist (vx, vy, omega), shape (3,).
             current_angles: the modules' present steer angles [rad], shape (n,),
@@ -118,33 +138,43 @@ class SwerveRobot(Robot):
         xi = as_twists(twist)
         if xi.shape != (3,):
             raise RobotError(f"module_states takes one twist of shape (3,), got {xi.shape}")
-        return self.states_from_velocities(self.module_velocities(xi), current_angles)
+        current = None
+        if current_angles is not None:
+            current = np.asarray(current_angles, dtype=float)
+            if current.shape != (self.n_wheels,) or not np.all(np.isfinite(current)):
+                raise RobotError(f"current_angles must be {self.n_wheels} finite angles, "
+                                 f"got {current_angles!r}")
+        return self._states(self.wheel_blocks @ xi, current)
+
+    def commands_from_velocities(self, velocities: FloatArray,
+                                 steer_angles: FloatArray | None) -> WheelCommands:
+        """Signed speeds [rad/s] and steer angles in (-pi, pi] [rad] for wheel velocities
+        (n, 2) [rad/s] (module ground velocity / r), with the flip and keep-at-rest rules."""
+        return WheelCommands(*self._states(velocities, steer_angles))
+
+    def _states(self, velocities: FloatArray,
+                steer_angles: FloatArray | None) -> tuple[FloatArray, FloatArray]:
+        speed = np.hypot(velocities[:, 0], velocities[:, 1])
+        angle = np.arctan2(velocities[:, 1], velocities[:, 0])
+        if steer_angles is None:
+            current = np.zeros(self.n_wheels)
+        else:
+            current = steer_angles
+            flip = np.abs(wrap_angle(angle - current)) > math.pi / 2
+            angle = np.where(flip, angle + math.pi, angle)
+            speed = np.where(flip, -speed, speed)
+        stopped = np.abs(speed) * self.wheel_radius < STOPPED_MODULE_SPEED
+        angle = np.where(stopped, current, angle)
+        speed = np.where(stopped, 0.0, speed)
+        return speed, wrap_angle(angle)
 
     def states_from_velocities(
         self, velocities: FloatArray, current_angles: ArrayLike | None = None
     ) -> tuple[FloatArray, FloatArray]:
-        """Signed wheel speeds [rad/s] and steer angles [rad] for module velocities (n, 2) [m/s].
-
-        The same rules as :meth:`module_states`, for module velocities that
-        need not come from one rigid-body twist (e.g. after per-wheel clipping).
-        """
-        speed = np.hypot(velocities[:, 0], velocities[:, 1])
-        angle = np.arctan2(velocities[:, 1], velocities[:, 0])
-        if current_angles is None:
-            current = np.zeros(self.n_wheels)
-        else:
-            current = np.asarray(current_angles, dtype=float)
-            if current.shape != (self.n_wheels,) or not np.all(np.isfinite(current)):
-                raise RobotError(
-                    f"current_angles must be {self.n_wheels} finite angles, got {current_angles!r}"
-                )
-            flip = np.abs(wrap_angle(angle - current)) > math.pi / 2
-            angle = np.where(flip, angle + math.pi, angle)
-            speed = np.where(flip, -speed, speed)
-        stopped = np.abs(speed) < STOPPED_MODULE_SPEED
-        angle = np.where(stopped, current, angle)
-        speed = np.where(stopped, 0.0, speed)
-        return speed / self.wheel_radius, wrap_angle(angle)
+        """Signed speeds [rad/s] and steer angles [rad] for module ground velocities
+        (n, 2) [m/s]; the rules of :meth:`module_states`."""
+        current = None if current_angles is None else np.asarray(current_angles, dtype=float)
+        return self._states(np.asarray(velocities, dtype=float) / self.wheel_radius, current)
 
     def twist(self, wheel_speeds: ArrayLike, steer_angles: ArrayLike) -> FloatArray:
         """Forward kinematics: least-squares twist from signed speeds and angles.
@@ -162,9 +192,39 @@ class SwerveRobot(Robot):
             )
         if not (np.all(np.isfinite(speeds)) and np.all(np.isfinite(angles))):
             raise RobotError("wheel_speeds and steer_angles must be finite")
-        ground = speeds * self.wheel_radius
-        stacked = np.stack([ground * np.cos(angles), ground * np.sin(angles)], axis=-1)
-        return stacked.reshape(*speeds.shape[:-1], 2 * self.n_wheels) @ self._pinv.T
+        stacked = np.stack([speeds * np.cos(angles), speeds * np.sin(angles)], axis=-1)
+        return stacked.reshape(*speeds.shape[:-1], 2 * self.n_wheels) @ self._flat_pinv.T
+
+    def forward_kinematics(self, wheel_speeds: FloatArray,
+                           steer_angles: FloatArray | None) -> FloatArray:
+        angles = np.zeros(self.n_wheels) if steer_angles is None else steer_angles
+        velocities = np.empty(2 * self.n_wheels)
+        velocities[0::2] = wheel_speeds * np.cos(angles)
+        velocities[1::2] = wheel_speeds * np.sin(angles)
+        return self._flat_pinv @ velocities
+
+    def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
+        """The inscribed regular polygon with ``polygon_sides`` sides (even, >= 4): half as
+        many two-sided rows per module, conservative by at most ``1 - cos(pi / sides)``."""
+        sides = integer_at_least("polygon_sides", polygon_sides, 4, RobotError)
+        if sides % 2:
+            raise RobotError(f"polygon_sides must be an even integer >= 4, got {polygon_sides!r}")
+        angles = 2.0 * math.pi * np.arange(sides // 2) / sides
+        normals = np.stack([np.cos(angles), np.sin(angles)], axis=1)  # (M/2, 2)
+        rows = np.einsum("md,ndj->nmj", normals, self.wheel_blocks)
+        wheel = np.repeat(np.arange(self.n_wheels), len(angles))
+        return SpeedRows(rows.reshape(-1, 3), wheel, math.cos(math.pi / sides))
+
+    def casadi_limits(self, twist: ca.SX, bounds: FloatArray) -> tuple[ca.SX, FloatArray,
+                                                                         FloatArray]:
+        velocity = ca.DM(self.flat_wheel_blocks) @ twist
+        squares = velocity[0::2] ** 2 + velocity[1::2] ** 2
+        bounds = np.asarray(bounds, dtype=float)
+        return squares, np.full(bounds.shape, -np.inf), bounds**2
+
+    def module_velocity_gram(self) -> FloatArray:
+        ground = self.ground_maps()
+        return np.einsum("ndi,ndj->ij", ground, ground)
 
     def _with_derating(self, derating: tuple[float, ...]) -> SwerveRobot:
         return replace(self, derating=derating)
@@ -186,13 +246,11 @@ def swerve(
         wheel_radius: [m].
         max_wheel_speed: per-module wheel speed limit [rad/s].
         max_steer_rate: steering rate limit [rad/s].
-        max_wheel_accel: [rad/s^2] or None.
+        max_wheel_accel: [rad/s^2] or None (bounds the module velocity vector's change).
     """
-    return SwerveRobot(
-        name=name,
-        module_positions=np.asarray(module_positions, dtype=float),
-        wheel_radius=wheel_radius,
-        max_speed=max_wheel_speed,
-        max_steer_rate=max_steer_rate,
-        max_accel=max_wheel_accel,
-    )
+    return SwerveRobot(module_positions, name=name, wheel_radius=wheel_radius,
+                       max_speed=max_wheel_speed, max_steer_rate=max_steer_rate,
+                       max_accel=max_wheel_accel)
+
+
+register("swerve", swerve)

@@ -1,4 +1,4 @@
-"""Wheel limits: the safety clamp and the swerve polygon rows.
+"""The safety clamp (:mod:`mpc.control.clamp`).
 
 ``clamp_command`` first scales the target uniformly into the speed limits
 (``robot.desaturate``), then steps from the last command towards it only as
@@ -9,13 +9,10 @@ segment from ``last`` to the desaturated target, which is the segment from
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
-from mpc.errors import ControllerError
-from mpc.limits import clamp_command, polygon_factor, polygon_rows
+from mpc.control.clamp import clamp_command
 from mpc.robots import PRESETS, Robot, SwedishRobot, SwedishWheel, preset
 
 DT = 0.05
@@ -23,7 +20,8 @@ DT = 0.05
 
 def accel_ratio(robot: Robot, change: np.ndarray, dt: float = DT) -> float:
     """Peak ||W_i change|| / (accel_i dt) over the wheels."""
-    assert robot.max_wheel_accel is not None
+    if robot.max_wheel_accel is None:
+        raise AssertionError("the robot has no acceleration limits")
     size = np.linalg.norm(robot.wheel_velocities(change), axis=-1)
     return float((size / (robot.max_wheel_accel * dt)).max())
 
@@ -159,53 +157,3 @@ def test_clamp_on_derated_robot_from_a_feasible_last_keeps_acceleration() -> Non
         result, _ = clamp_command(robot, target, last, DT)
         assert robot.is_feasible(result)
         assert accel_ratio(robot, result - last) <= 1.0 + 1e-9
-
-
-# Polygon rows ----------------------------------------------------------------
-
-
-@pytest.mark.parametrize("robot_name", ["omni3", "omni4", "mecanum"])
-def test_polygon_rows_for_swedish_wheels_are_the_jacobian(robot_name: str) -> None:
-    robot = preset(robot_name)
-    assert isinstance(robot, SwedishRobot)
-    rows, wheel = polygon_rows(robot, polygon_sides=16)
-    np.testing.assert_array_equal(rows, robot.jacobian)
-    np.testing.assert_array_equal(wheel, np.arange(robot.n_wheels))
-    assert polygon_factor(robot, 16) == 1.0
-
-
-@pytest.mark.parametrize("sides", [4, 8, 16, 64])
-def test_swerve_polygon_is_the_inscribed_regular_polygon(sides: int) -> None:
-    """For each module, twists mapping to the polygon's vertices and edge points satisfy
-    every row bound (the adjacent rows tightly), lie inside the speed disk, and points
-    just outside the polygon violate a row."""
-    robot = preset("swerve")
-    rows, wheel = polygon_rows(robot, sides)
-    factor = polygon_factor(robot, sides)
-    assert factor == pytest.approx(math.cos(math.pi / sides))
-    assert rows.shape == (robot.n_wheels * sides // 2, 3)
-    bound = robot.max_wheel_speed[wheel] * factor
-    limit = robot.max_wheel_speed[0]
-    vertex_angles = 2 * math.pi * (np.arange(sides) + 0.5) / sides
-    vertices = limit * np.stack([np.cos(vertex_angles), np.sin(vertex_angles)], axis=1)
-    for module in range(robot.n_wheels):
-        inverse = np.linalg.pinv(robot.wheel_blocks[module])  # (3, 2): W_i @ inverse = I
-        mine = wheel == module
-        for m in range(sides):
-            for s in (0.0, 0.3, 0.5):  # a vertex and points along the edge to the next one
-                point = (1 - s) * vertices[m] + s * vertices[(m + 1) % sides]
-                twist = inverse @ point
-                np.testing.assert_allclose(robot.wheel_velocities(twist)[module], point,
-                                           atol=1e-12)
-                values = np.abs(rows[mine] @ twist)
-                assert np.all(values <= bound[mine] * (1 + 1e-12))
-                assert values.max() == pytest.approx(bound[mine][0], rel=1e-12)  # on an edge
-                assert np.linalg.norm(point) <= limit * (1 + 1e-12)  # inside the disk
-                outside = inverse @ (point * (1 + 1e-6))
-                assert np.any(np.abs(rows[mine] @ outside) > bound[mine])
-
-
-@pytest.mark.parametrize("sides", [2, 3, 5, 15])
-def test_polygon_sides_must_be_even_and_at_least_4(sides: int) -> None:
-    with pytest.raises(ControllerError, match="polygon_sides"):
-        polygon_rows(preset("swerve"), sides)

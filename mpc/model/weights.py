@@ -2,17 +2,25 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
-from mpc.robots.base import FloatArray
+from mpc.validation import is_finite_number
 
 
 def _diagonal(name: str, value: ArrayLike) -> FloatArray:
-    array = np.asarray(value, dtype=float)
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError):  # ragged
+        raw = np.asarray(None)
+    if raw.dtype.kind not in "iuf":  # bools, strings, ragged lists
+        raise ControllerError(f"weight {name!r} must be a number or 3 numbers, got {value!r}")
+    array = raw.astype(float)
     if array.ndim == 0:
         array = np.full(3, float(array))
     if array.shape != (3,):
@@ -64,25 +72,27 @@ class Weights:
             if item.name in ("module_rate", "along_track"):
                 continue
             object.__setattr__(self, item.name, _diagonal(item.name, getattr(self, item.name)))
-        rate = float(self.module_rate)
-        if not np.isfinite(rate) or rate < 0.0:
-            raise ControllerError(f"weight 'module_rate' must be finite and >= 0, got {rate!r}")
-        object.__setattr__(self, "module_rate", rate)
-        along = float(self.along_track)
-        if not 0.0 <= along <= 1.0:
-            raise ControllerError(f"weight 'along_track' must lie in [0, 1], got {along!r}")
-        object.__setattr__(self, "along_track", along)
+        rate = self.module_rate
+        if not is_finite_number(rate) or rate < 0.0:
+            raise ControllerError(f"weight 'module_rate' must be a finite number >= 0, "
+                                  f"got {rate!r}")
+        object.__setattr__(self, "module_rate", float(rate))
+        along = self.along_track
+        if not is_finite_number(along) or not 0.0 <= along <= 1.0:
+            raise ControllerError(f"weight 'along_track' must be a number in [0, 1], "
+                                  f"got {along!r}")
+        object.__setattr__(self, "along_track", float(along))
 
 
-def make_weights(weights: Weights | dict[str, ArrayLike] | None) -> Weights:
+def make_weights(weights: Weights | Mapping[str, ArrayLike] | None) -> Weights:
     """Accept Weights, a dict of overrides (unknown names are an error), or None."""
     if weights is None:
         return Weights()
     if isinstance(weights, Weights):
         return weights
-    if isinstance(weights, dict):
+    if isinstance(weights, Mapping):
         known = {item.name for item in fields(Weights)}
-        unknown = sorted(set(weights) - known)
+        unknown = sorted(map(str, set(weights) - known))
         if unknown:
             raise ControllerError(
                 f"unknown weight name(s) {unknown}; expected some of {sorted(known)}")

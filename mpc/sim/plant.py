@@ -15,11 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mpc.command import Command
-from mpc.errors import MpcInputError, is_finite_number, is_integer
-from mpc.robots.base import FloatArray, Robot
-from mpc.robots.swedish import SwedishRobot
-from mpc.robots.swerve import SwerveRobot, wrap_angle
+from mpc.arrays import FloatArray
+from mpc.control.command import Command
+from mpc.errors import SimulationError
+from mpc.robots.base import Robot
+from mpc.robots.swerve import wrap_angle
+from mpc.validation import is_finite_number, is_integer
 
 
 @dataclass(frozen=True)
@@ -34,7 +35,7 @@ class PlantConfig:
         heading_noise: standard deviation of the measured heading [rad].
         slip: mean fraction of each wheel's speed lost to slip, drawn per
             wheel and tick uniformly from [0, 2 * slip] (0 <= slip < 0.5).
-        steer_rate_limited: swerve modules turn at the robot's ``max_steer_rate``
+        steer_rate_limited: steered wheels turn at the robot's ``max_steer_rate``
             (False: they snap to the commanded angle).
     """
 
@@ -48,15 +49,15 @@ class PlantConfig:
 
     def __post_init__(self) -> None:
         if not is_integer(self.substeps) or self.substeps < 1:
-            raise MpcInputError(f"substeps must be an integer >= 1, got {self.substeps!r}")
+            raise SimulationError(f"substeps must be an integer >= 1, got {self.substeps!r}")
         if not is_integer(self.delay_ticks) or self.delay_ticks < 0:
-            raise MpcInputError(f"delay_ticks must be an integer >= 0, got {self.delay_ticks!r}")
+            raise SimulationError(f"delay_ticks must be an integer >= 0, got {self.delay_ticks!r}")
         for name in ("motor_lag", "position_noise", "heading_noise", "slip"):
             value = getattr(self, name)
             if not is_finite_number(value) or value < 0:
-                raise MpcInputError(f"{name} must be a finite number >= 0, got {value!r}")
+                raise SimulationError(f"{name} must be a finite number >= 0, got {value!r}")
         if self.slip >= 0.5:
-            raise MpcInputError(f"slip must be < 0.5 (a mean fraction), got {self.slip!r}")
+            raise SimulationError(f"slip must be < 0.5 (a mean fraction), got {self.slip!r}")
 
 
 #: Named plants for the CLI and tests.
@@ -87,9 +88,7 @@ class Plant:
         self.rng = rng
         n = robot.n_wheels
         self.wheel_speeds = np.zeros(n)  # actual, signed [rad/s]
-        self._swerve = robot if isinstance(robot, SwerveRobot) else None
-        self._swedish = robot if isinstance(robot, SwedishRobot) else None
-        self.steer_angles = np.zeros(n) if self._swerve is not None else None
+        self.steer_angles = robot.initial_steer_angles()  # actual [rad], steered wheels only
         rest = (np.zeros(n), None if self.steer_angles is None else np.zeros(n))
         self._pipe: deque[tuple[FloatArray, FloatArray | None]] = deque(
             [rest] * config.delay_ticks
@@ -118,27 +117,21 @@ class Plant:
             grip = np.ones(self.robot.n_wheels)
         for _ in range(config.substeps):
             self.wheel_speeds = keep * self.wheel_speeds + (1.0 - keep) * target_speeds
-            if self._swerve is not None and target_angles is not None:
-                self._steer(self._swerve, target_angles, h)
-            self._integrate(self._twist(self.wheel_speeds * grip), h)
+            if self.steer_angles is not None and target_angles is not None:
+                self._steer(target_angles, h)
+            twist = self.robot.forward_kinematics(self.wheel_speeds * grip, self.steer_angles)
+            self._integrate(twist, h)
         return self.wheel_speeds * grip
 
-    def _steer(self, robot: SwerveRobot, target: FloatArray, h: float) -> None:
-        """Turn every module towards its commanded angle, at most ``max_steer_rate``."""
+    def _steer(self, target: FloatArray, h: float) -> None:
+        """Turn every steered wheel towards its commanded angle, at most ``max_steer_rate``."""
         current = self.steer_angles if self.steer_angles is not None else np.zeros_like(target)
         error = wrap_angle(target - current)
-        if self.config.steer_rate_limited:
-            reach = robot.max_steer_rate * h
+        rates = self.robot.max_steer_rates
+        if self.config.steer_rate_limited and rates is not None:
+            reach = rates * h
             error = np.clip(error, -reach, reach)
         self.steer_angles = wrap_angle(current + error)
-
-    def _twist(self, speeds: FloatArray) -> FloatArray:
-        """Least-squares body twist of the wheels' actual motion."""
-        if self._swerve is not None and self.steer_angles is not None:
-            return self._swerve.twist(speeds, self.steer_angles)
-        if self._swedish is not None:
-            return self._swedish.twist(speeds)
-        raise MpcInputError(f"the plant cannot drive a {type(self.robot).__name__}")
 
     def _integrate(self, twist: FloatArray, h: float) -> None:
         """RK4 of d/dt pose = R(theta) twist over ``h`` seconds."""

@@ -1,4 +1,5 @@
-"""The reference window: feedforward twists consistent with the dynamics, heading wrapping.
+"""The reference window (:mod:`mpc.control.timing`): feedforward twists consistent with the
+dynamics, heading wrapping; and the SE(2) logarithm behind the feedforward.
 
 The feedforward twist of stage k is the constant body twist that drives the
 model exactly from reference pose k to k + 1 (the SE(2) logarithm); the
@@ -14,10 +15,16 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from mpc.model import DIRECTION_SPEED, SMALL_ROTATION, TrackingModel, twist_logarithm
-from mpc.reference import ReferenceWindow
+from mpc.control.timing import ReferenceWindow
+from mpc.model import (
+    DIRECTION_SPEED,
+    SMALL_ROTATION,
+    TickInput,
+    TrackingModel,
+    Weights,
+    twist_logarithm,
+)
 from mpc.robots import preset
-from mpc.weights import Weights
 from trajectories import Circle, FigureEight, SpinHeading, Trajectory
 
 DT = 0.05
@@ -25,9 +32,23 @@ HORIZON = 10
 TWO_PI = 2.0 * math.pi
 
 
-def make_window(trajectory: Trajectory) -> tuple[ReferenceWindow, TrackingModel]:
+class Window:
+    """A ReferenceWindow and the tick it fills; ``at`` returns copies of what it wrote."""
+
+    def __init__(self, trajectory: Trajectory, model: TrackingModel) -> None:
+        self.tick = TickInput(model.layouts)
+        self.window = ReferenceWindow(trajectory, model, self.tick)
+
+    def at(self, time: float, heading: float,
+           rate: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self.window.fill(time, heading, rate)
+        tick = self.tick
+        return tick.poses_ref.copy(), tick.twists_ref.copy(), tick.directions.copy()
+
+
+def make_window(trajectory: Trajectory) -> tuple[Window, TrackingModel]:
     model = TrackingModel(preset("omni4"), HORIZON, DT, Weights())
-    return ReferenceWindow(trajectory, model), model
+    return Window(trajectory, model), model
 
 
 def step_model(model: TrackingModel, pose: np.ndarray, twist: np.ndarray) -> np.ndarray:

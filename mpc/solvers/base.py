@@ -1,11 +1,12 @@
-"""What a solver returns for one tick."""
+"""What both solver paths share: the per-tick result and the protocol they implement."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Protocol
 
-from mpc.robots.base import FloatArray
+from mpc.arrays import FloatArray
+from mpc.model.layout import TickInput
 
 
 @dataclass(frozen=True, eq=False)
@@ -13,7 +14,8 @@ class SolveResult:
     """One solve of the tracking problem.
 
     Attributes:
-        success: the solver converged and its output is finite.
+        success: the solver converged (or stopped with a usable iterate) and its output
+            is finite.
         status: the solver's own status text (e.g. OSQP's ``"solved"``).
         poses: planned poses (N+1, 3) [m, m, rad].
         twists: planned body twists (N, 3) [m/s, m/s, rad/s].
@@ -30,8 +32,8 @@ class SolveResult:
 
 
 class TrackingSolver(Protocol):
-    """What the controller needs of a solver; :class:`~mpc.qp.QpSolver` and
-    :class:`~mpc.nlp.NlpSolver` both take the same inputs and return the same result,
+    """What the controller needs of a solver. :class:`~mpc.solvers.qp.QpSolver` and
+    :class:`~mpc.solvers.nlp.NlpSolver` take the same input and return the same result,
     so a test can hold one against the other."""
 
     name: str
@@ -39,16 +41,6 @@ class TrackingSolver(Protocol):
     def reset(self) -> None:
         """Forget any warm start."""
 
-    def solve(
-        self,
-        pose: FloatArray,
-        poses_ref: FloatArray,
-        twists_ref: FloatArray,
-        directions: FloatArray,
-        last_twist: FloatArray,
-        guess_poses: FloatArray,
-        guess_twists: FloatArray,
-    ) -> SolveResult:
-        """One tick: initial pose (3,), reference poses (N+1, 3), feedforward twists (N, 3),
-        directions of travel (N+1, 2), last command (3,), and the guess to start from."""
+    def solve(self, tick: TickInput) -> SolveResult:
+        """One tick from the parameters and the guess in ``tick``."""
         ...

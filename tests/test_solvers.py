@@ -23,13 +23,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mpc.model import TrackingModel
-from mpc.nlp import NlpSolver
-from mpc.qp import USABLE_PRIMAL_RESIDUAL, QpSolver
-from mpc.reference import ReferenceWindow
+from mpc.control.timing import ReferenceWindow
+from mpc.model import TickInput, TrackingModel, Weights
 from mpc.robots import PRESETS, Robot, preset
-from mpc.solution import SolveResult
-from mpc.weights import Weights
+from mpc.solvers import USABLE_PRIMAL_RESIDUAL, NlpSolver, QpSolver, SolveResult
+from mpc.solvers.qp import _DirectOsqp
 from trajectories import FigureEight
 
 DT = 0.05
@@ -45,10 +43,13 @@ class Problem:
         self.robot: Robot = preset(robot_name)
         self.model = TrackingModel(self.robot, HORIZON, DT, Weights())
         self.pose = TRAJECTORY.sample(0.0).pose + np.array(offset)
-        window = ReferenceWindow(TRAJECTORY, self.model)
-        self.poses_ref, self.feedforward, self.directions = (
-            a.copy() for a in window.at(0.0, float(self.pose[2])))
+        self.tick = TickInput(self.model.layouts)
+        ReferenceWindow(TRAJECTORY, self.model, self.tick).fill(0.0, float(self.pose[2]))
+        self.poses_ref = self.tick.poses_ref.copy()
+        self.feedforward = self.tick.twists_ref.copy()
         self.last = np.zeros(3) if last == "rest" else self.feedforward[0].copy()
+        self.tick.pose[:] = self.pose
+        self.tick.last_twist[:] = self.last
 
     def guess(self) -> tuple[np.ndarray, np.ndarray]:
         poses = self.poses_ref.copy()
@@ -57,8 +58,8 @@ class Problem:
 
     def solve(self, solver: QpSolver | NlpSolver, guess: tuple[np.ndarray, np.ndarray]
               ) -> SolveResult:
-        return solver.solve(self.pose, self.poses_ref, self.feedforward, self.directions,
-                            self.last, *guess)
+        self.tick.guess_poses[:], self.tick.guess_twists[:] = guess
+        return solver.solve(self.tick)
 
     def iterate_qp(self, solver: QpSolver, rounds: int) -> SolveResult:
         """Re-linearise around the QP's own solution ``rounds`` times (full-step SQP)."""
@@ -77,7 +78,8 @@ class Problem:
         changes = np.diff(np.vstack([self.last, twists]), axis=0)
         size = np.linalg.norm(self.robot.wheel_velocities(changes), axis=-1)
         accel = self.robot.max_wheel_accel
-        assert accel is not None
+        if accel is None:
+            raise AssertionError("the preset has acceleration limits")
         return float((size / (accel * DT)).max())
 
 
@@ -152,8 +154,8 @@ def linearised_residual(model: TrackingModel, guess: tuple[np.ndarray, np.ndarra
 @pytest.mark.parametrize("robot_name", ["mecanum", "swerve"])
 def test_qp_pattern_is_fixed_and_every_update_is_applied(robot_name: str) -> None:
     """A receding-horizon loop on the model itself for 60 ticks, with the guess perturbed
-    (seeded) so that consecutive linearisations differ: the number of entries of A never
-    changes, every tick solves, and every solution satisfies the linearisation around
+    (seeded) so that consecutive linearisations differ: every tick solves, and every
+    solution satisfies the linearisation around
     *that tick's* guess to OSQP's tolerance (1e-7 here, residuals ~1e-6), while it misses
     the previous tick's by ~1e-3: a rejected or misplaced update of A would show. The first
     tick linearises at heading 0 and rest, where many Jacobian entries are exactly zero:
@@ -161,18 +163,20 @@ def test_qp_pattern_is_fixed_and_every_update_is_applied(robot_name: str) -> Non
     robot = preset(robot_name)
     model = TrackingModel(robot, HORIZON, DT, Weights())
     trajectory = FigureEight(1.0, 16.0, heading="tangent")
-    window = ReferenceWindow(trajectory, model)
+    tick_input = TickInput(model.layouts)
+    window = ReferenceWindow(trajectory, model, tick_input)
     solver = QpSolver(model, tolerance=1e-7, max_iter=20000)
-    entries = solver._a_data.size
+    nonzeros = solver.structure.constraints.nnz
     rng = np.random.default_rng(0)
     pose, last = np.zeros(3), np.zeros(3)
     guess = (np.zeros((HORIZON + 1, 3)), np.zeros((HORIZON, 3)))
     previous_guess = None
     for tick in range(60):
-        poses_ref, feedforward, directions = window.at(tick * DT, float(pose[2]))
-        result = solver.solve(pose, poses_ref, feedforward, directions, last, *guess)
+        window.fill(tick * DT, float(pose[2]))
+        tick_input.pose[:], tick_input.last_twist[:] = pose, last
+        tick_input.guess_poses[:], tick_input.guess_twists[:] = guess
+        result = solver.solve(tick_input)
         assert result.success and result.status == "solved", (tick, result.status)
-        assert solver._a_data.size == entries
         assert linearised_residual(model, guess, result) < 2e-5, tick
         if previous_guess is not None:
             assert linearised_residual(model, previous_guess, result) > 2e-4, tick
@@ -186,6 +190,7 @@ def test_qp_pattern_is_fixed_and_every_update_is_applied(robot_name: str) -> Non
         twists += rng.normal(0.0, 0.1, (HORIZON, 3))
         poses[0] = pose
         previous_guess, guess = guess, (poses, twists)
+    assert solver.structure.constraints.nnz == nonzeros
     # Despite the perturbed guesses the robot reached the reference (from 0.79 rad off).
     np.testing.assert_allclose(pose[:2], trajectory.sample(60 * DT).pose[:2], atol=5e-3)
 
@@ -235,16 +240,17 @@ def test_a_barely_started_qp_iterate_is_a_failure() -> None:
 
 
 def test_direct_osqp_calls_match_the_public_api() -> None:
-    """The fast path calls OSQP's extension object directly (skipping ~50 us of wrapper
-    per tick); the public update/warm_start/solve API must give the same answer."""
+    """The fast path calls OSQP's extension object directly (a private API of osqp 1.x,
+    skipping ~50 us of wrapper per tick); the public update/warm_start/solve API must give
+    the same answer, so a new osqp version that changes the private one shows here."""
     problem = Problem("swerve", (0.1, -0.05, 0.2))
-    direct, public = QpSolver(problem.model), QpSolver(problem.model)
-    assert direct._core is not None
-    public._core = None
+    direct = QpSolver(problem.model)
+    public = QpSolver(problem.model, use_extension=False)
+    assert isinstance(direct.backend, _DirectOsqp)
     guess = problem.guess()
     for _ in range(3):
         a, b = problem.solve(direct, guess), problem.solve(public, guess)
         assert a.status == b.status and a.iterations == b.iterations
         np.testing.assert_array_equal(a.twists, b.twists)
         np.testing.assert_array_equal(a.poses, b.poses)
-        guess = (a.poses, a.twists)
+        guess = (a.poses.copy(), a.twists.copy())

@@ -5,7 +5,7 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
-from mpc.robots.base import FloatArray
+from mpc.arrays import FloatArray
 
 
 class Status(enum.Enum):

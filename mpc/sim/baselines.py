@@ -23,11 +23,13 @@ import time
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mpc.command import Command, Status
-from mpc.errors import ControllerError, is_finite_number
-from mpc.limits import clamp_command
-from mpc.robots.base import FloatArray, Robot
-from mpc.robots.swerve import SwerveRobot, wrap_angle
+from mpc.arrays import FloatArray
+from mpc.control.clamp import clamp_command
+from mpc.control.command import Command, Status
+from mpc.errors import ControllerError
+from mpc.robots.base import Robot
+from mpc.robots.swerve import wrap_angle
+from mpc.validation import is_finite_number
 from trajectories import Trajectory
 
 #: Valid ``saturation=`` names.
@@ -76,15 +78,13 @@ class FeedforwardPController:
         self.dt = float(dt)
         self.gains = gain
         self.saturation = saturation
-        blocks = robot.wheel_blocks
-        self._pinv = np.linalg.pinv(blocks.reshape(-1, 3))  # wheel velocities -> twist
         self.reset()
 
     def reset(self) -> None:
-        """The robot is at rest; swerve modules point forward."""
+        """The robot is at rest; steered wheels point forward."""
         self._last = np.zeros(3)
         self._last_wheels = np.zeros((self.robot.n_wheels, self.robot.wheel_dim))
-        self._steer = np.zeros(self.robot.n_wheels)
+        self._steer = self.robot.initial_steer_angles()
 
     def step(self, pose: ArrayLike, t: float) -> Command:
         """The command for measured ``pose`` (x, y, theta) at time ``t`` [s]."""
@@ -110,18 +110,12 @@ class FeedforwardPController:
             wheels = self.robot.wheel_velocities(twist)
         else:
             wheels = self._clip(self.robot.wheel_velocities(target))
-            twist = self._pinv @ wheels.ravel()
+            twist = self.robot.twist_from_velocities(wheels)
             clamped = not np.allclose(wheels, self.robot.wheel_velocities(target))
         self._last, self._last_wheels = twist, wheels
-        if isinstance(self.robot, SwerveRobot):
-            speeds, steer = self.robot.states_from_velocities(
-                wheels * self.robot.wheel_radius, self._steer)
-            self._steer = steer
-            steer_angles: FloatArray | None = steer
-        else:
-            speeds, steer_angles = wheels[:, 0], None
+        speeds, self._steer = self.robot.commands_from_velocities(wheels, self._steer)
         return Command(
-            wheel_speeds=speeds, twist=twist, steer_angles=steer_angles,
+            wheel_speeds=speeds, twist=twist, steer_angles=self._steer,
             predicted_poses=reference.pose[None, :], status=Status.SOLVED,
             solver_status="none", solve_time=0.0, tick_time=time.perf_counter() - start,
             iterations=0, consecutive_failures=0, clamped=clamped, reference_time=float(t),

@@ -1,0 +1,16 @@
+"""The thin :class:`Controller` and its collaborators.
+
+- :mod:`.controller`: wiring and the tick (validate, predict, fill, solve, clamp, command);
+- :mod:`.timing`: which stretch of the reference each plan tracks (time-indexed or scaled);
+- :mod:`.warm_start`: the shifted previous plan as the next guess;
+- :mod:`.fallback`: what to command when the solver fails;
+- :mod:`.delay`: known actuator latency;
+- :mod:`.clamp`: the last-line limits clamp;
+- :mod:`.command`: :class:`Command` and :class:`Status`.
+"""
+
+from mpc.control.clamp import clamp_command
+from mpc.control.command import Command, Status
+from mpc.control.controller import SOLVERS, Controller
+
+__all__ = ["SOLVERS", "Command", "Controller", "Status", "clamp_command"]

@@ -1,0 +1,51 @@
+"""The last line of safety: every command within every wheel's speed and acceleration limit.
+
+Wheel ``i``'s speed for a twist is ``||W_i twist||`` (the robot's
+:meth:`~mpc.robots.Robot.wheel_magnitudes`); its acceleration over a tick is
+the same measure of the twist's change. Both sets are convex in the twist,
+which the clamp relies on.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mpc.arrays import FloatArray
+from mpc.robots.base import Robot
+
+#: Relative slack under which a wheel counts as within its limit (rounding).
+_SPEED_SLACK = 1e-12
+
+
+def clamp_command(
+    robot: Robot, target: FloatArray, last: FloatArray, dt: float
+) -> tuple[FloatArray, bool]:
+    """Bring ``target`` within every wheel limit, moving it as little as the rules allow.
+
+    1. Speed: project out any motion of a failed wheel (limit 0), then
+       scale ``target`` uniformly into the speed limits (a solver's output
+       is off by its tolerance at most, so this is a tiny scaling).
+    2. Acceleration: step from ``last`` towards that twist only as far as
+       every wheel's acceleration limit allows. Both ends lie in the convex
+       speed-limit set, so the whole step does too.
+
+    Returns the clamped twist and whether it differs from ``target``. If
+    ``last`` itself breaks a speed limit (the limits were just derated),
+    acceleration cannot be honoured as well; the speed limits win.
+    """
+    safe = target
+    if robot.rest_projector is not None:
+        safe = robot.rest_projector @ safe
+    limit = robot.max_wheel_speed
+    speed = robot.wheel_magnitudes(safe)
+    over = speed > limit + _SPEED_SLACK
+    if over.any():
+        # The smallest limit / speed over the wheels; a failed wheel (limit 0) stops the robot.
+        safe = safe * (limit[over] / speed[over]).min() * (1.0 - _SPEED_SLACK)
+    accel = robot.max_wheel_accel
+    if accel is not None and not (robot.wheel_magnitudes(last)
+                                  > limit * (1 + 1e-9) + _SPEED_SLACK).any():
+        fraction = (accel * dt / np.maximum(robot.wheel_magnitudes(safe - last), 1e-300)).min()
+        if fraction < 1.0:
+            safe = last + fraction * (1.0 - _SPEED_SLACK) * (safe - last)
+    return safe, bool(safe is not target and not np.array_equal(safe, target))

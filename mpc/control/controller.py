@@ -1,0 +1,214 @@
+"""The embeddable tracking controller: ``Controller(robot, trajectory).step(pose, t)``."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mpc.arrays import FloatArray
+from mpc.control.clamp import clamp_command
+from mpc.control.command import Command, Status
+from mpc.control.delay import DelayCompensator
+from mpc.control.fallback import FallbackPolicy
+from mpc.control.timing import ReferenceWindow, TimeIndexed, TimeScaled
+from mpc.control.warm_start import WarmStart
+from mpc.errors import ControllerError
+from mpc.model.layout import TickInput
+from mpc.model.tracking import TrackingModel
+from mpc.model.weights import Weights, make_weights
+from mpc.robots.base import Robot
+from mpc.solvers import NlpSolver, QpSolver, TrackingSolver
+from mpc.validation import (
+    flag,
+    integer_at_least,
+    is_finite_number,
+    is_integer,
+    non_negative,
+    positive,
+)
+from trajectories import Trajectory
+
+#: Valid ``solver=`` names: the OSQP fast path and the exact IPOPT path.
+SOLVERS: tuple[str, ...] = ("osqp", "ipopt")
+
+#: Sides of the polygon standing in for a swerve module's speed disk in the QP.
+DEFAULT_POLYGON_SIDES = 16
+
+
+class Controller:
+    """Model-predictive tracking of a reference trajectory within wheel limits.
+
+    Each :meth:`step` plans ``horizon`` ticks of ``dt`` seconds from the
+    measured pose and returns the first twist as wheel commands. The command
+    never exceeds a wheel's speed or acceleration limit: the solver plans
+    within them and a final clamp (:func:`~mpc.control.clamp.clamp_command`)
+    removes solver tolerance. If the solver fails, the command comes from
+    the fallback policy (:mod:`mpc.control.fallback`: the previous plan, the
+    feedforward scaled into the limits, a stop ramp); ``Command.status`` says which.
+
+    Swerve steering rate: the cost penalises the change of every module's
+    ground velocity between ticks (``Weights.module_rate``), in both solvers,
+    so module directions change smoothly; steer angles follow the 90-degree
+    flip rule against the previous command.
+
+    Args:
+        robot: the drive layout and its wheel limits.
+        trajectory: the reference to track.
+        horizon: control intervals in the plan, >= 1.
+        dt: control interval [s], > 0; also the tick of :meth:`step`.
+        solver: ``"osqp"`` (fast real-time iteration) or ``"ipopt"`` (exact NLP).
+        weights: :class:`~mpc.model.weights.Weights` or a dict of overrides.
+        polygon_sides: OSQP only: sides of the polygon inside a swerve module's
+            speed disk (even, >= 4; default 16); IPOPT uses the exact disk.
+        max_iter: solver iterations per tick at most (default 500 OSQP, 100 IPOPT).
+        time_limit: solver time per tick at most [s]; 0 for none.
+        delay_ticks: known command latency in whole ticks; the controller
+            predicts the pose forward through the commands already sent.
+        time_scaling: play the reference slower where it asks for more than the
+            wheels can give (:class:`~mpc.control.timing.TimeScaled`); False
+            tracks ``t`` strictly.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        trajectory: Trajectory,
+        horizon: int = 20,
+        dt: float = 0.05,
+        solver: str = "osqp",
+        weights: Weights | Mapping[str, ArrayLike] | None = None,
+        *,
+        polygon_sides: int | None = None,
+        max_iter: int | None = None,
+        time_limit: float = 0.0,
+        delay_ticks: int = 0,
+        time_scaling: bool = False,
+    ) -> None:
+        if not isinstance(robot, Robot):
+            raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
+        _check_trajectory(trajectory)
+        self.robot = robot
+        self.horizon = integer_at_least("horizon", horizon, 1, ControllerError)
+        self.dt = positive("dt [s]", dt, ControllerError)
+        self.delay_ticks = integer_at_least("delay_ticks", delay_ticks, 0, ControllerError)
+        self.time_scaling = flag("time_scaling", time_scaling, ControllerError)
+        self.weights = make_weights(weights)
+        self.model = TrackingModel(robot, self.horizon, self.dt, self.weights)
+        self.solver = _make_solver(self.model, solver, polygon_sides, max_iter, time_limit)
+        self._tick = TickInput(self.model.layouts)
+        self._warm = WarmStart(self._tick)
+        self._fallback = FallbackPolicy(robot, self.horizon)
+        self._delay = DelayCompensator(self.delay_ticks, self.dt)
+        self._set_reference(trajectory)
+        self.reset()
+
+    def _set_reference(self, trajectory: Trajectory) -> None:
+        self._window = ReferenceWindow(trajectory, self.model, self._tick)
+        self._timing: TimeIndexed | TimeScaled = (
+            TimeScaled(self._window, self.model) if self.time_scaling
+            else TimeIndexed(self._window))
+
+    @property
+    def trajectory(self) -> Trajectory:
+        return self._window.trajectory
+
+    @trajectory.setter
+    def trajectory(self, trajectory: Trajectory) -> None:
+        """Track a new trajectory from the next tick on (the plan is dropped, the robot's
+        present motion is kept)."""
+        _check_trajectory(trajectory)
+        self._set_reference(trajectory)
+        self.reset(self._last)
+
+    def reset(self, last_twist: ArrayLike | None = None) -> None:
+        """Forget the plan, warm start, failures and timing; the robot is at rest unless
+        ``last_twist`` (the body twist it is executing now [m/s, m/s, rad/s]) says."""
+        last = np.zeros(3) if last_twist is None else np.array(last_twist, dtype=float)
+        if last.shape != (3,) or not np.all(np.isfinite(last)):
+            raise ControllerError(f"last_twist must be a finite (3,) twist, got {last_twist!r}")
+        self._last = last
+        self._steer = self.robot.initial_steer_angles()
+        self._delay.reset(last)
+        self._warm.reset()
+        self._fallback.reset()
+        self._timing.reset()
+        self.solver.reset()
+
+    def step(self, pose: ArrayLike, t: float) -> Command:
+        """Plan from the measured pose at time ``t`` and return this tick's command.
+
+        Args:
+            pose: measured world pose (x, y, theta) [m, m, rad], shape (3,).
+            t: the current time on the trajectory's clock [s].
+        """
+        start = time.perf_counter()
+        x0 = self._delay.predict(_check_pose(pose))
+        if not is_finite_number(t):
+            raise ControllerError(f"t must be a finite time in seconds, got {t!r}")
+        tick = self._tick
+        t_plan = float(t) + self.delay_ticks * self.dt
+        reference_time = self._timing.fill(float(t), t_plan, float(x0[2]))
+        tick.pose[:] = x0
+        tick.last_twist[:] = self._last
+        self._warm.fill(x0)
+        result = self.solver.solve(tick)
+        if result.success:
+            status, target, plan = Status.SOLVED, result.twists[0], result.poses
+            self._fallback.succeeded(result.twists)
+            self._warm.store(result.poses, result.twists)
+        else:
+            self._warm.reset()
+            self.solver.reset()
+            status, target = self._fallback.failed(tick.twists_ref[0])
+            plan = tick.poses_ref.copy()
+        twist, clamped = clamp_command(self.robot, target, self._last, self.dt)
+        self._last = twist
+        self._delay.sent(twist)
+        speeds, self._steer = self.robot.wheel_commands(twist, self._steer)
+        return Command(
+            wheel_speeds=speeds, twist=twist, steer_angles=self._steer,
+            predicted_poses=np.array(plan), status=status, solver_status=result.status,
+            solve_time=result.solve_time, tick_time=time.perf_counter() - start,
+            iterations=result.iterations, consecutive_failures=self._fallback.failures,
+            clamped=clamped, reference_time=reference_time)
+
+
+def _check_trajectory(trajectory: object) -> None:
+    if not isinstance(trajectory, Trajectory):
+        raise ControllerError(
+            f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}")
+
+
+def _check_pose(pose: ArrayLike) -> FloatArray:
+    try:
+        x0 = np.array(pose, dtype=float)
+    except (TypeError, ValueError):
+        raise ControllerError(f"pose must be 3 numbers (x, y, theta), got {pose!r}") from None
+    if x0.shape != (3,):
+        raise ControllerError(f"pose must have shape (3,) as (x, y, theta), got shape {x0.shape}")
+    if not (math.isfinite(x0[0]) and math.isfinite(x0[1]) and math.isfinite(x0[2])):
+        raise ControllerError(f"pose must be finite, got {x0.tolist()}")
+    return x0
+
+
+def _make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
+                 max_iter: int | None, time_limit: float) -> TrackingSolver:
+    if name not in SOLVERS:
+        raise ControllerError(f"unknown solver {name!r}; expected one of {list(SOLVERS)}")
+    iterations = None if max_iter is None else integer_at_least("max_iter", max_iter, 1,
+                                                                ControllerError)
+    limit = non_negative("time_limit [s]", time_limit, ControllerError)
+    if name == "ipopt":
+        if polygon_sides is not None:
+            raise ControllerError("polygon_sides applies to the OSQP path only; IPOPT uses "
+                                  "each swerve module's exact speed disk")
+        return NlpSolver(model, max_iter=iterations or 100, time_limit=limit)
+    sides = DEFAULT_POLYGON_SIDES if polygon_sides is None else polygon_sides
+    if not is_integer(sides) or sides < 4 or sides % 2:
+        raise ControllerError(f"polygon_sides must be an even integer >= 4, got {sides!r}")
+    return QpSolver(model, polygon_sides=int(sides), max_iter=iterations or 500,
+                    time_limit=limit)

@@ -1,0 +1,51 @@
+"""The guess a solve starts from: the previous plan shifted one tick, or the reference."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mpc.arrays import FloatArray
+from mpc.model.layout import TickInput
+
+
+class WarmStart:
+    """Keeps the last successful plan and writes the next guess into the tick."""
+
+    def __init__(self, tick: TickInput) -> None:
+        self.tick = tick
+        self._poses = np.zeros_like(tick.guess_poses)
+        self._twists = np.zeros_like(tick.guess_twists)
+        self._valid = False
+
+    def reset(self) -> None:
+        """Forget the plan: the next guess is the reference."""
+        self._valid = False
+
+    def store(self, poses: FloatArray, twists: FloatArray) -> None:
+        """Keep a successful plan (poses (N+1, 3), twists (N, 3))."""
+        self._poses[:] = poses
+        self._twists[:] = twists
+        self._valid = True
+
+    def fill(self, pose: FloatArray) -> None:
+        """Write the guess into the tick, starting at the measured ``pose``.
+
+        The previous plan shifted one tick (its last stage repeated), or the
+        tick's reference when there is none; the shifted headings are moved
+        by a multiple of 2 pi to match a wrapped measured heading.
+        """
+        poses, twists = self.tick.guess_poses, self.tick.guess_twists
+        if not self._valid:
+            poses[:] = self.tick.poses_ref
+            twists[:] = self.tick.twists_ref
+        else:
+            poses[:-1] = self._poses[1:]
+            poses[-1] = self._poses[-1]
+            twists[:-1] = self._twists[1:]
+            twists[-1] = self._twists[-1]
+            turns = math.floor((poses[0, 2] - pose[2]) / (2.0 * math.pi) + 0.5)
+            if turns:  # the measured heading was wrapped
+                poses[:, 2] -= 2.0 * math.pi * turns
+        poses[0] = pose

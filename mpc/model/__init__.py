@@ -1,0 +1,29 @@
+"""The model: CasADi dynamics and cost built once per robot, and the vector layouts.
+
+Modules: :mod:`.se2` (rigid motion under a constant twist), :mod:`.layout`
+(named slices of ``z`` and ``p``, the per-tick :class:`TickInput`),
+:mod:`.weights`, :mod:`.tracking` (:class:`TrackingModel`), :mod:`.buffered`
+(zero-copy CasADi calls).
+"""
+
+from mpc.model.buffered import BufferedFunction
+from mpc.model.layout import Layout, TickInput, TrackingLayouts, tracking_layouts
+from mpc.model.se2 import SMALL_ROTATION, integrate, twist_integral, twist_logarithm
+from mpc.model.tracking import DIRECTION_SPEED, TrackingModel
+from mpc.model.weights import Weights, make_weights
+
+__all__ = [
+    "DIRECTION_SPEED",
+    "SMALL_ROTATION",
+    "BufferedFunction",
+    "Layout",
+    "TickInput",
+    "TrackingLayouts",
+    "TrackingModel",
+    "Weights",
+    "integrate",
+    "make_weights",
+    "tracking_layouts",
+    "twist_integral",
+    "twist_logarithm",
+]

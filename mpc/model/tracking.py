@@ -1,0 +1,125 @@
+"""The tracking problem in CasADi: one model, used by both solvers.
+
+- State ``x = (px, py, theta)`` (world pose), input ``u = (vx, vy, omega)``
+  (body twist, held constant over a tick of ``dt`` seconds).
+- Dynamics: the exact SE(2) integral of a constant body twist (:mod:`.se2`).
+- Cost (:class:`~mpc.model.weights.Weights`) over the decision vector ``z``
+  and the parameter vector ``p`` of :func:`~mpc.model.layout.tracking_layouts`.
+
+The exact path (:mod:`mpc.solvers.nlp`) hands these expressions to IPOPT;
+the fast path (:mod:`mpc.solvers.qp`) evaluates the cost's Hessian and
+gradient (the cost is quadratic in ``z``) and one mapped call of
+:attr:`TrackingModel.linearization` each tick.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from mpc.arrays import FloatArray
+from mpc.model.layout import TrackingLayouts, tracking_layouts
+from mpc.model.se2 import twist_integral, twist_logarithm
+from mpc.model.weights import Weights
+from mpc.robots.base import Robot
+
+#: Reference speed [m/s] below which the direction of travel fades to zero.
+DIRECTION_SPEED = 0.01
+
+
+@dataclass(eq=False)
+class TrackingModel:
+    """CasADi functions and expressions of the tracking problem for one robot.
+
+    Args:
+        robot: the drive layout (its wheel maps give the limits).
+        horizon: number of control intervals ``N`` >= 1.
+        dt: control interval [s].
+        weights: cost weights.
+
+    Attributes:
+        layouts: the named layouts of ``z`` and ``p``.
+        dynamics: ``x_next = dynamics(x, u)``.
+        linearization: mapped over the N stages, ``(x_k, u_k) -> (c_k, vec A_k, vec B_k)``
+            (21 rows a stage, vec column-major) with ``x+ ~ A x + B u + c``.
+        reference_terms: ``(poses (3 x N+1), velocities (3 x N+1)) -> (feedforward (3 x N),
+            directions (2 x N+1))``: the SE(2) logarithm between consecutive reference
+            poses over ``dt`` (so a robot on the reference stays on it under the discrete
+            model) and the unit directions of travel, fading to 0 when the reference stops.
+        rate_matrix: the 3x3 weight of ``u_k - u_{k-1}``.
+    """
+
+    robot: Robot
+    horizon: int
+    dt: float
+    weights: Weights
+    layouts: TrackingLayouts = field(init=False)
+    dynamics: ca.Function = field(init=False)
+    linearization: ca.Function = field(init=False)
+    reference_terms: ca.Function = field(init=False)
+    rate_matrix: FloatArray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.layouts = tracking_layouts(self.horizon)
+        pose, twist = ca.SX.sym("x", 3), ca.SX.sym("u", 3)
+        following = twist_integral(pose, twist, self.dt)
+        self.dynamics = ca.Function("dynamics", [pose, twist], [following], ["x", "u"], ["x_next"])
+        wrt_pose = ca.jacobian(following, pose)
+        wrt_twist = ca.jacobian(following, twist)
+        offset = following - wrt_pose @ pose - wrt_twist @ twist
+        stage = ca.Function(
+            "stage_linearization", [pose, twist],
+            [ca.densify(ca.vertcat(offset, ca.vec(wrt_pose), ca.vec(wrt_twist)))])
+        self.linearization = stage.map(self.horizon)
+        n = self.horizon
+        poses, velocities = ca.SX.sym("poses", 3, n + 1), ca.SX.sym("velocities", 3, n + 1)
+        planar = velocities[:2, :]
+        scale = ca.sqrt(ca.sum1(planar**2) + DIRECTION_SPEED**2)
+        self.reference_terms = ca.Function(
+            "reference_terms", [poses, velocities],
+            [ca.densify(twist_logarithm(poses[:, :-1], poses[:, 1:], self.dt)),
+             ca.densify(planar / ca.repmat(scale, 2, 1))],
+            ["poses", "velocities"], ["feedforward", "directions"])
+        gram = self.robot.module_velocity_gram()
+        self.rate_matrix = np.diag(self.weights.rate) + self.weights.module_rate * gram
+
+    def symbols(self) -> tuple[ca.SX, ca.SX]:
+        """Symbolic ``z`` and ``p``."""
+        return (ca.SX.sym("z", self.layouts.variables.size),
+                ca.SX.sym("p", self.layouts.parameters.size))
+
+    def cost(self, z: ca.SX, p: ca.SX) -> ca.SX:
+        """The tracking cost (see :class:`~mpc.model.weights.Weights`) as a CasADi expression."""
+        variables, parameters = self.layouts
+        poses, twists = variables.symbol(z, "poses"), variables.symbol(z, "twists")
+        poses_ref = parameters.symbol(p, "poses_ref")
+        twists_ref = parameters.symbol(p, "twists_ref")
+        directions = parameters.symbol(p, "directions")
+        last = parameters.symbol(p, "last_twist")
+        weights = self.weights
+        r, s = ca.DM(np.diag(weights.twist)), ca.DM(self.rate_matrix)
+
+        def pose_cost(k: int, diagonal: FloatArray) -> ca.SX:
+            error = poses[:, k] - poses_ref[:, k]
+            along = ca.dot(directions[:, k], error[:2])
+            relief = (1.0 - weights.along_track) * float(min(diagonal[0], diagonal[1]))
+            return ca.bilin(ca.DM(np.diag(diagonal)), error, error) - relief * along**2
+
+        total = ca.SX(0)
+        for k in range(self.horizon):
+            if k > 0:
+                total += pose_cost(k, weights.pose)
+            deviation = twists[:, k] - twists_ref[:, k]
+            change = twists[:, k] - (last if k == 0 else twists[:, k - 1])
+            total += ca.bilin(r, deviation, deviation) + ca.bilin(s, change, change)
+        return total + pose_cost(self.horizon, weights.terminal)
+
+    def shooting_gaps(self, z: ca.SX, p: ca.SX) -> ca.SX:
+        """``(x_0 - x0, x_{k+1} - f(x_k, u_k))`` stacked: zero on a consistent plan."""
+        variables, parameters = self.layouts
+        poses, twists = variables.symbol(z, "poses"), variables.symbol(z, "twists")
+        following = self.dynamics.map(self.horizon)(poses[:, :-1], twists)
+        return ca.vertcat(poses[:, 0] - parameters.symbol(p, "x0"),
+                          ca.vec(poses[:, 1:] - following))

@@ -1,0 +1,25 @@
+"""The simulation harness (not the controller): a plant, a closed loop, baselines, metrics.
+
+- :mod:`.plant`: the simulated robot (RK4 of the wheels' actual motion, with
+  motor lag, delay, noise, slip and steering rate);
+- :mod:`.simulate`: the closed loop, :func:`simulate`;
+- :mod:`.result`: :class:`SimResult` and its metrics;
+- :mod:`.baselines`: feedforward + P controllers with per-wheel clipping or desaturation.
+"""
+
+from mpc.sim.baselines import SATURATIONS, FeedforwardPController
+from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
+from mpc.sim.result import LIMIT_RTOL, SimResult
+from mpc.sim.simulate import TrackingController, simulate
+
+__all__ = [
+    "LIMIT_RTOL",
+    "PLANT_PRESETS",
+    "SATURATIONS",
+    "FeedforwardPController",
+    "Plant",
+    "PlantConfig",
+    "SimResult",
+    "TrackingController",
+    "simulate",
+]

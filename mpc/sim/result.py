@@ -1,0 +1,156 @@
+"""The record of one closed-loop run and its metrics."""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from mpc.arrays import FloatArray
+from mpc.errors import SimulationError
+from mpc.robots.swerve import wrap_angle
+from mpc.validation import is_finite_number
+from trajectories import Trajectory
+
+#: Relative tolerance when counting wheel-limit violations.
+LIMIT_RTOL = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class SimResult:
+    """Time series of one closed-loop run; row k is tick k at ``time[k]``.
+
+    Attributes:
+        time: tick start times (K,) [s].
+        pose: true pose at each tick (K, 3) [m, m, rad].
+        measured: the pose the controller saw (K, 3).
+        reference: reference pose at each tick (K, 3).
+        wheel_command: commanded wheel speeds (K, n) [rad/s].
+        wheel_actual: wheel speeds reached at the end of each tick (K, n) [rad/s].
+        wheel_limit: per-wheel speed limit (n,) [rad/s].
+        wheel_accel_limit: per-wheel acceleration limit (n,) [rad/s^2] or None.
+        twist_command: commanded body twists (K, 3).
+        status: each tick's :class:`~mpc.command.Status` value (K,).
+        tick_time: whole ``step()`` times (K,) [s].
+        solve_time: solver times (K,) [s].
+        iterations: solver iterations (K,).
+        dt: control tick [s].
+        trajectory: the reference (for cross-track error).
+        wheel_blocks: the robot's wheel velocity maps, to measure command changes.
+    """
+
+    time: FloatArray
+    pose: FloatArray
+    measured: FloatArray
+    reference: FloatArray
+    wheel_command: FloatArray
+    wheel_actual: FloatArray
+    wheel_limit: FloatArray
+    wheel_accel_limit: FloatArray | None
+    twist_command: FloatArray
+    status: tuple[str, ...]
+    tick_time: FloatArray
+    solve_time: FloatArray
+    iterations: FloatArray
+    dt: float
+    trajectory: Trajectory = field(repr=False)
+    wheel_blocks: FloatArray = field(repr=False)
+
+    def position_error(self) -> FloatArray:
+        """Distance to the time-indexed reference position (K,) [m]."""
+        return np.hypot(*(self.pose[:, :2] - self.reference[:, :2]).T)
+
+    def heading_error(self) -> FloatArray:
+        """Wrapped heading error (K,) [rad]."""
+        return wrap_angle(self.pose[:, 2] - self.reference[:, 2])
+
+    def cross_track_error(self, resolution: int = 4000) -> FloatArray:
+        """Distance to the nearest point of the reference path (K,) [m].
+
+        The path is a polyline through ``resolution`` samples over the run
+        (one period more for periodic references); the distance is to its
+        nearest segment, so it is exact up to the polyline's chord error.
+        """
+        end = float(self.time[-1]) + self.dt + (self.trajectory.period or 0.0)
+        path = self.trajectory.sample(np.linspace(0.0, end, resolution)).pose[:, :2]
+        start, step = path[:-1], np.diff(path, axis=0)  # segments start + s step, s in [0, 1]
+        length2 = np.maximum((step * step).sum(axis=1), 1e-300)
+        out = np.empty(len(self.pose))
+        for first in range(0, len(self.pose), 64):
+            points = self.pose[first : first + 64, None, :2]
+            along = np.clip(((points - start) * step).sum(-1) / length2, 0.0, 1.0)
+            gap = points - (start + along[..., None] * step)
+            out[first : first + 64] = np.sqrt((gap * gap).sum(-1).min(axis=1))
+        return out
+
+    def metrics(self, skip: float = 0.0) -> dict[str, Any]:
+        """Summary numbers; tracking errors only after ``skip`` seconds.
+
+        Keys (units): ``rms_position_error``, ``max_position_error``,
+        ``rms_cross_track_error``, ``max_cross_track_error`` [m];
+        ``rms_heading_error``, ``max_heading_error`` [rad, wrapped];
+        ``max_wheel_speed_ratio`` (peak |command| / limit, 1 = at the limit);
+        ``limit_violations`` (ticks with a wheel above its speed limit by
+        more than 1e-6 relative); ``accel_violations`` (the same for the
+        acceleration limit); ``control_effort`` (RMS over ticks and wheels of
+        command / limit); ``tick_time_p50/p95/p99/max`` and
+        ``solve_time_p50/p99`` [s]; ``deadline_misses`` (ticks longer than
+        dt); ``failures`` (ticks not solved) and ``failures_by_status``.
+        """
+        if not is_finite_number(skip) or skip < 0:
+            raise SimulationError(f"skip must be a finite number of seconds >= 0, got {skip!r}")
+        keep = self.time >= self.time[0] + skip - 1e-12
+        if not keep.any():
+            raise SimulationError(f"skip={skip} s leaves no ticks of a {self.duration:.3g} s run")
+        position = self.position_error()[keep]
+        heading = np.abs(self.heading_error()[keep])
+        cross = self.cross_track_error()[keep]
+        limit = self.wheel_limit
+        magnitude = np.abs(self.wheel_command)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(limit > 0, magnitude / np.where(limit > 0, limit, 1.0),
+                             np.where(magnitude > 1e-12, np.inf, 0.0))
+        violations = (magnitude > limit * (1 + LIMIT_RTOL) + 1e-12).any(axis=1)
+        failures = Counter(s for s in self.status if s != "solved")
+        ticks = self.tick_time
+        return {
+            "rms_position_error": _rms(position),
+            "max_position_error": float(position.max()),
+            "rms_cross_track_error": _rms(cross),
+            "max_cross_track_error": float(cross.max()),
+            "rms_heading_error": _rms(heading),
+            "max_heading_error": float(heading.max()),
+            "max_wheel_speed_ratio": float(ratio.max()),
+            "limit_violations": int(violations.sum()),
+            "accel_violations": self._accel_violations(),
+            "control_effort": _rms(np.where(np.isfinite(ratio), ratio, 0.0)),
+            "tick_time_p50": float(np.percentile(ticks, 50)),
+            "tick_time_p95": float(np.percentile(ticks, 95)),
+            "tick_time_p99": float(np.percentile(ticks, 99)),
+            "tick_time_max": float(ticks.max()),
+            "solve_time_p50": float(np.percentile(self.solve_time, 50)),
+            "solve_time_p99": float(np.percentile(self.solve_time, 99)),
+            "deadline_misses": int((ticks > self.dt).sum()),
+            "failures": int(sum(failures.values())),
+            "failures_by_status": dict(failures),
+        }
+
+    def _accel_violations(self) -> int:
+        """Ticks whose command changed a wheel faster than its acceleration limit."""
+        if self.wheel_accel_limit is None:
+            return 0
+        twists = np.vstack([np.zeros((1, 3)), self.twist_command])
+        steps = np.diff(twists, axis=0)
+        change = np.linalg.norm(np.einsum("ndj,kj->knd", self.wheel_blocks, steps), axis=-1)
+        bound = self.wheel_accel_limit * self.dt
+        return int((change > bound * (1 + LIMIT_RTOL) + 1e-12).any(axis=1).sum())
+
+    @property
+    def duration(self) -> float:
+        return float(len(self.time) * self.dt)
+
+
+def _rms(values: FloatArray) -> float:
+    return float(np.sqrt(np.mean(np.square(values))))

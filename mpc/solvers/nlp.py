@@ -1,0 +1,86 @@
+"""Exact path: the nonlinear tracking problem solved by IPOPT (the yardstick).
+
+Multiple shooting over ``z`` with the exact dynamics, parameterised by ``p``
+(see :mod:`mpc.model.layout`), built once and warm started from the guess
+(the shifted previous plan). Wheel limits are exact: each robot gives its
+own CasADi expressions (:meth:`~mpc.robots.Robot.casadi_limits`: linear rows
+for Swedish wheels, disks for swerve modules), on every twist for speed and
+on every change of twist for acceleration.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from mpc.model.layout import TickInput
+from mpc.model.tracking import TrackingModel
+from mpc.solvers.base import SolveResult
+
+
+class NlpSolver:
+    """IPOPT solver of a :class:`~mpc.model.tracking.TrackingModel`.
+
+    Args:
+        model: the tracking problem.
+        max_iter: IPOPT iterations per tick at most.
+        time_limit: IPOPT wall time per tick at most [s]; 0 for none.
+        tolerance: IPOPT's ``tol``.
+    """
+
+    name = "ipopt"
+
+    def __init__(self, model: TrackingModel, max_iter: int = 100, time_limit: float = 0.0,
+                 tolerance: float = 1e-8) -> None:
+        self.model = model
+        z, p = model.symbols()
+        constraints, lower, upper = [model.shooting_gaps(z, p)], [], []
+        gaps = 3 * (model.horizon + 1)
+        lower.append(np.zeros(gaps))
+        upper.append(np.zeros(gaps))
+        variables, parameters = model.layouts
+        twists = variables.symbol(z, "twists")
+        last = parameters.symbol(p, "last_twist")
+        robot = model.robot
+        accel = robot.max_wheel_accel
+        for k in range(model.horizon):
+            for twist, bound in ((twists[:, k], robot.max_wheel_speed),
+                                 (twists[:, k] - (last if k == 0 else twists[:, k - 1]),
+                                  None if accel is None else accel * model.dt)):
+                if bound is None:
+                    continue
+                g, low, high = robot.casadi_limits(twist, bound)
+                constraints.append(g)
+                lower.append(low)
+                upper.append(high)
+        problem = {"x": z, "p": p, "f": model.cost(z, p), "g": ca.vertcat(*constraints)}
+        options: dict[str, Any] = {
+            "expand": True, "print_time": False, "record_time": True, "error_on_fail": False,
+            "ipopt": {"print_level": 0, "sb": "yes", "max_iter": int(max_iter),
+                      "tol": float(tolerance),
+                      "max_wall_time": float(time_limit) if time_limit > 0 else 1e20},
+        }
+        self._solver = ca.nlpsol("tracking_nlp", "ipopt", problem, options)
+        self._lbg = np.concatenate(lower)
+        self._ubg = np.concatenate(upper)
+
+    def reset(self) -> None:
+        """Nothing to forget: IPOPT is warm started from the primal guess only."""
+
+    def solve(self, tick: TickInput) -> SolveResult:
+        """Solve one tick from the guess in ``tick``."""
+        output = self._solver(x0=tick.guess, p=tick.parameters, lbg=self._lbg, ubg=self._ubg)
+        stats = self._solver.stats()
+        solution = output["x"].full().ravel()
+        success = bool(stats.get("success", False)) and bool(np.all(np.isfinite(solution)))
+        variables = self.model.layouts.variables
+        return SolveResult(
+            success=success,
+            status=str(stats.get("return_status", "unknown")),
+            poses=variables.view(solution, "poses"),
+            twists=variables.view(solution, "twists"),
+            solve_time=float(stats.get("t_wall_total", 0.0)),
+            iterations=int(stats.get("iter_count", 0)),
+        )

@@ -1,0 +1,176 @@
+"""The fast path's QP, assembled once: a pure function of the model and the limit rows.
+
+    minimise    1/2 z' P(p) z + q(p)' z
+    subject to  x_0 = x0,  x_{k+1} - A_k x_k - B_k u_k = c_k,
+                |C u_k| <= speed bounds,  |C (u_k - u_{k-1})| <= accel bounds,
+
+with ``z`` laid out as in :mod:`mpc.model.layout`. ``P`` and ``q`` are the
+CasADi cost's Hessian (upper triangle; CasADi's CCS order is OSQP's CSC
+order) and its gradient at ``z = 0`` (the cost is quadratic in ``z``),
+evaluated each tick from ``p``. The constraint matrix keeps every entry of
+``A_k`` and ``B_k`` as a dense 3x3 block, structural zeros included, so its
+sparsity pattern never changes when the dynamics are re-linearised; where
+each of those entries sits in the CSC data is computed here once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike
+
+from mpc.arrays import FloatArray, IntArray
+from mpc.model.tracking import TrackingModel
+from mpc.robots.base import SpeedRows
+
+
+@dataclass(frozen=True, eq=False)
+class AccelRows:
+    """The acceleration rows: ``start`` row, per-stage rows ``C`` (m, 3), bounds (m,)."""
+
+    start: int
+    rows: FloatArray
+    bound: FloatArray
+
+
+@dataclass(frozen=True, eq=False)
+class QpStructure:
+    """Everything about the QP that is fixed for a controller's life.
+
+    Attributes:
+        cost_terms: CasADi ``p -> (P upper-triangle values, q)``.
+        hessian: ``P`` with its final pattern (values at ``p = 0``).
+        constraints: ``A`` with its final pattern (dynamics entries 0 until set).
+        lower, upper: bounds with the per-tick entries still to fill.
+        dynamics_slots: (N, 18) positions in ``constraints.data`` of
+            ``-vec A_k, -vec B_k`` (column-major, as CasADi's linearisation gives them).
+        accel: the acceleration rows, or None without acceleration limits.
+        limit_rows: speed rows per stage.
+        dual_shift: index map moving each per-stage block of the multipliers one stage
+            earlier (the last stage repeated), for the warm start.
+    """
+
+    cost_terms: ca.Function
+    hessian: sp.csc_matrix
+    constraints: sp.csc_matrix
+    lower: FloatArray
+    upper: FloatArray
+    dynamics_slots: IntArray
+    accel: AccelRows | None
+    limit_rows: int
+    dual_shift: IntArray
+
+
+class _Pattern:
+    """Accumulates COO entries of ``A`` and remembers where each block went."""
+
+    def __init__(self) -> None:
+        self.rows: list[IntArray] = []
+        self.cols: list[IntArray] = []
+        self.values: list[FloatArray] = []
+        self.count = 0
+
+    def add(self, row: ArrayLike, col: ArrayLike, value: ArrayLike) -> IntArray:
+        """Add entries; return their COO ids (in the broadcast shape)."""
+        row, col, value = np.broadcast_arrays(row, col, value)
+        ids = self.count + np.arange(row.size).reshape(row.shape)
+        self.rows.append(row.ravel())
+        self.cols.append(col.ravel())
+        self.values.append(np.asarray(value, dtype=float).ravel())
+        self.count += row.size
+        return ids
+
+    def to_csc(self, shape: tuple[int, int]) -> tuple[sp.csc_matrix, IntArray]:
+        """CSC matrix with every entry kept, and ``position[id]`` in its data."""
+        rows, cols = np.concatenate(self.rows), np.concatenate(self.cols)
+        tagged = sp.coo_matrix((np.arange(1, self.count + 1, dtype=float), (rows, cols)),
+                               shape=shape).tocsc()
+        tagged.sort_indices()
+        if tagged.nnz != self.count:
+            raise RuntimeError("duplicate entries in the QP constraint pattern")
+        position = np.empty(self.count, dtype=np.intp)
+        position[tagged.data.astype(np.intp) - 1] = np.arange(self.count)
+        matrix = tagged.copy()
+        matrix.data[position] = np.concatenate(self.values)
+        return matrix, position
+
+
+def cost_terms(model: TrackingModel) -> tuple[ca.Function, sp.csc_matrix]:
+    """CasADi ``p -> (triu(Hessian) values, gradient at z = 0)`` and ``P``'s pattern."""
+    z, p = model.symbols()
+    cost = model.cost(z, p)
+    size = model.layouts.variables.size
+    hessian = ca.triu(ca.hessian(cost, z)[0])
+    gradient = ca.substitute(ca.gradient(cost, z), z, ca.DM.zeros(size))
+    function = ca.Function("qp_cost", [p], [hessian, gradient])
+    sparsity = function.sparsity_out(0)
+    colind, row = sparsity.get_ccs()
+    values = function(np.zeros(model.layouts.parameters.size))[0].nonzeros()
+    pattern = sp.csc_matrix((np.asarray(values, dtype=float), np.asarray(row),
+                             np.asarray(colind)), shape=(size, size))
+    return function, pattern
+
+
+def assemble_qp(model: TrackingModel, speed: SpeedRows) -> QpStructure:
+    """The QP of ``model`` with the wheel speed limits ``speed`` (module docstring)."""
+    n = model.horizon
+    variables = model.layouts.variables
+    poses, twists = variables["poses"], variables["twists"]
+    robot = model.robot
+    n_limit = speed.rows.shape[0]
+    pattern = _Pattern()
+    pattern.add(np.arange(3), np.arange(3), 1.0)  # x_0 = x0
+    stage = np.arange(n)[:, None, None]
+    r3, c3 = np.meshgrid(np.arange(3), np.arange(3), indexing="ij")  # r3[i, j] = i
+    dyn_rows = 3 + 3 * stage + r3  # (N, 3, 3)
+    pattern.add(dyn_rows, poses.start + 3 * (stage + 1) + c3, np.eye(3))
+    # Column-major ids so that they line up with CasADi's vec(A_k), vec(B_k).
+    ids_a = pattern.add(dyn_rows, poses.start + 3 * stage + c3, 0.0)
+    ids_b = pattern.add(dyn_rows, twists.start + 3 * stage + c3, 0.0)
+    ids_a, ids_b = (ids.transpose(0, 2, 1).reshape(n, 9) for ids in (ids_a, ids_b))
+
+    speed_bound = robot.max_wheel_speed[speed.wheel] * speed.scale
+    m_rows = 3 * (n + 1)
+    lower = [np.zeros(m_rows), -np.tile(speed_bound, n)]
+    upper = [np.zeros(m_rows), np.tile(speed_bound, n)]
+    for k in range(n):
+        rows = m_rows + n_limit * k + np.arange(n_limit)
+        pattern.add(rows[:, None], twists.start + 3 * k + np.arange(3)[None, :], speed.rows)
+    m_rows += n * n_limit
+    accel: AccelRows | None = None
+    if robot.max_wheel_accel is not None:
+        bound = robot.max_wheel_accel[speed.wheel] * model.dt * speed.scale
+        accel = AccelRows(m_rows, speed.rows, bound)
+        for k in range(n):
+            cols = twists.start + 3 * k + np.arange(3)
+            rows = m_rows + n_limit * k + np.arange(n_limit)
+            pattern.add(rows[:, None], cols[None, :], speed.rows)
+            if k > 0:
+                pattern.add(rows[:, None], cols[None, :] - 3, -speed.rows)
+        lower.append(-np.tile(bound, n))
+        upper.append(np.tile(bound, n))
+        m_rows += n * n_limit
+    matrix, position = pattern.to_csc((m_rows, variables.size))
+    blocks = [(0, 3, 1), (3, 3, n), (3 * (n + 1), n_limit, n)]
+    if accel is not None:
+        blocks.append((accel.start, n_limit, n))
+    function, hessian = cost_terms(model)
+    return QpStructure(
+        cost_terms=function, hessian=hessian, constraints=matrix,
+        lower=np.concatenate(lower), upper=np.concatenate(upper),
+        dynamics_slots=np.concatenate((position[ids_a], position[ids_b]), axis=1),
+        accel=accel, limit_rows=n_limit, dual_shift=stage_shift(blocks, m_rows))
+
+
+def stage_shift(blocks: list[tuple[int, int, int]], size: int) -> IntArray:
+    """Index map moving each ``(start, width, stages)`` block one stage earlier (last
+    repeated); entries outside every block map to themselves."""
+    index = np.arange(size)
+    for start, width, stages in blocks:
+        stage = np.minimum(np.arange(stages) + 1, stages - 1)
+        index[start : start + width * stages] = (
+            start + width * stage[:, None] + np.arange(width)).ravel()
+    return index
