@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+from pathlib import Path
 
 import pytest
 
@@ -12,13 +13,13 @@ from benchmarks.scenarios import CONTROLLERS
 
 
 @pytest.fixture(scope="module")
-def quick_run(tmp_path_factory):
+def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("bench")
     assert main(["--quick", "--out", str(out)]) == 0
     return out
 
 
-def test_quick_run_writes_results_and_report(quick_run):
+def test_quick_run_writes_results_and_report(quick_run: Path) -> None:
     document = json.loads((quick_run / "results.json").read_text())
     runs = document["runs"]
     # mecanum x figure8 x {inside, beyond} x every controller
@@ -33,26 +34,29 @@ def test_quick_run_writes_results_and_report(quick_run):
     with (quick_run / "results.csv").open() as handle:
         rows = list(csv.DictReader(handle))
     assert len(rows) == len(runs)
-    assert float(rows[0]["rms_position_error"]) >= 0.0
+    for row, run in zip(rows, runs, strict=True):  # the CSV holds the JSON's metrics
+        assert row["controller"] == run["controller"]
+        assert float(row["rms_position_error"]) == pytest.approx(
+            run["metrics"]["rms_position_error"], rel=1e-12)
     index = (quick_run / "report" / "index.html").read_text()
     assert "mecanum-figure8-beyond-mpc-osqp" in index
     assert (quick_run / "report" / "summary.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_mpc_never_exceeds_a_limit_beyond_the_limits(quick_run):
+def test_mpc_never_exceeds_a_limit_beyond_the_limits(quick_run: Path) -> None:
     runs = json.loads((quick_run / "results.json").read_text())["runs"]
     for run in runs:
         if run["controller"].startswith("mpc"):
             assert run["metrics"]["max_wheel_speed_ratio"] <= 1.0 + 1e-6
 
 
-def test_report_subcommand_rebuilds_the_report(quick_run, tmp_path):
+def test_report_subcommand_rebuilds_the_report(quick_run: Path, tmp_path: Path) -> None:
     assert main(["report", str(quick_run / "results.json"), "--out", str(tmp_path / "again")]) == 0
     assert (tmp_path / "again" / "index.html").exists()
     assert len(list((tmp_path / "again" / "figures").glob("*.png"))) == 2 * len(CONTROLLERS)
 
 
-def test_polygon_sides_reach_the_swerve_qp(tmp_path):
+def test_polygon_sides_reach_the_swerve_qp(tmp_path: Path) -> None:
     def run(sides: str) -> dict:
         out = tmp_path / sides
         assert main(["--layouts", "swerve", "--trajectories", "circle", "--speeds", "beyond",
@@ -68,7 +72,7 @@ def test_polygon_sides_reach_the_swerve_qp(tmp_path):
         assert doc["runs"][0]["metrics"]["max_wheel_speed_ratio"] <= 1.0 + 1e-6
 
 
-def test_robot_file_and_csv_trajectory(tmp_path):
+def test_robot_file_and_csv_trajectory(tmp_path: Path) -> None:
     robot = tmp_path / "robot.toml"
     robot.write_text('type = "omni"\nname = "tri"\nn_wheels = 3\nbase_radius = 0.2\n'
                      "wheel_radius = 0.04\nmax_wheel_speed = 25.0\nmax_wheel_accel = 80.0\n")
@@ -102,7 +106,9 @@ def test_robot_file_and_csv_trajectory(tmp_path):
         (["--bogus"], "unrecognized arguments: --bogus"),
     ],
 )
-def test_bad_arguments_are_one_line_and_exit_2(argv, message, capsys, tmp_path):
+def test_bad_arguments_are_one_line_and_exit_2(argv: list[str], message: str,
+                                               capsys: pytest.CaptureFixture[str],
+                                               tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exit_info:
         code = main([*argv, "--out", str(tmp_path)] if argv[0] != "report" else argv)
         raise SystemExit(code)
@@ -112,7 +118,7 @@ def test_bad_arguments_are_one_line_and_exit_2(argv, message, capsys, tmp_path):
     assert err.count("\n") == 1 and "Traceback" not in err
 
 
-def test_perf_and_soak_run(tmp_path, capsys):
+def test_perf_and_soak_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["perf", "--horizons", "5,10", "--ticks", "40", "--ipopt-ticks", "20",
                  "--out", str(tmp_path)]) == 0
     perf = json.loads((tmp_path / "perf.json").read_text())

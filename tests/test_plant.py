@@ -20,11 +20,8 @@ def command(robot: Robot, twist: np.ndarray | list[float],
             steer_from: np.ndarray | None = None) -> Command:
     """An open-loop command for ``twist`` (what a controller would send)."""
     twist = np.asarray(twist, dtype=float)
-    if isinstance(robot, SwerveRobot):
-        current = np.zeros(robot.n_wheels) if steer_from is None else steer_from
-        speeds, steer = robot.module_states(twist, current)
-    else:
-        speeds, steer = robot.wheel_speeds(twist), None
+    speeds, steer = robot.wheel_commands(
+        twist, robot.initial_steer_angles() if steer_from is None else steer_from)
     return Command(wheel_speeds=speeds, twist=twist, steer_angles=steer,
                    predicted_poses=np.zeros((1, 3)), status=Status.SOLVED, solver_status="",
                    solve_time=0.0, tick_time=0.0, iterations=0, consecutive_failures=0,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -91,14 +92,14 @@ def _results() -> dict:
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory):
+def report(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[tuple[int, int]]]:
     out_dir = tmp_path_factory.mktemp("report")
     progress: list[tuple[int, int]] = []
     index = write_report(_results(), out_dir / "nested", lambda i, n: progress.append((i, n)))
     return index, progress
 
 
-def test_index_references_every_figure_and_run(report):
+def test_index_references_every_figure_and_run(report: tuple[Path, list[tuple[int, int]]]) -> None:
     index, _ = report
     assert index.name == "index.html" and index.is_file()
     page = index.read_text(encoding="utf-8")
@@ -109,13 +110,13 @@ def test_index_references_every_figure_and_run(report):
         assert f'id="{rid}"' in page and f'href="#{rid}"' in page
 
 
-def test_index_shows_metadata_escaped(report):
+def test_index_shows_metadata_escaped(report: tuple[Path, list[tuple[int, int]]]) -> None:
     page = report[0].read_text(encoding="utf-8")
     assert "mpc-bench --quick" in page and "2026-11-23T10:00:00+00:00" in page
     assert "Linux &lt;test&gt;" in page and "<test>" not in page
 
 
-def test_index_formats_table_values(report):
+def test_index_formats_table_values(report: tuple[Path, list[tuple[int, int]]]) -> None:
     page = report[0].read_text(encoding="utf-8")
     # 0.0123 m -> 12.3 mm is the best of its scenario, 45.6 mm is not
     assert page.count('<td class="best"><b>12.3</b></td>') == 2
@@ -127,7 +128,7 @@ def test_index_formats_table_values(report):
     assert "<td>3 (previous_plan: 3)</td>" in page
 
 
-def test_figures_are_png(report):
+def test_figures_are_png(report: tuple[Path, list[tuple[int, int]]]) -> None:
     index, _ = report
     pngs = [index.parent / "summary.png"]
     pngs += [index.parent / "figures" / f"{run_id(run)}.png" for run in _results()["runs"]]
@@ -137,11 +138,11 @@ def test_figures_are_png(report):
         assert len(data) > 1000 and data[:8] == PNG_MAGIC
 
 
-def test_progress_called_per_figure(report):
+def test_progress_called_per_figure(report: tuple[Path, list[tuple[int, int]]]) -> None:
     assert report[1] == [(1, 5), (2, 5), (3, 5), (4, 5), (5, 5)]
 
 
-def test_summary_markdown_has_a_row_per_run(report):
+def test_summary_markdown_has_a_row_per_run(report: tuple[Path, list[tuple[int, int]]]) -> None:
     lines = (report[0].parent / "summary.md").read_text(encoding="utf-8").splitlines()
     assert lines[0].startswith("| layout | trajectory | speed |") and set(lines[1]) <= set("|- ")
     rows = lines[2:]
@@ -153,14 +154,14 @@ def test_summary_markdown_has_a_row_per_run(report):
         assert cells[5] == ("**12.3**" if run["controller"] == "mpc-osqp" else "45.6")
 
 
-def test_run_id_is_a_safe_file_name():
+def test_run_id_is_a_safe_file_name() -> None:
     run = {"layout": "omni 3", "trajectory": "figure8", "speed": "beyond/1.3",
            "controller": "mpc-osqp"}
     assert run_id(run) == "omni_3-figure8-beyond_1.3-mpc-osqp"
     assert re.fullmatch(r"[A-Za-z0-9._+-]+", run_id(run))
 
 
-def test_repeated_run_ids_get_distinct_figures(tmp_path):
+def test_repeated_run_ids_get_distinct_figures(tmp_path: Path) -> None:
     results = _results()
     results["runs"] = [results["runs"][0], results["runs"][0]]
     write_report(results, tmp_path)
@@ -168,7 +169,7 @@ def test_repeated_run_ids_get_distinct_figures(tmp_path):
     assert {p.name for p in (tmp_path / "figures").iterdir()} == {f"{rid}.png", f"{rid}-2.png"}
 
 
-def test_load_results_round_trip(tmp_path):
+def test_load_results_round_trip(tmp_path: Path) -> None:
     results = _results()
     path = tmp_path / "results.json"
     path.write_text(json.dumps(results), encoding="utf-8")  # inf is written as Infinity
@@ -178,7 +179,7 @@ def test_load_results_round_trip(tmp_path):
     assert loaded["runs"][0]["series"]["pose"] == results["runs"][0]["series"]["pose"]
 
 
-def test_load_results_errors(tmp_path):
+def test_load_results_errors(tmp_path: Path) -> None:
     with pytest.raises(ReportError, match="not found"):
         load_results(tmp_path / "missing.json")
     bad = tmp_path / "bad.json"
@@ -195,7 +196,7 @@ def test_load_results_errors(tmp_path):
         load_results(bad)
 
 
-def test_write_report_rejects_bad_series(tmp_path):
+def test_write_report_rejects_bad_series(tmp_path: Path) -> None:
     results = _results()
     del results["runs"][1]["series"]["reference"]
     with pytest.raises(ReportError, match="run 1 .*series lacks 'reference'"):
@@ -206,7 +207,7 @@ def test_write_report_rejects_bad_series(tmp_path):
         write_report(results, tmp_path)
 
 
-def test_degenerate_runs_do_not_crash(tmp_path):
+def test_degenerate_runs_do_not_crash(tmp_path: Path) -> None:
     """No robot, no ticks, a two-wheel robot, infinite limits, null metrics, numeric labels."""
     results = _results()
     no_robot, empty, two_wheels = (results["runs"][i] for i in (0, 1, 2))

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -40,17 +42,17 @@ twists = st.tuples(*(st.floats(-3, 3, allow_nan=False) for _ in range(3))).map(n
         ((0, 0, 1), (-0.275, 0.275, -0.275, 0.275)),
     ],
 )
-def test_mecanum_check_values(twist, surface_speed):
+def test_mecanum_check_values(twist: np.ndarray, surface_speed: tuple[float, ...]) -> None:
     np.testing.assert_allclose(MECANUM.wheel_speeds(twist) * 0.05, surface_speed, atol=1e-12)
 
 
-def test_mecanum_batched_matches_single():
+def test_mecanum_batched_matches_single() -> None:
     batch = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [0.3, -0.2, 0.7]])
     single = np.array([MECANUM.wheel_speeds(t) for t in batch])
     np.testing.assert_allclose(MECANUM.wheel_speeds(batch), single)
 
 
-def test_omni_formula_and_ccw_spin():
+def test_omni_formula_and_ccw_spin() -> None:
     robot = omni(n_wheels=3, base_radius=0.15, wheel_radius=0.03, max_wheel_speed=30.0,
                  first_wheel_angle=math.radians(60))
     alphas = np.radians([60, 180, 300])
@@ -63,13 +65,13 @@ def test_omni_formula_and_ccw_spin():
     assert twist[2] > 0
 
 
-def test_omni4_x_layout_forward():
+def test_omni4_x_layout_forward() -> None:
     robot = preset("omni4")  # wheels at 45, 135, 225, 315 degrees, radius 0.05
     s = math.sqrt(0.5)
     np.testing.assert_allclose(robot.wheel_speeds([1, 0, 0]) * 0.05, [-s, -s, s, s], atol=1e-12)
 
 
-def test_swerve_check_values_spin():
+def test_swerve_check_values_spin() -> None:
     speeds, angles = SWERVE.module_states([0, 0, 1])
     np.testing.assert_allclose(speeds * 0.05, 0.4243, atol=1e-4)
     assert math.degrees(angles[0]) == pytest.approx(135)
@@ -77,7 +79,7 @@ def test_swerve_check_values_spin():
     np.testing.assert_allclose(SWERVE.wheel_speeds([0, 0, 1]) * 0.05, 0.4243, atol=1e-4)
 
 
-def test_swerve_flip_beyond_90_degrees():
+def test_swerve_flip_beyond_90_degrees() -> None:
     # Ask every module for 170 degrees (pure translation) while at 0: flip to -10, drive back.
     direction = math.radians(170)
     twist = [math.cos(direction), math.sin(direction), 0.0]
@@ -86,13 +88,13 @@ def test_swerve_flip_beyond_90_degrees():
     np.testing.assert_allclose(speeds, -1.0 / 0.05)
 
 
-def test_swerve_exactly_90_degrees_does_not_flip():
+def test_swerve_exactly_90_degrees_does_not_flip() -> None:
     speeds, angles = SWERVE.module_states([0, 1, 0], current_angles=np.zeros(4))
     np.testing.assert_allclose(angles, math.pi / 2)
     np.testing.assert_allclose(speeds, 1.0 / 0.05)
 
 
-def test_swerve_stopped_module_keeps_angle():
+def test_swerve_stopped_module_keeps_angle() -> None:
     current = np.array([0.1, -0.2, 0.3, 2.0])
     speeds, angles = SWERVE.module_states([0, 0, 0], current_angles=current)
     np.testing.assert_allclose(speeds, 0.0)
@@ -101,9 +103,10 @@ def test_swerve_stopped_module_keeps_angle():
 
 @settings(max_examples=60, deadline=None)
 @given(twists)
-def test_round_trips(twist):
+def test_round_trips(twist: np.ndarray) -> None:
     for robot in (MECANUM, preset("omni3"), preset("omni4")):
-        np.testing.assert_allclose(robot.twist(robot.wheel_speeds(twist)), twist, atol=1e-9)
+        np.testing.assert_allclose(robot.twist(robot.wheel_speeds(twist)), twist,  # type: ignore[attr-defined]
+                                   atol=1e-9)
     speeds, angles = SWERVE.module_states(twist, current_angles=np.full(4, 0.5))
     # Modules slower than STOPPED_MODULE_SPEED (1e-6 m/s) are commanded to rest.
     np.testing.assert_allclose(SWERVE.twist(speeds, angles), twist, atol=1e-5)
@@ -111,7 +114,7 @@ def test_round_trips(twist):
 
 @settings(max_examples=60, deadline=None)
 @given(twists, st.floats(0.01, 10))
-def test_desaturate_keeps_direction_and_limits(twist, scale):
+def test_desaturate_keeps_direction_and_limits(twist: np.ndarray, scale: float) -> None:
     for robot in (MECANUM, SWERVE):
         out = robot.desaturate(twist * scale)
         assert robot.is_feasible(out)
@@ -124,14 +127,14 @@ def test_desaturate_keeps_direction_and_limits(twist, scale):
             assert robot.speed_ratio(out) == pytest.approx(1.0)
 
 
-def test_feasible_set_is_not_a_box():
+def test_feasible_set_is_not_a_box() -> None:
     # Full forward speed leaves no room to strafe on a Mecanum chassis.
     assert MECANUM.is_feasible([1.0, 0.0, 0.0])
     assert MECANUM.is_feasible([0.0, 1.0, 0.0])
     assert not MECANUM.is_feasible([1.0, 0.1, 0.0])
 
 
-def test_derated_wheel():
+def test_derated_wheel() -> None:
     weak = MECANUM.derated({1: 0.5})
     np.testing.assert_allclose(weak.max_wheel_speed, [20, 10, 20, 20])
     assert not weak.is_feasible([1.0, 0, 0])
@@ -146,13 +149,13 @@ def test_derated_wheel():
 
 
 @pytest.mark.parametrize("name", PRESETS)
-def test_presets_load(name):
+def test_presets_load(name: str) -> None:
     robot = preset(name)
     assert robot.n_wheels >= 3 or name == "swerve"
     assert np.all(robot.max_wheel_speed > 0)
 
 
-def test_load_toml_matches_factory(tmp_path):
+def test_load_toml_matches_factory(tmp_path: Path) -> None:
     path = tmp_path / "robot.toml"
     path.write_text(
         'type = "mecanum"\nname = "mine"\nwheelbase = 0.30\ntrack = 0.25\n'
@@ -164,7 +167,7 @@ def test_load_toml_matches_factory(tmp_path):
                                MECANUM.wheel_speeds([0.2, 0.1, 0.5]))
 
 
-def test_load_swedish_wheels_table(tmp_path):
+def test_load_swedish_wheels_table(tmp_path: Path) -> None:
     path = tmp_path / "robot.toml"
     rows = "".join(
         f"[[wheels]]\nalpha = {a}\nbeta = 3.141592653589793\ngamma = 0.0\nl = 0.2\n"
@@ -186,19 +189,19 @@ def test_load_swedish_wheels_table(tmp_path):
         ("type = [", "not valid TOML"),
     ],
 )
-def test_load_errors(tmp_path, text, match):
+def test_load_errors(tmp_path: Path, text: str, match: str) -> None:
     path = tmp_path / "robot.toml"
     path.write_text(text)
     with pytest.raises(RobotError, match=match):
         load(path)
 
 
-def test_load_missing_file(tmp_path):
+def test_load_missing_file(tmp_path: Path) -> None:
     with pytest.raises(RobotError, match="cannot read robot file"):
         load(tmp_path / "nope.toml")
 
 
-def test_unknown_preset_lists_names():
+def test_unknown_preset_lists_names() -> None:
     with pytest.raises(RobotError, match="omni3"):
         preset("hexapod")
 
@@ -224,12 +227,12 @@ def test_unknown_preset_lists_names():
                         max_wheel_speed=1.0, max_steer_rate=0.0), "max_steer_rate"),
     ],
 )
-def test_bad_descriptions(build, match):
+def test_bad_descriptions(build: Callable[[], object], match: str) -> None:
     with pytest.raises(RobotError, match=match):
         build()
 
 
-def test_parallel_wheels_are_not_holonomic():
+def test_parallel_wheels_are_not_holonomic() -> None:
     wheel = dict(beta=0.0, gamma=0.0, l=0.2, radius=0.05, max_speed=10.0)
     # All three wheel planes parallel: alpha + beta equal, so no sideways drive.
     wheels = tuple(SwedishWheel(alpha=0.0, **wheel) for _ in range(3))
@@ -241,19 +244,19 @@ def test_parallel_wheels_are_not_holonomic():
     ("twist", "match"),
     [([1.0, 0.0], r"shape \(3,\) or \(k, 3\)"), ([np.nan, 0.0, 0.0], "finite")],
 )
-def test_bad_twists(twist, match):
+def test_bad_twists(twist: np.ndarray, match: str) -> None:
     with pytest.raises(MpcError, match=match):
         MECANUM.wheel_speeds(twist)
 
 
-def test_errors_are_value_errors():
+def test_errors_are_value_errors() -> None:
     assert issubclass(RobotError, ValueError)
     assert issubclass(RobotError, MpcError)
     with pytest.raises(ValueError):
         MECANUM.twist([1.0, 2.0])
 
 
-def test_swedish_robot_takes_its_wheels_positionally():
+def test_swedish_robot_takes_its_wheels_positionally() -> None:
     wheels = preset("omni3").wheels  # type: ignore[attr-defined]
     robot = SwedishRobot(wheels, name="three")
     assert robot.name == "three" and robot.n_wheels == 3
@@ -262,13 +265,13 @@ def test_swedish_robot_takes_its_wheels_positionally():
 
 
 @pytest.mark.parametrize("index", [1.9, True, "1", -1, 4])
-def test_derating_index_must_be_a_wheel_number(index):
+def test_derating_index_must_be_a_wheel_number(index: object) -> None:
     with pytest.raises(RobotError, match="wheel index must be an integer in 0..3"):
-        MECANUM.derated({index: 0.5})
+        MECANUM.derated({index: 0.5})  # type: ignore[dict-item]
 
 
 @pytest.mark.parametrize("name", PRESETS)
-def test_forward_kinematics_inverts_the_commands(name):
+def test_forward_kinematics_inverts_the_commands(name: str) -> None:
     """The plant's forward map recovers the twist from what wheel_commands sends."""
     robot = preset(name)
     rng = np.random.default_rng(3)
@@ -280,7 +283,7 @@ def test_forward_kinematics_inverts_the_commands(name):
 
 
 @pytest.mark.parametrize("name", PRESETS)
-def test_casadi_limits_agree_with_wheel_magnitudes(name):
+def test_casadi_limits_agree_with_wheel_magnitudes(name: str) -> None:
     """The NLP's limit expression holds exactly when every wheel is within its bound."""
     import casadi as ca
 

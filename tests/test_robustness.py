@@ -4,6 +4,7 @@ large initial error, noisy realistic plants and invariance over random set-ups."
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -11,8 +12,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mpc import Controller, Status
-from mpc.robots import mecanum, omni, preset, swerve
-from mpc.sim import PlantConfig, simulate
+from mpc.robots import Robot, mecanum, omni, preset, swerve
+from mpc.sim import PlantConfig, SimResult, simulate
+from mpc.solvers import SolveResult
 from trajectories import (
     Circle,
     FigureEight,
@@ -23,11 +25,11 @@ from trajectories import (
 )
 
 
-def _rms_after(result, skip=2.0):
+def _rms_after(result: SimResult, skip: float = 2.0) -> float:
     return result.metrics(skip=skip)["rms_position_error"]
 
 
-def test_delay_compensation_restores_tracking():
+def test_delay_compensation_restores_tracking() -> None:
     """A 2-tick command delay: compensated tracking stays near the no-delay case."""
     robot = preset("mecanum")
     trajectory = FigureEight(1.0, 16.0, heading=0.0)
@@ -41,7 +43,7 @@ def test_delay_compensation_restores_tracking():
     assert aware < ideal + 1e-4
 
 
-def test_weakened_mecanum_wheel_is_respected():
+def test_weakened_mecanum_wheel_is_respected() -> None:
     robot = preset("mecanum").derated({1: 0.5})
     trajectory = FigureEight(1.0, 12.0, heading=0.0)
     result = simulate(Controller(robot, trajectory), 8.0)
@@ -52,7 +54,7 @@ def test_weakened_mecanum_wheel_is_respected():
 
 
 @pytest.mark.parametrize("solver", ["osqp", "ipopt"])
-def test_omni4_with_a_dead_wheel_tracks_a_slow_circle(solver):
+def test_omni4_with_a_dead_wheel_tracks_a_slow_circle(solver: str) -> None:
     """Wheel 0 held at rest: every twist must keep J_0 u = 0, which ties the spin to the
     direction of travel. With the heading left free, the position still tracks."""
     robot = preset("omni4").derated({0: 0.0})
@@ -65,7 +67,7 @@ def test_omni4_with_a_dead_wheel_tracks_a_slow_circle(solver):
     assert metrics["rms_position_error"] < 0.005  # measured 0.6 mm
 
 
-def test_solver_starved_of_iterations_falls_back_safely():
+def test_solver_starved_of_iterations_falls_back_safely() -> None:
     robot = preset("mecanum")
     trajectory = FigureEight(1.0, 16.0, heading=0.0)
     control = Controller(robot, trajectory, max_iter=1)
@@ -77,14 +79,14 @@ def test_solver_starved_of_iterations_falls_back_safely():
     assert metrics["limit_violations"] == 0 and metrics["accel_violations"] == 0
 
 
-def test_recovers_when_the_solver_does(monkeypatch):
+def test_recovers_when_the_solver_does(monkeypatch: pytest.MonkeyPatch) -> None:
     robot = preset("omni3")
     trajectory = Circle(1.0, 12.0, heading=0.0)
     control = Controller(robot, trajectory)
     real = control.solver.solve
     broken = {"on": False}
 
-    def flaky(*args):
+    def flaky(*args: Any) -> SolveResult:
         result = real(*args)
         if broken["on"]:
             return type(result)(False, "injected", result.poses * np.nan, result.twists * np.nan,
@@ -107,7 +109,7 @@ def test_recovers_when_the_solver_does(monkeypatch):
 
 
 @pytest.mark.parametrize("solver", ["osqp", "ipopt"])
-def test_large_initial_error_converges_within_limits(solver):
+def test_large_initial_error_converges_within_limits(solver: str) -> None:
     robot = preset("mecanum")
     trajectory = FigureEight(1.0, 16.0, heading=0.0)
     start = trajectory.sample(0.0).pose + [2.0, 0.0, math.pi]
@@ -119,7 +121,7 @@ def test_large_initial_error_converges_within_limits(solver):
     assert full["limit_violations"] == 0 and full["accel_violations"] == 0
 
 
-def test_realistic_plant_every_controller_within_limits():
+def test_realistic_plant_every_controller_within_limits() -> None:
     robot = preset("swerve")
     trajectory = FigureEight(1.0, 14.0, heading="tangent")
     result = simulate(Controller(robot, trajectory, delay_ticks=1), 8.0, plant="realistic", seed=3)
@@ -130,10 +132,11 @@ def test_realistic_plant_every_controller_within_limits():
 
 
 @st.composite
-def setups(draw):
+def setups(draw: st.DrawFn) -> tuple[Robot, Trajectory, np.ndarray]:
     """A random robot, a reference inside or beyond its limits, a random start."""
     kind = draw(st.sampled_from(["omni", "mecanum", "swerve"]))
     speed = draw(st.floats(5.0, 40.0))
+    robot: Robot
     if kind == "omni":
         robot = omni(n_wheels=draw(st.integers(3, 5)), base_radius=draw(st.floats(0.1, 0.4)),
                      wheel_radius=draw(st.floats(0.02, 0.08)), max_wheel_speed=speed,
@@ -161,7 +164,8 @@ def setups(draw):
 @settings(max_examples=12, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(setups())
-def test_random_setups_stay_finite_and_within_limits(setup):
+def test_random_setups_stay_finite_and_within_limits(
+        setup: tuple[Robot, Trajectory, np.ndarray]) -> None:
     robot, trajectory, offset = setup
     control = Controller(robot, trajectory, horizon=10)
     result = simulate(control, 2.0, initial_pose=trajectory.sample(0.0).pose + offset)
@@ -189,7 +193,7 @@ class Moved(Trajectory):
     def period(self) -> float | None:
         return self.base.period
 
-    def _path(self, t):
+    def _path(self, t: np.ndarray) -> PathDerivatives:
         path = self.base.path(t)
         turn = self.rotation.T
         return PathDerivatives(path.position @ turn + self.shift, path.velocity @ turn,
@@ -198,7 +202,8 @@ class Moved(Trajectory):
 
 @pytest.mark.parametrize("solver", ["osqp", "ipopt"])
 @pytest.mark.parametrize(("angle", "shift"), [(0.7, (2.0, -1.0)), (-2.5, (-3.0, 0.5))])
-def test_rotating_and_shifting_the_world_does_not_change_tracking(solver, angle, shift):
+def test_rotating_and_shifting_the_world_does_not_change_tracking(
+        solver: str, angle: float, shift: tuple[float, float]) -> None:
     """The same task described in a rotated and translated world frame gives the same
     errors and the same wheel commands (beyond the limits, so the limits matter too)."""
     robot = preset("omni3")

@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike
 from mpc import Command, Controller, Status
 from mpc.errors import MpcError
 from mpc.robots import Robot, preset
-from mpc.sim import SimResult, simulate
+from mpc.sim import Plant, PlantConfig, Recorder, SimResult, simulate
 from trajectories import Circle, Trajectory
 
 DT = 0.05
@@ -243,8 +243,8 @@ def test_simulate_rejects_bad_durations(duration: object) -> None:
 @pytest.mark.parametrize(
     ("options", "message"),
     [
-        ({"initial_pose": [0.0, 0.0]}, "initial_pose must be a finite"),
-        ({"initial_pose": [0.0, math.nan, 0.0]}, "initial_pose must be a finite"),
+        ({"initial_pose": [0.0, 0.0]}, r"initial_pose must have shape \(3,\)"),
+        ({"initial_pose": [0.0, math.nan, 0.0]}, "initial_pose must be finite"),
         ({"plant": "bumpy"}, "plant must be a PlantConfig or one of"),
     ],
 )
@@ -264,3 +264,41 @@ def test_simulate_with_a_real_controller_matches_its_metrics() -> None:
     assert metrics["max_wheel_speed_ratio"] == pytest.approx(
         float((np.abs(result.wheel_command) / ROBOT.max_wheel_speed).max()), rel=1e-12)
     assert metrics["failures"] == sum(status != "solved" for status in result.status)
+
+
+def test_a_loop_of_your_own_records_the_same_result_as_simulate() -> None:
+    """The Recorder in a hand-written loop (what a user with a real robot writes) gives the
+    SimResult that simulate() gives for the same controller and plant."""
+    controller = Controller(ROBOT, CIRCLE, horizon=10)
+    expected = simulate(controller, 1.5, plant="realistic", seed=4)
+    controller.reset()
+    plant = Plant(ROBOT, DT, CIRCLE.sample(0.0).pose, PlantConfig(
+        motor_lag=0.03, delay_ticks=1, position_noise=0.002, heading_noise=0.005, slip=0.03),
+        np.random.default_rng(4))
+    recorder = Recorder(ROBOT, CIRCLE, DT)
+    for k in range(30):
+        pose, measured = plant.pose, plant.measure()
+        command = controller.step(measured, k * DT)
+        recorder.record(k * DT, pose, command, measured, plant.apply(command))
+    mine = recorder.result()
+    assert len(recorder) == 30
+    for name in ("time", "pose", "measured", "reference", "wheel_command", "wheel_actual",
+                 "twist_command"):
+        np.testing.assert_allclose(getattr(mine, name), getattr(expected, name), atol=1e-12)
+    assert mine.status == expected.status
+    assert mine.metrics()["rms_position_error"] == pytest.approx(
+        expected.metrics()["rms_position_error"], rel=1e-9)
+
+
+def test_recorder_rejects_bad_ticks_and_empty_results() -> None:
+    recorder = Recorder(ROBOT, CIRCLE, DT)
+    with pytest.raises(MpcError, match="nothing recorded"):
+        recorder.result()
+    stub = ConstantTwist(ROBOT, CIRCLE, [0.0, 0.0, 0.0])
+    command = stub.step(np.zeros(3), 0.0)
+    with pytest.raises(MpcError, match="pose must be finite"):
+        recorder.record(0.0, [0.0, math.nan, 0.0], command)
+    with pytest.raises(MpcError, match="t must be a finite time"):
+        recorder.record(math.inf, np.zeros(3), command)
+    with pytest.raises(MpcError, match=r"wheel_actual must have shape \(4,\)"):
+        recorder.record(0.0, np.zeros(3), command, wheel_actual=[1.0])

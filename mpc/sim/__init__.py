@@ -3,12 +3,14 @@
 - :mod:`.plant`: the simulated robot (RK4 of the wheels' actual motion, with
   motor lag, delay, noise, slip and steering rate);
 - :mod:`.simulate`: the closed loop, :func:`simulate`;
+- :mod:`.recorder`: :class:`Recorder`, the same record from a loop of your own;
 - :mod:`.result`: :class:`SimResult` and its metrics;
 - :mod:`.baselines`: feedforward + P controllers with per-wheel clipping or desaturation.
 """
 
 from mpc.sim.baselines import SATURATIONS, FeedforwardPController
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
+from mpc.sim.recorder import Recorder
 from mpc.sim.result import LIMIT_RTOL, SimResult
 from mpc.sim.simulate import TrackingController, simulate
 
@@ -19,6 +21,7 @@ __all__ = [
     "FeedforwardPController",
     "Plant",
     "PlantConfig",
+    "Recorder",
     "SimResult",
     "TrackingController",
     "simulate",

@@ -8,13 +8,13 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mpc.arrays import FloatArray
 from mpc.control.command import Command
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
+from mpc.sim.recorder import Recorder
 from mpc.sim.result import SimResult
-from mpc.validation import is_finite_number
+from mpc.validation import finite_vector, is_finite_number
 from trajectories import Trajectory
 
 
@@ -60,44 +60,21 @@ def simulate(
     dt = controller.dt
     ticks = max(1, round(duration / dt))
     trajectory = controller.trajectory
-    true_robot = robot or controller.robot
     if initial_pose is None:
         start = trajectory.sample(0.0).pose
     else:
-        start = np.asarray(initial_pose, dtype=float)
-        if start.shape != (3,) or not np.all(np.isfinite(start)):
-            raise SimulationError(f"initial_pose must be a finite (3,) pose, got {initial_pose!r}")
-    sim = Plant(true_robot, dt, start, config, np.random.default_rng(seed))
+        start = finite_vector("initial_pose", initial_pose, 3, "(x, y, theta)", SimulationError)
+    sim = Plant(robot or controller.robot, dt, start, config, np.random.default_rng(seed))
     controller.reset()
-    n = true_robot.n_wheels
-    time: FloatArray = dt * np.arange(ticks, dtype=np.float64)
-    poses, measured = np.empty((ticks, 3)), np.empty((ticks, 3))
-    commands, actual = np.empty((ticks, n)), np.empty((ticks, n))
-    twists = np.empty((ticks, 3))
-    tick_time, solve_time, iterations = np.empty(ticks), np.empty(ticks), np.empty(ticks)
-    status: list[str] = []
+    recorder = Recorder(controller.robot, trajectory, dt)
     for k in range(ticks):
-        poses[k] = sim.pose
-        measured[k] = sim.measure()
-        command = controller.step(measured[k], float(time[k]))
-        commands[k] = command.wheel_speeds
-        twists[k] = command.twist
-        tick_time[k], solve_time[k] = command.tick_time, command.solve_time
-        iterations[k] = command.iterations
-        status.append(command.status.value)
-        actual[k] = sim.apply(command)
+        t = k * dt
+        pose, measured = sim.pose, sim.measure()
+        command = controller.step(measured, t)
+        recorder.record(t, pose, command, measured, sim.apply(command))
         if on_tick is not None:
             on_tick(k, ticks)
-    reference = trajectory.sample(time).pose
-    return SimResult(
-        time=time, pose=poses, measured=measured, reference=reference,
-        wheel_command=commands, wheel_actual=actual,
-        wheel_limit=controller.robot.max_wheel_speed.copy(),
-        wheel_accel_limit=controller.robot.max_wheel_accel,
-        twist_command=twists, status=tuple(status), tick_time=tick_time,
-        solve_time=solve_time, iterations=iterations, dt=dt, trajectory=trajectory,
-        wheel_blocks=controller.robot.wheel_blocks,
-    )
+    return recorder.result()
 
 
 def _plant_config(plant: PlantConfig | str | None) -> PlantConfig:

@@ -1,0 +1,80 @@
+"""Record any control loop tick by tick into a :class:`~mpc.sim.result.SimResult`.
+
+:func:`~mpc.sim.simulate.simulate` uses it, and so can a loop of your own
+(a real robot, another simulator)::
+
+    recorder = Recorder(controller.robot, controller.trajectory, controller.dt)
+    while running:
+        command = controller.step(pose, t)
+        recorder.record(t, pose, command)
+    result = recorder.result()       # metrics, figures: as for simulate()
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mpc.arrays import FloatArray
+from mpc.control.command import Command
+from mpc.errors import SimulationError
+from mpc.robots.base import Robot
+from mpc.sim.result import SimResult
+from mpc.validation import finite_vector, is_finite_number, positive
+from trajectories import Trajectory
+
+
+class Recorder:
+    """Collects ticks; :meth:`result` packs them as a :class:`SimResult`.
+
+    Args:
+        robot: the controller's robot (its limits are what the metrics check).
+        trajectory: the reference (errors are measured against it).
+        dt: control tick [s].
+    """
+
+    def __init__(self, robot: Robot, trajectory: Trajectory, dt: float) -> None:
+        if not isinstance(robot, Robot):
+            raise SimulationError(f"robot must be an mpc.robots.Robot, got {robot!r}")
+        if not isinstance(trajectory, Trajectory):
+            raise SimulationError(f"trajectory must be a Trajectory, got {trajectory!r}")
+        self.robot, self.trajectory = robot, trajectory
+        self.dt = positive("dt [s]", dt, SimulationError)
+        self._rows: list[tuple[float, FloatArray, FloatArray, FloatArray, Command]] = []
+
+    def __len__(self) -> int:
+        return len(self._rows)
+
+    def record(self, t: float, pose: ArrayLike, command: Command,
+               measured: ArrayLike | None = None, wheel_actual: ArrayLike | None = None) -> None:
+        """One tick at time ``t`` [s]: the true ``pose`` (x, y, theta) [m, m, rad] when the
+        command was computed, the ``command``, the pose the controller saw (default: the true
+        pose) and the wheel speeds actually reached [rad/s] (default: the command's)."""
+        if not is_finite_number(t):
+            raise SimulationError(f"t must be a finite time in seconds, got {t!r}")
+        true = finite_vector("pose", pose, 3, "(x, y, theta)", SimulationError)
+        seen = true if measured is None else finite_vector(
+            "measured", measured, 3, "(x, y, theta)", SimulationError)
+        reached = command.wheel_speeds if wheel_actual is None else finite_vector(
+            "wheel_actual", wheel_actual, self.robot.n_wheels, "wheel speeds", SimulationError)
+        self._rows.append((float(t), true, seen, np.array(reached, dtype=float), command))
+
+    def result(self) -> SimResult:
+        """Everything recorded so far (at least one tick)."""
+        if not self._rows:
+            raise SimulationError("nothing recorded: call record() at least once")
+        times, poses, measured, actual, commands = zip(*self._rows, strict=True)
+        robot = self.robot
+        time = np.array(times)
+        return SimResult(
+            time=time, pose=np.array(poses), measured=np.array(measured),
+            reference=self.trajectory.sample(time).pose,
+            wheel_command=np.array([c.wheel_speeds for c in commands]),
+            wheel_actual=np.array(actual),
+            wheel_limit=robot.max_wheel_speed.copy(), wheel_accel_limit=robot.max_wheel_accel,
+            twist_command=np.array([c.twist for c in commands]),
+            status=tuple(c.status.value for c in commands),
+            tick_time=np.array([c.tick_time for c in commands]),
+            solve_time=np.array([c.solve_time for c in commands]),
+            iterations=np.array([float(c.iterations) for c in commands]),
+            dt=self.dt, trajectory=self.trajectory, wheel_blocks=robot.wheel_blocks)
