@@ -1,4 +1,5 @@
-"""Robot kinematics against kinematics.md, round trips, invariants and validation."""
+"""Robot kinematics against hand-derived check values (README, "Conventions"), round trips,
+invariants and validation."""
 
 from __future__ import annotations
 

@@ -37,8 +37,8 @@ def test_delay_compensation_restores_tracking() -> None:
     ideal = _rms_after(simulate(Controller(robot, trajectory), 8.0))
     blind = _rms_after(simulate(Controller(robot, trajectory), 8.0, plant=delayed))
     aware = _rms_after(simulate(Controller(robot, trajectory, delay_ticks=2), 8.0, plant=delayed))
-    # Measured: ideal ~2e-6 m, aware ~6e-6 m, blind ~3.4e-3 m.
-    assert aware < 1e-4
+    # Measured: ideal 1.7e-6 m, aware 7.3e-6 m, blind 3.6e-3 m.
+    assert aware < 3e-5
     assert blind > 20 * aware
     assert aware < ideal + 1e-4
 
@@ -64,7 +64,7 @@ def test_omni4_with_a_dead_wheel_tracks_a_slow_circle(solver: str) -> None:
     metrics = result.metrics(skip=5.0)
     assert np.abs(result.wheel_command[:, 0]).max() < 1e-9
     assert metrics["limit_violations"] == 0
-    assert metrics["rms_position_error"] < 0.005  # measured 0.6 mm
+    assert metrics["rms_position_error"] < 1e-3  # measured 0.36 mm (both solvers)
 
 
 def test_solver_starved_of_iterations_falls_back_safely() -> None:
@@ -114,9 +114,9 @@ def test_large_initial_error_converges_within_limits(solver: str) -> None:
     trajectory = FigureEight(1.0, 16.0, heading=0.0)
     start = trajectory.sample(0.0).pose + [2.0, 0.0, math.pi]
     result = simulate(Controller(robot, trajectory, solver=solver), 8.0, initial_pose=start)
-    metrics = result.metrics(skip=4.0)
-    assert metrics["max_position_error"] < 1e-3
-    assert metrics["max_heading_error"] < 1e-3
+    metrics = result.metrics(skip=4.0)  # measured max 12 um / 3 urad (OSQP), less for IPOPT
+    assert metrics["max_position_error"] < 5e-5
+    assert metrics["max_heading_error"] < 2e-5
     full = result.metrics()
     assert full["limit_violations"] == 0 and full["accel_violations"] == 0
 
@@ -127,8 +127,8 @@ def test_realistic_plant_every_controller_within_limits() -> None:
     result = simulate(Controller(robot, trajectory, delay_ticks=1), 8.0, plant="realistic", seed=3)
     metrics = result.metrics(skip=2.0)
     assert metrics["limit_violations"] == 0
-    # Lag, noise (2 mm) and 3% slip: centimetre-level tracking, not micrometres.
-    assert metrics["rms_position_error"] < 0.03
+    # Lag, noise (2 mm) and 3% slip: millimetres, not micrometres (measured 3.6 mm).
+    assert metrics["rms_position_error"] < 0.01
 
 
 @st.composite

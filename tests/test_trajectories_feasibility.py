@@ -23,7 +23,7 @@ from trajectories import (
 
 @dataclass(frozen=True)
 class FakeMecanum:
-    """Mecanum inverse kinematics from docs/kinematics.md, order FL, FR, RL, RR."""
+    """Mecanum inverse kinematics (README, Conventions), order FL, FR, RL, RR."""
 
     wheel_radius: float = 0.05  # [m]
     half_wheelbase: float = 0.15  # lx [m]

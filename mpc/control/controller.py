@@ -171,7 +171,7 @@ class Controller:
         speeds, self._steer = self.robot.wheel_commands(twist, self._steer)
         return Command(
             wheel_speeds=speeds, twist=twist, steer_angles=self._steer,
-            predicted_poses=np.array(plan), status=status, solver_status=result.status,
+            predicted_poses=plan, status=status, solver_status=result.status,
             solve_time=result.solve_time, tick_time=time.perf_counter() - start,
             iterations=result.iterations, consecutive_failures=self._fallback.failures,
             clamped=clamped, reference_time=reference_time)

@@ -35,12 +35,10 @@ class FallbackPolicy:
         self._plan = None
 
     def succeeded(self, plan_twists: FloatArray) -> None:
-        """The solver returned ``plan_twists`` (N, 3); the policy keeps a copy."""
+        """The solver returned ``plan_twists`` (N, 3) (kept, not copied: results are never
+        written to again)."""
         self.failures = 0
-        if self._plan is None:
-            self._plan = np.array(plan_twists)
-        else:
-            self._plan[:] = plan_twists
+        self._plan = plan_twists
 
     def failed(self, feedforward: FloatArray) -> tuple[Status, FloatArray]:
         """One more failure: the fallback status and twist (3,) for this tick."""

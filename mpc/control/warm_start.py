@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from mpc.arrays import FloatArray
 from mpc.model.layout import TickInput
 
@@ -15,19 +13,16 @@ class WarmStart:
 
     def __init__(self, tick: TickInput) -> None:
         self.tick = tick
-        self._poses = np.zeros_like(tick.guess_poses)
-        self._twists = np.zeros_like(tick.guess_twists)
-        self._valid = False
+        self._plan: tuple[FloatArray, FloatArray] | None = None
 
     def reset(self) -> None:
         """Forget the plan: the next guess is the reference."""
-        self._valid = False
+        self._plan = None
 
     def store(self, poses: FloatArray, twists: FloatArray) -> None:
-        """Keep a successful plan (poses (N+1, 3), twists (N, 3))."""
-        self._poses[:] = poses
-        self._twists[:] = twists
-        self._valid = True
+        """Keep a successful plan (poses (N+1, 3), twists (N, 3)); a solver result's arrays
+        are never written to again, so they are kept as they are."""
+        self._plan = (poses, twists)
 
     def fill(self, pose: FloatArray) -> None:
         """Write the guess into the tick, starting at the measured ``pose``.
@@ -37,14 +32,15 @@ class WarmStart:
         by a multiple of 2 pi to match a wrapped measured heading.
         """
         poses, twists = self.tick.guess_poses, self.tick.guess_twists
-        if not self._valid:
+        if self._plan is None:
             poses[:] = self.tick.poses_ref
             twists[:] = self.tick.twists_ref
         else:
-            poses[:-1] = self._poses[1:]
-            poses[-1] = self._poses[-1]
-            twists[:-1] = self._twists[1:]
-            twists[-1] = self._twists[-1]
+            plan_poses, plan_twists = self._plan
+            poses[:-1] = plan_poses[1:]
+            poses[-1] = plan_poses[-1]
+            twists[:-1] = plan_twists[1:]
+            twists[-1] = plan_twists[-1]
             turns = math.floor((poses[0, 2] - pose[2]) / (2.0 * math.pi) + 0.5)
             if turns:  # the measured heading was wrapped
                 poses[:, 2] -= 2.0 * math.pi * turns

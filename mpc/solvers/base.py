@@ -21,6 +21,9 @@ class SolveResult:
         twists: planned body twists (N, 3) [m/s, m/s, rad/s].
         solve_time: the solver's own time for this tick [s].
         iterations: solver iterations.
+
+    The arrays belong to this result: a solver never writes to them again, so the
+    controller may keep them (warm start, fallback, ``Command.predicted_poses``).
     """
 
     success: bool

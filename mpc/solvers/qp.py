@@ -112,9 +112,10 @@ class QpSolver:
         n = model.horizon
         self._p_data = structure.hessian.data.copy()
         self._q = np.zeros(model.layouts.variables.size)
-        self._params = np.zeros(model.layouts.parameters.size)
-        self._evaluate_cost = BufferedFunction(structure.cost_terms, [self._params],
-                                               [self._p_data, self._q])
+        self._bound_tick: TickInput | None = None  # the tick the cost buffer reads from
+        self._evaluate_cost = BufferedFunction(
+            structure.cost_terms, [np.zeros(model.layouts.parameters.size)],
+            [self._p_data, self._q])
         self._a_data = structure.constraints.data.copy()
         self._lower, self._upper = structure.lower.copy(), structure.upper.copy()
         self._n_gaps = 3 * (n + 1)
@@ -159,7 +160,10 @@ class QpSolver:
             stop = accel.start + structure.limit_rows
             lower[accel.start:stop] = base - accel.bound
             upper[accel.start:stop] = base + accel.bound
-        self._params[:] = tick.parameters
+        if tick is not self._bound_tick:  # read p in place from now on (no copy a tick)
+            self._evaluate_cost = BufferedFunction(self.structure.cost_terms, [tick.parameters],
+                                                   [self._p_data, self._q])
+            self._bound_tick = tick
         self._evaluate_cost()
         dual = self._zero_dual if self._dual is None else self._dual[structure.dual_shift]
         info, solution, multipliers = self.backend.run(
