@@ -42,8 +42,10 @@ class Command:
         iterations: solver iterations.
         consecutive_failures: solver failures in a row, this tick included.
         clamped: whether the safety clamp had to change the twist.
-        reference_time: the time on the reference the plan starts from [s]:
-            ``t`` (plus the known delay), less any lag from time scaling.
+        reference_time: the time on the reference the plan starts from [s]: ``t``
+            (plus the known delay) in time mode, the progress along the path in path mode.
+        lag: how far ``reference_time`` trails ``t`` plus the known delay [s] (0 in time
+            mode; in path mode, > 0 while the robot is behind the reference's timing).
     """
 
     wheel_speeds: FloatArray
@@ -58,3 +60,4 @@ class Command:
     consecutive_failures: int
     clamped: bool
     reference_time: float
+    lag: float = 0.0

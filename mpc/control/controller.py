@@ -14,14 +14,14 @@ from mpc.control.clamp import clamp_command
 from mpc.control.command import Command, Status
 from mpc.control.delay import DelayCompensator
 from mpc.control.fallback import FallbackPolicy
-from mpc.control.timing import ReferenceWindow, TimeIndexed, TimeScaled
+from mpc.control.timing import PathProgress, ReferenceWindow, TimeIndexed
 from mpc.control.warm_start import WarmStart
 from mpc.errors import ControllerError
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.model.weights import Weights, make_weights
 from mpc.robots.base import Robot
-from mpc.solvers import NlpSolver, QpSolver, TrackingSolver
+from mpc.solvers import DenseSolver, NlpSolver, QpSolver, TrackingSolver
 from mpc.validation import (
     flag,
     integer_at_least,
@@ -32,8 +32,12 @@ from mpc.validation import (
 )
 from trajectories import Trajectory
 
-#: Valid ``solver=`` names: the OSQP fast path and the exact IPOPT path.
-SOLVERS: tuple[str, ...] = ("osqp", "ipopt")
+#: Valid ``solver=`` names: the fast paths (daqp on the condensed QP, OSQP on the sparse
+#: QP) and the exact IPOPT path.
+SOLVERS: tuple[str, ...] = ("daqp", "osqp", "ipopt")
+
+#: Valid ``mode=`` names: track the reference in time, or follow its path.
+MODES: tuple[str, ...] = ("time", "path")
 
 #: Sides of the polygon standing in for a swerve module's speed disk in the QP.
 DEFAULT_POLYGON_SIDES = 16
@@ -49,6 +53,14 @@ class Controller:
     removes solver tolerance. If the solver fails, the command comes from
     the fallback policy (:mod:`mpc.control.fallback`: the previous plan, the
     feedforward scaled into the limits, a stop ramp); ``Command.status`` says which.
+
+    Modes: ``"time"`` tracks the reference pose at ``t`` (the default);
+    ``"path"`` follows the reference's path with the progress along it planned
+    too (contouring, :class:`~mpc.control.timing.PathProgress`): on time where
+    the reference is feasible, as fast as the wheels allow and on the path
+    where it is not, never ahead of the reference's own timing.
+    ``Command.reference_time`` is the reference time being tracked and
+    ``Command.lag`` how far it trails ``t``.
 
     Swerve steering rate: the cost penalises the change of every module's
     ground velocity between ticks (``Weights.module_rate``), in both solvers,
@@ -68,9 +80,10 @@ class Controller:
         time_limit: solver time per tick at most [s]; 0 for none.
         delay_ticks: known command latency in whole ticks; the controller
             predicts the pose forward through the commands already sent.
-        time_scaling: play the reference slower where it asks for more than the
-            wheels can give (:class:`~mpc.control.timing.TimeScaled`); False
-            tracks ``t`` strictly.
+        mode: ``"time"`` or ``"path"`` (see above).
+        max_progress_rate: path mode, how much faster than the reference the progress may
+            run while catching up (>= 1).
+        time_scaling: deprecated; ``True`` is ``mode="path"``.
     """
 
     def __init__(
@@ -86,7 +99,9 @@ class Controller:
         max_iter: int | None = None,
         time_limit: float = 0.0,
         delay_ticks: int = 0,
-        time_scaling: bool = False,
+        mode: str = "time",
+        max_progress_rate: float = 2.0,
+        time_scaling: bool | None = None,
     ) -> None:
         if not isinstance(robot, Robot):
             raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
@@ -95,9 +110,14 @@ class Controller:
         self.horizon = integer_at_least("horizon", horizon, 1, ControllerError)
         self.dt = positive("dt [s]", dt, ControllerError)
         self.delay_ticks = integer_at_least("delay_ticks", delay_ticks, 0, ControllerError)
-        self.time_scaling = flag("time_scaling", time_scaling, ControllerError)
+        self.mode = _check_mode(mode, time_scaling)
+        rate = positive("max_progress_rate", max_progress_rate, ControllerError)
+        if rate < 1.0:
+            raise ControllerError(f"max_progress_rate must be >= 1 (the reference's own pace), "
+                                  f"got {max_progress_rate!r}")
         self.weights = make_weights(weights)
-        self.model = TrackingModel(robot, self.horizon, self.dt, self.weights)
+        self.model = TrackingModel(robot, self.horizon, self.dt, self.weights,
+                                   path=self.mode == "path", max_progress_rate=rate)
         self.solver = _make_solver(self.model, solver, polygon_sides, max_iter, time_limit)
         self._tick = TickInput(self.model.layouts)
         self._warm = WarmStart(self._tick)
@@ -108,8 +128,8 @@ class Controller:
 
     def _set_reference(self, trajectory: Trajectory) -> None:
         self._window = ReferenceWindow(trajectory, self.model, self._tick)
-        self._timing: TimeIndexed | TimeScaled = (
-            TimeScaled(self._window, self.model) if self.time_scaling
+        self._timing: TimeIndexed | PathProgress = (
+            PathProgress(self._window, self.model) if self.mode == "path"
             else TimeIndexed(self._window))
 
     @property
@@ -156,13 +176,20 @@ class Controller:
         tick.last_twist[:] = self._last
         self._warm.fill(x0)
         result = self.solver.solve(tick)
+        while result.success and self._timing.refine(result.progress, float(x0[2])):
+            self._warm.store(result.poses, result.twists)  # solve again from this plan
+            self._warm.fill(x0, shift=False)
+            self.solver.reset()
+            result = self.solver.solve(tick)
         if result.success:
             status, target, plan = Status.SOLVED, result.twists[0], result.poses
             self._fallback.succeeded(result.twists)
             self._warm.store(result.poses, result.twists)
+            self._timing.solved(result.progress)
         else:
             self._warm.reset()
             self.solver.reset()
+            self._timing.solved(None)
             status, target = self._fallback.failed(tick.twists_ref[0])
             plan = tick.poses_ref.copy()
         twist, clamped = clamp_command(self.robot, target, self._last, self.dt)
@@ -174,7 +201,21 @@ class Controller:
             predicted_poses=plan, status=status, solver_status=result.status,
             solve_time=result.solve_time, tick_time=time.perf_counter() - start,
             iterations=result.iterations, consecutive_failures=self._fallback.failures,
-            clamped=clamped, reference_time=reference_time)
+            clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time)
+
+
+def _check_mode(mode: object, time_scaling: object) -> str:
+    if time_scaling is not None:
+        import warnings
+
+        scaling = flag("time_scaling", time_scaling, ControllerError)
+        warnings.warn("time_scaling is deprecated: use mode='path' (path following, which "
+                      "replaces time scaling) or mode='time'", DeprecationWarning, stacklevel=3)
+        if scaling and mode == "time":
+            mode = "path"
+    if mode not in MODES:
+        raise ControllerError(f"unknown mode {mode!r}; expected one of {list(MODES)}")
+    return str(mode)
 
 
 def _check_trajectory(trajectory: object) -> None:
@@ -210,5 +251,8 @@ def _make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
     sides = DEFAULT_POLYGON_SIDES if polygon_sides is None else polygon_sides
     if not is_integer(sides) or sides < 4 or sides % 2:
         raise ControllerError(f"polygon_sides must be an even integer >= 4, got {sides!r}")
+    if name == "daqp":
+        return DenseSolver(model, polygon_sides=int(sides), max_iter=iterations or 1000,
+                           time_limit=limit)
     return QpSolver(model, polygon_sides=int(sides), max_iter=iterations or 500,
                     time_limit=limit)

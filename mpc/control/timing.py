@@ -1,20 +1,23 @@
 """Reference timing: which stretch of the reference each tick's plan tracks.
 
-:class:`ReferenceWindow` samples the trajectory at ``time + rate * k dt``
-(k = 0..N) straight into the tick's parameter views and evaluates the
-model's reference terms there: the feedforward twist of stage ``k`` is the
-constant body twist that drives the model exactly from reference pose ``k``
-to ``k + 1`` in one tick (the SE(2) logarithm divided by ``dt``), so a robot
-on the reference with the feedforward stays on it.
+:class:`ReferenceWindow` samples the trajectory at the stage times straight
+into the tick's parameter views and evaluates the model's reference terms
+there: the feedforward twist of stage ``k`` is the constant body twist that
+drives the model exactly from reference pose ``k`` to ``k + 1`` in one tick
+(the SE(2) logarithm divided by ``dt``), so a robot on the reference with
+the feedforward stays on it.
 
 Two timing laws use it (both with one ``reset``):
 
-- :class:`TimeIndexed`: stage 0 is the reference at ``t`` (plus the known
-  delay): strict time tracking.
-- :class:`TimeScaled`: where the reference window asks more than
-  :data:`REFERENCE_MARGIN` of a wheel's limit, the reference is played
-  slower (an internal time lags ``t``) so that the robot slows down on the
-  path instead of cutting corners; it catches up when the reference allows.
+- :class:`TimeIndexed` (``mode="time"``): stage ``k`` is the reference at
+  ``t + k dt`` (plus the known delay): strict time tracking.
+- :class:`PathProgress` (``mode="path"``): the progress ``s_k`` along the
+  reference (in seconds of the reference's own time) is planned with the
+  motion. It never runs ahead of the reference's own timing
+  (``s_k <= t + k dt``), never backwards, and at most ``max_progress_rate``
+  times as fast as the reference (catching up). Where the reference is
+  feasible the plan keeps ``s_k = t + k dt`` (time tracking); where it is
+  not, the robot drives the path as fast as its wheels allow.
 """
 
 from __future__ import annotations
@@ -25,13 +28,19 @@ import numpy as np
 
 from mpc.arrays import FloatArray
 from mpc.model.buffered import BufferedFunction
-from mpc.model.layout import TickInput
+from mpc.model.layout import PathInput, TickInput
 from mpc.model.tracking import TrackingModel
-from trajectories import Trajectory
+from trajectories import Trajectory, TrajectorySample
 
-#: With time scaling, the fraction of a wheel's limit the reference's own
-#: feedforward may use; the rest is left for feedback.
-REFERENCE_MARGIN = 0.9
+#: Path mode: half-width of the trust region on the progress around where the reference
+#: was sampled [s of reference time]; the QP's first-order expansion of the path holds there.
+PROGRESS_TRUST = 0.1
+
+#: Path mode: with no plan to start from (after a reset or a failed solve), the first tick
+#: re-samples the reference at the planned progress and solves again, up to this many
+#: times, until the progress moves less than ``PROGRESS_SETTLED`` [s].
+WARM_UP_ROUNDS = 6
+PROGRESS_SETTLED = 1e-3
 
 
 class ReferenceWindow:
@@ -46,15 +55,18 @@ class ReferenceWindow:
                                           [tick.poses_ref, self._velocities],
                                           [tick.twists_ref, tick.directions])
 
-    def fill(self, time: float, heading: float, rate: float = 1.0) -> None:
-        """Write the window from ``time`` [s] into the tick's reference views.
+    def fill(self, time: float, heading: float, rate: float = 1.0) -> TrajectorySample:
+        """The window at ``time + rate * k dt`` [s] (see :meth:`fill_at`)."""
+        return self.fill_at(np.asarray(time + rate * self.offsets, dtype=float), heading)
 
-        ``rate`` < 1 plays the reference slower (stage k at ``time + rate k dt``).
-        The reference heading is shifted by a multiple of 2 pi so that its
-        first value lies within pi of ``heading`` (the robot's), which makes
-        the quadratic heading cost measure the wrapped error.
+    def fill_at(self, times: FloatArray, heading: float) -> TrajectorySample:
+        """Write the reference at the stage ``times`` (N+1,) [s] into the tick's views.
+
+        The reference heading is shifted by a multiple of 2 pi so that its first
+        value lies within pi of ``heading`` (the robot's), which makes the
+        quadratic heading cost measure the wrapped error. Returns the sample.
         """
-        sample = self.trajectory.sample(time + rate * self.offsets)
+        sample = self.trajectory.sample(times)
         poses = self.tick.poses_ref
         poses[:] = sample.pose
         turns = math.floor((poses[0, 2] - heading) / (2.0 * math.pi) + 0.5)
@@ -62,10 +74,11 @@ class ReferenceWindow:
             poses[:, 2] -= 2.0 * math.pi * turns
         self._velocities[:] = sample.velocity
         self._evaluate()
+        return sample
 
 
 class TimeIndexed:
-    """Stage 0 is the reference at the planning time: strict time tracking."""
+    """Stage ``k`` is the reference at the planning time plus ``k dt``: strict time tracking."""
 
     def __init__(self, window: ReferenceWindow) -> None:
         self.window = window
@@ -78,49 +91,111 @@ class TimeIndexed:
         self.window.fill(t_plan, heading)
         return t_plan
 
+    def solved(self, progress: FloatArray | None) -> None:
+        """Nothing to carry."""
 
-class TimeScaled:
-    """The reference played slower where it asks more than the wheels can give.
+    def refine(self, progress: FloatArray | None, heading: float) -> bool:
+        """Nothing to refine: the stage times are fixed."""
+        return False
+
+
+class PathProgress:
+    """Path mode's progress: carried from tick to tick, planned by the solver.
 
     Args:
         window: the reference window.
-        model: for the robot's wheel maps and limits, the horizon and ``dt``.
+        model: a path-mode model (its horizon, ``dt`` and ``max_progress_rate``).
     """
 
     def __init__(self, window: ReferenceWindow, model: TrackingModel) -> None:
-        self.window = window
-        self.horizon, self.dt = model.horizon, model.dt
-        robot = model.robot
-        working = robot.max_wheel_speed > 0.0  # a failed wheel does not slow the reference
-        self._blocks = robot.wheel_blocks[working].reshape(-1, 3)
-        self._limits = robot.max_wheel_speed[working]
-        self._wheel_dim = robot.wheel_dim
+        path = window.tick.path
+        if path is None:
+            raise RuntimeError("PathProgress needs a path-mode TickInput")
+        self.window, self.path = window, path
+        self.dt, self.max_rate = model.dt, model.max_progress_rate
+        self.offsets = window.offsets
         self.reset()
 
     def reset(self) -> None:
-        self.lag = 0.0  # [s] how far the reference time lags the planning time
+        self._plan: FloatArray | None = None  # last planned progress s_0 .. s_N
         self._previous_t: float | None = None
+        self._rounds = 0  # refinements left this tick
+        self._settled = False  # whether _plan came from a successful solve
 
     def fill(self, t: float, t_plan: float, heading: float) -> float:
-        """Fill the tick's reference at the lagging time, played at a feasible rate."""
+        """Sample the reference at the guessed progress and set the progress bounds;
+        return the progress ``s_0`` [s] (the reference time being tracked now)."""
+        start = self._start(t, t_plan)
+        self._t_plan = t_plan
+        self._rounds = 0 if self._settled else WARM_UP_ROUNDS
+        self._sample(self._guess(start, t_plan), heading)
+        return start
+
+    def refine(self, progress: FloatArray | None, heading: float) -> bool:
+        """After a solve with no plan to start from: sample again at the planned progress
+        and return True if the caller should solve again (False once it has settled)."""
+        if progress is None or self._rounds <= 0:
+            return False
+        self._rounds -= 1
+        if np.abs(progress - self.path.progress_guess).max() < PROGRESS_SETTLED:
+            return False
+        guess = np.minimum(np.maximum.accumulate(progress), self._t_plan + self.offsets)
+        guess[0] = self.path.lower[0]
+        self._sample(guess, heading)
+        return True
+
+    def _sample(self, guess: FloatArray, heading: float) -> None:
+        start = float(guess[0])
+        sample = self.window.fill_at(guess, heading)
+        path: PathInput = self.path
+        path.progress_guess[:] = guess
+        path.guess_progress[:] = guess
+        path.path_rates[:] = sample.velocity
+        path.path_curvatures[:] = sample.acceleration
+        self._feedforward_rates(guess, sample)
+        np.subtract(guess, PROGRESS_TRUST, out=path.lower)
+        np.minimum(guess + PROGRESS_TRUST, self._t_plan + self.offsets, out=path.upper)
+        path.lower[0] = path.upper[0] = start
+
+    def solved(self, progress: FloatArray | None) -> None:
+        """The plan's progress (or None after a failed solve: the guess is kept, and the
+        next tick warms up again)."""
+        self._settled = progress is not None
+        self._plan = progress if progress is not None else self.path.progress_guess.copy()
+
+    def _feedforward_rates(self, guess: FloatArray, sample: TrajectorySample) -> None:
+        """Stage k's feedforward per unit progress rate: the sampled feedforward divided by
+        the guess's rate (exact on the discrete model), or where the guess stands still,
+        the reference's body twist per unit progress at the stage's start."""
+        rates = np.diff(guess) / self.dt
+        moving = rates > 1e-9
+        out = self.path.feedforward_rates
+        np.divide(self.window.tick.twists_ref, rates[:, None], out=out, where=moving[:, None])
+        if not moving.all():
+            theta = sample.pose[:-1, 2]
+            c, s = np.cos(theta), np.sin(theta)
+            world = sample.velocity[:-1]
+            body = np.stack([c * world[:, 0] + s * world[:, 1],
+                             c * world[:, 1] - s * world[:, 0], world[:, 2]], axis=1)
+            out[~moving] = body[~moving]
+
+    def _start(self, t: float, t_plan: float) -> float:
+        """Where the last plan put the progress now; the planning time after a reset or a
+        jump in ``t`` (backwards, or more than two ticks)."""
         elapsed = None if self._previous_t is None else t - self._previous_t
         self._previous_t = t
-        if elapsed is None or not 0.0 < elapsed <= 2.0 * self.dt:
-            self.lag = 0.0  # first tick, or the caller jumped in time: resynchronise
-            elapsed = self.dt
-        time_ref = t_plan - self.lag
-        window = self.window
-        window.fill(time_ref, heading)
-        rate = min(self._room(window.tick.twists_ref),
-                   1.0 + self.lag / (self.horizon * self.dt))  # catch up over a horizon
-        if rate != 1.0:
-            rate = max(rate, 0.0)
-            window.fill(time_ref, heading, rate)
-        self.lag = max(0.0, self.lag + (1.0 - rate) * elapsed)
-        return time_ref
+        if self._plan is None or elapsed is None or not 0.0 < elapsed <= 2.0 * self.dt:
+            return t_plan
+        return min(float(np.interp(elapsed, self.offsets, self._plan)), t_plan)
 
-    def _room(self, feedforward: FloatArray) -> float:
-        """How much faster than the window's own timing the wheels allow (inf at rest)."""
-        velocity = (feedforward @ self._blocks.T).reshape(self.horizon, -1, self._wheel_dim)
-        need = (np.sqrt((velocity * velocity).sum(axis=2)) / self._limits).max()
-        return REFERENCE_MARGIN / need if need > 0.0 else math.inf
+    def _guess(self, start: float, t_plan: float) -> FloatArray:
+        """Stage times to sample at: the last plan shifted to ``start`` (or on time), kept
+        non-decreasing, within the rate limit and never ahead of ``t_plan + k dt``."""
+        if self._plan is None:
+            steps = np.full(self.offsets.size - 1, self.dt)
+        else:
+            steps = np.diff(self._plan)
+            steps[:-1] = steps[1:]  # shifted one stage, the last step repeated
+        np.clip(steps, 0.0, self.max_rate * self.dt, out=steps)
+        guess = start + np.concatenate(([0.0], np.cumsum(steps)))
+        return np.minimum(guess, t_plan + self.offsets)

@@ -24,17 +24,20 @@ class WarmStart:
         are never written to again, so they are kept as they are."""
         self._plan = (poses, twists)
 
-    def fill(self, pose: FloatArray) -> None:
+    def fill(self, pose: FloatArray, shift: bool = True) -> None:
         """Write the guess into the tick, starting at the measured ``pose``.
 
-        The previous plan shifted one tick (its last stage repeated), or the
-        tick's reference when there is none; the shifted headings are moved
-        by a multiple of 2 pi to match a wrapped measured heading.
+        The previous plan shifted one tick (its last stage repeated; ``shift=False``:
+        as it is, to solve the same tick again), or the tick's reference when there
+        is none; the headings are moved by a multiple of 2 pi to match a wrapped
+        measured heading.
         """
         poses, twists = self.tick.guess_poses, self.tick.guess_twists
         if self._plan is None:
             poses[:] = self.tick.poses_ref
             twists[:] = self.tick.twists_ref
+        elif not shift:
+            poses[:], twists[:] = self._plan
         else:
             plan_poses, plan_twists = self._plan
             poses[:-1] = plan_poses[1:]

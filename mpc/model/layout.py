@@ -13,6 +13,13 @@ vector ``z`` and the parameter vector ``p`` are laid out once.
 - ``p = (x0, poses_ref: xref_0 .. xref_N, twists_ref: uref_0 .. uref_{N-1},
   directions: t_0 .. t_N, last_twist: u_{-1})`` where ``t_k`` is the
   reference's unit direction of travel.
+
+Path mode appends ``progress: s_0 .. s_N`` (reference time reached at each
+stage [s]) to ``z`` and ``progress_guess: sbar_0 .. sbar_N`` (where the
+reference was sampled), ``path_rates`` (d pose_ref / d s at ``sbar_k``),
+``path_curvatures`` (d^2 pose_ref / d s^2 there) and ``feedforward_rates``
+(the feedforward twist of stage ``k`` per unit progress rate) to ``p``;
+``poses_ref`` and ``twists_ref`` are then the reference at ``sbar_k``.
 """
 
 from __future__ import annotations
@@ -91,13 +98,19 @@ class TrackingLayouts(NamedTuple):
     parameters: Layout
 
 
-def tracking_layouts(horizon: int) -> TrackingLayouts:
-    """The layouts of ``z`` and ``p`` for a horizon of ``N`` ticks (module docstring)."""
+def tracking_layouts(horizon: int, path: bool = False) -> TrackingLayouts:
+    """The layouts of ``z`` and ``p`` for a horizon of ``N`` ticks (module docstring);
+    ``path`` adds the path-mode fields."""
     n = horizon
-    variables = Layout(("poses", (n + 1, 3)), ("twists", (n, 3)))
-    parameters = Layout(("x0", (3,)), ("poses_ref", (n + 1, 3)), ("twists_ref", (n, 3)),
-                        ("directions", (n + 1, 2)), ("last_twist", (3,)))
-    return TrackingLayouts(variables, parameters)
+    z_fields: list[tuple[str, tuple[int, ...]]] = [("poses", (n + 1, 3)), ("twists", (n, 3))]
+    p_fields: list[tuple[str, tuple[int, ...]]] = [
+        ("x0", (3,)), ("poses_ref", (n + 1, 3)), ("twists_ref", (n, 3)),
+        ("directions", (n + 1, 2)), ("last_twist", (3,))]
+    if path:
+        z_fields.append(("progress", (n + 1,)))
+        p_fields += [("progress_guess", (n + 1,)), ("path_rates", (n + 1, 3)),
+                     ("path_curvatures", (n + 1, 3)), ("feedforward_rates", (n, 3))]
+    return TrackingLayouts(Layout(*z_fields), Layout(*p_fields))
 
 
 class TickInput:
@@ -119,3 +132,19 @@ class TickInput:
         self.last_twist = p.view(self.parameters, "last_twist")  # last command (3,)
         self.guess_poses = z.view(self.guess, "poses")  # (N+1, 3)
         self.guess_twists = z.view(self.guess, "twists")  # (N, 3)
+        self.path = PathInput(layouts, self) if "progress" in z.fields else None
+
+
+class PathInput:
+    """Path mode's part of a :class:`TickInput`: views, plus the progress bounds [s]."""
+
+    def __init__(self, layouts: TrackingLayouts, tick: TickInput) -> None:
+        p, z = layouts.parameters, layouts.variables
+        self.progress_guess = p.view(tick.parameters, "progress_guess")  # sbar (N+1,) [s]
+        self.path_rates = p.view(tick.parameters, "path_rates")  # (N+1, 3) d pose / d s
+        self.path_curvatures = p.view(tick.parameters, "path_curvatures")  # (N+1, 3)
+        self.feedforward_rates = p.view(tick.parameters, "feedforward_rates")  # (N, 3)
+        self.guess_progress = z.view(tick.guess, "progress")  # (N+1,) [s]
+        size = z["progress"].size
+        self.lower = np.zeros(size)  # bounds on s_k [s]; s_0 fixed: lower[0] = upper[0]
+        self.upper = np.zeros(size)

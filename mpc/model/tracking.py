@@ -38,6 +38,11 @@ class TrackingModel:
         horizon: number of control intervals ``N`` >= 1.
         dt: control interval [s].
         weights: cost weights.
+        path: path mode: the progress ``s_k`` along the reference is a decision
+            variable (see :mod:`mpc.model.layout`), the pose error is measured against
+            the reference at ``s_k``, expanded around the sampled ``sbar_k``.
+        max_progress_rate: path mode, the progress rate ``(s_{k+1} - s_k) / dt`` lies in
+            ``[0, max_progress_rate]``: never backwards, catching up at most this fast.
 
     Attributes:
         layouts: the named layouts of ``z`` and ``p``.
@@ -48,6 +53,8 @@ class TrackingModel:
             directions (2 x N+1))``: the SE(2) logarithm between consecutive reference
             poses over ``dt`` (so a robot on the reference stays on it under the discrete
             model) and the unit directions of travel, fading to 0 when the reference stops.
+        rollout: ``(x0 (3), u (3 x N)) -> (x (3 x N+1), vec B_k (9 x N))``: the poses the
+            twists drive the model through from ``x0``, and ``B_k = df/du`` along them.
         rate_matrix: the 3x3 weight of ``u_k - u_{k-1}``.
     """
 
@@ -55,14 +62,17 @@ class TrackingModel:
     horizon: int
     dt: float
     weights: Weights
+    path: bool = False
+    max_progress_rate: float = 2.0
     layouts: TrackingLayouts = field(init=False)
     dynamics: ca.Function = field(init=False)
     linearization: ca.Function = field(init=False)
+    rollout: ca.Function = field(init=False)
     reference_terms: ca.Function = field(init=False)
     rate_matrix: FloatArray = field(init=False)
 
     def __post_init__(self) -> None:
-        self.layouts = tracking_layouts(self.horizon)
+        self.layouts = tracking_layouts(self.horizon, self.path)
         pose, twist = ca.SX.sym("x", 3), ca.SX.sym("u", 3)
         following = twist_integral(pose, twist, self.dt)
         self.dynamics = ca.Function("dynamics", [pose, twist], [following], ["x", "u"], ["x_next"])
@@ -73,6 +83,13 @@ class TrackingModel:
             "stage_linearization", [pose, twist],
             [ca.densify(ca.vertcat(offset, ca.vec(wrt_pose), ca.vec(wrt_twist)))])
         self.linearization = stage.map(self.horizon)
+        sensitivity = ca.Function("input_sensitivity", [pose, twist],
+                                  [ca.densify(ca.vec(wrt_twist))]).map(self.horizon)
+        start, inputs = ca.SX.sym("x0", 3), ca.SX.sym("u", 3, self.horizon)
+        poses = ca.horzcat(start, self.dynamics.mapaccum(self.horizon)(start, inputs))
+        self.rollout = ca.Function("rollout", [start, inputs],
+                                   [poses, sensitivity(poses[:, :-1], inputs)],
+                                   ["x0", "u"], ["x", "B"])
         n = self.horizon
         poses, velocities = ca.SX.sym("poses", 3, n + 1), ca.SX.sym("velocities", 3, n + 1)
         planar = velocities[:2, :]
@@ -90,31 +107,72 @@ class TrackingModel:
         return (ca.SX.sym("z", self.layouts.variables.size),
                 ca.SX.sym("p", self.layouts.parameters.size))
 
-    def cost(self, z: ca.SX, p: ca.SX) -> ca.SX:
-        """The tracking cost (see :class:`~mpc.model.weights.Weights`) as a CasADi expression."""
+    def reference_poses(self, z: ca.SX, p: ca.SX, exact: bool) -> ca.SX:
+        """The reference pose each stage's error is measured against, 3 x (N+1).
+
+        Time mode: ``poses_ref``. Path mode: the reference at the planned progress
+        ``s_k``, expanded around the sampled ``sbar_k``: to first order (the QP keeps
+        the cost quadratic) or, with ``exact``, to second order (the NLP; the
+        progress stays within a trust region of ``sbar_k``).
+        """
+        variables, parameters = self.layouts
+        poses_ref = parameters.symbol(p, "poses_ref")
+        if not self.path:
+            return poses_ref
+        shift = ca.repmat((variables.symbol(z, "progress")
+                           - parameters.symbol(p, "progress_guess")).T, 3, 1)
+        expanded = poses_ref + parameters.symbol(p, "path_rates") * shift
+        if exact:
+            expanded += 0.5 * parameters.symbol(p, "path_curvatures") * shift**2
+        return expanded
+
+    def progress_cost(self, z: ca.SX, p: ca.SX) -> ca.SX:
+        """Path mode: the reward for progress and the smoothing of its rate (0 in time mode)."""
+        if not self.path:
+            return ca.SX(0)
+        progress = self.layouts.variables.symbol(z, "progress")
+        rates = (progress[1:] - progress[:-1]) / self.dt
+        # Pull every stage's rate towards the fastest allowed: a push that does not fade
+        # along the horizon, with curvature (unlike a linear reward, which leaves the QP
+        # flat along the path and slow for a first-order solver).
+        push = self.weights.progress * ca.sumsqr(self.max_progress_rate - rates)
+        bends = rates[1:] - rates[:-1]
+        return push + self.weights.progress_rate * ca.sumsqr(bends)
+
+    def cost(self, z: ca.SX, p: ca.SX, exact: bool = False) -> ca.SX:
+        """The tracking cost (see :class:`~mpc.model.weights.Weights`) as a CasADi expression;
+        ``exact`` as in :meth:`reference_poses`."""
         variables, parameters = self.layouts
         poses, twists = variables.symbol(z, "poses"), variables.symbol(z, "twists")
-        poses_ref = parameters.symbol(p, "poses_ref")
+        poses_ref = self.reference_poses(z, p, exact)
         twists_ref = parameters.symbol(p, "twists_ref")
         directions = parameters.symbol(p, "directions")
         last = parameters.symbol(p, "last_twist")
         weights = self.weights
         r, s = ca.DM(np.diag(weights.twist)), ca.DM(self.rate_matrix)
 
+        contour = weights.contour if self.path else 0.0
+
         def pose_cost(k: int, diagonal: FloatArray) -> ca.SX:
             error = poses[:, k] - poses_ref[:, k]
             along = ca.dot(directions[:, k], error[:2])
+            across = directions[0, k] * error[1] - directions[1, k] * error[0]
             relief = (1.0 - weights.along_track) * float(min(diagonal[0], diagonal[1]))
-            return ca.bilin(ca.DM(np.diag(diagonal)), error, error) - relief * along**2
+            return (ca.bilin(ca.DM(np.diag(diagonal)), error, error) - relief * along**2
+                    + contour * across**2)
 
         total = ca.SX(0)
+        if self.path:  # the feedforward at the planned progress rate, not the sampled one
+            progress = variables.symbol(z, "progress")
+            rates = ca.repmat(((progress[1:] - progress[:-1]) / self.dt).T, 3, 1)
+            twists_ref = parameters.symbol(p, "feedforward_rates") * rates
         for k in range(self.horizon):
             if k > 0:
                 total += pose_cost(k, weights.pose)
             deviation = twists[:, k] - twists_ref[:, k]
             change = twists[:, k] - (last if k == 0 else twists[:, k - 1])
             total += ca.bilin(r, deviation, deviation) + ca.bilin(s, change, change)
-        return total + pose_cost(self.horizon, weights.terminal)
+        return total + pose_cost(self.horizon, weights.terminal) + self.progress_cost(z, p)
 
     def shooting_gaps(self, z: ca.SX, p: ca.SX) -> ca.SX:
         """``(x_0 - x0, x_{k+1} - f(x_k, u_k))`` stacked: zero on a consistent plan."""

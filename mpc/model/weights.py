@@ -34,6 +34,9 @@ def _diagonal(name: str, value: ArrayLike) -> FloatArray:
     return array
 
 
+_SCALARS = ("along_track", "module_rate", "progress", "progress_rate", "contour")
+
+
 @dataclass(frozen=True, eq=False)
 class Weights:
     """Diagonal weights of the cost (a scalar applies to all three axes).
@@ -44,9 +47,14 @@ class Weights:
 
     where ``e_k`` is the position error and ``t_k`` the reference's unit
     direction of travel. With ``along_track < 1`` falling behind the
-    reference costs less than leaving its path: when the reference is
-    faster than the wheels allow, the robot slows down on the path instead
-    of cutting corners to catch up.
+    reference costs less than leaving its path.
+
+    Path mode (``Controller(mode="path")``) measures the pose error against the
+    reference at the planned progress ``s_k`` instead of at ``t + k dt`` and adds
+    ``contour * sum_k (n_k . e_k)^2 - progress * sum_k s_k
+    + progress_rate * sum_k ((s_{k+1} - 2 s_k + s_{k-1}) / dt)^2``: a heavier weight
+    on the error across the path (``n_k`` the normal to the direction of travel), a
+    reward for progress along the path and a smoothing of its rate.
 
     Attributes:
         pose: on (x, y, theta) error [1/m^2, 1/m^2, 1/rad^2].
@@ -58,6 +66,14 @@ class Weights:
         module_rate: swerve only, on the change of each module's ground
             velocity between ticks [s^2/m^2]; it keeps steering motions
             smooth enough for a rate-limited steering motor.
+        progress: path mode, reward per second of reference progress at each stage [1/s].
+            At equilibrium the reference point leads a robot that cannot keep up by
+            about ``progress / (2 pose_xy |v_ref|^2)`` seconds of reference time.
+        progress_rate: path mode, on the change of the progress rate between stages
+            (dimensionless rate, so [1]).
+        contour: path mode, added on the position error across the path (normal to the
+            reference's direction of travel) [1/m^2]: staying on the path weighs more
+            than keeping up with the progress.
     """
 
     pose: FloatArray = field(default_factory=lambda: np.array([200.0, 200.0, 50.0]))
@@ -66,17 +82,21 @@ class Weights:
     terminal: FloatArray = field(default_factory=lambda: np.array([400.0, 400.0, 100.0]))
     along_track: float = 1.0
     module_rate: float = 1.0
+    progress: float = 0.1
+    progress_rate: float = 0.01
+    contour: float = 2000.0
 
     def __post_init__(self) -> None:
         for item in fields(self):
-            if item.name in ("module_rate", "along_track"):
+            if item.name in _SCALARS:
                 continue
             object.__setattr__(self, item.name, _diagonal(item.name, getattr(self, item.name)))
-        rate = self.module_rate
-        if not is_finite_number(rate) or rate < 0.0:
-            raise ControllerError(f"weight 'module_rate' must be a finite number >= 0, "
-                                  f"got {rate!r}")
-        object.__setattr__(self, "module_rate", float(rate))
+        for name in ("module_rate", "progress", "progress_rate", "contour"):
+            value = getattr(self, name)
+            if not is_finite_number(value) or value < 0.0:
+                raise ControllerError(f"weight {name!r} must be a finite number >= 0, "
+                                      f"got {value!r}")
+            object.__setattr__(self, name, float(value))
         along = self.along_track
         if not is_finite_number(along) or not 0.0 <= along <= 1.0:
             raise ControllerError(f"weight 'along_track' must be a number in [0, 1], "

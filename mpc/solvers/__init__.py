@@ -1,11 +1,13 @@
-"""Both solver paths behind one protocol (:class:`TrackingSolver`).
+"""The solver paths behind one protocol (:class:`TrackingSolver`).
 
-- :mod:`.qp`: the OSQP real-time-iteration fast path; its QP is assembled
-  once by the pure function :func:`~.qp_structure.assemble_qp`.
+- :mod:`.dense`: daqp on the QP condensed onto the inputs (:mod:`.condensed`);
+- :mod:`.qp`: OSQP on the sparse QP, assembled once by the pure function
+  :func:`~.qp_structure.assemble_qp` (which the condensed path starts from too);
 - :mod:`.nlp`: the exact IPOPT path (the yardstick).
 """
 
 from mpc.solvers.base import SolveResult, TrackingSolver
+from mpc.solvers.dense import DenseSolver
 from mpc.solvers.nlp import NlpSolver
 from mpc.solvers.qp import USABLE_DUAL_RESIDUAL, USABLE_PRIMAL_RESIDUAL, QpSolver
 from mpc.solvers.qp_structure import QpStructure, assemble_qp
@@ -13,6 +15,7 @@ from mpc.solvers.qp_structure import QpStructure, assemble_qp
 __all__ = [
     "USABLE_DUAL_RESIDUAL",
     "USABLE_PRIMAL_RESIDUAL",
+    "DenseSolver",
     "NlpSolver",
     "QpSolver",
     "QpStructure",

@@ -21,6 +21,7 @@ class SolveResult:
         twists: planned body twists (N, 3) [m/s, m/s, rad/s].
         solve_time: the solver's own time for this tick [s].
         iterations: solver iterations.
+        progress: path mode, the planned progress ``s_0 .. s_N`` [s] (None in time mode).
 
     The arrays belong to this result: a solver never writes to them again, so the
     controller may keep them (warm start, fallback, ``Command.predicted_poses``).
@@ -32,6 +33,7 @@ class SolveResult:
     twists: FloatArray
     solve_time: float
     iterations: int
+    progress: FloatArray | None = None
 
 
 class TrackingSolver(Protocol):

@@ -5,7 +5,10 @@ Multiple shooting over ``z`` with the exact dynamics, parameterised by ``p``
 (the shifted previous plan). Wheel limits are exact: each robot gives its
 own CasADi expressions (:meth:`~mpc.robots.Robot.casadi_limits`: linear rows
 for Swedish wheels, disks for swerve modules), on every twist for speed and
-on every change of twist for acceleration.
+on every change of twist for acceleration. In path mode the reference is
+expanded to second order in the progress around where it was sampled
+(within the trust region the bounds on ``s_k`` set) and the progress bounds
+are bounds on ``z``.
 """
 
 from __future__ import annotations
@@ -55,7 +58,13 @@ class NlpSolver:
                 constraints.append(g)
                 lower.append(low)
                 upper.append(high)
-        problem = {"x": z, "p": p, "f": model.cost(z, p), "g": ca.vertcat(*constraints)}
+        if model.path:
+            progress = variables.symbol(z, "progress")
+            constraints.append(progress[1:] - progress[:-1])
+            lower.append(np.zeros(model.horizon))
+            upper.append(np.full(model.horizon, model.max_progress_rate * model.dt))
+        problem = {"x": z, "p": p, "f": model.cost(z, p, exact=True),
+                   "g": ca.vertcat(*constraints)}
         options: dict[str, Any] = {
             "expand": True, "print_time": False, "record_time": True, "error_on_fail": False,
             "ipopt": {"print_level": 0, "sb": "yes", "max_iter": int(max_iter),
@@ -65,13 +74,20 @@ class NlpSolver:
         self._solver = ca.nlpsol("tracking_nlp", "ipopt", problem, options)
         self._lbg = np.concatenate(lower)
         self._ubg = np.concatenate(upper)
+        self._lbx = np.full(variables.size, -np.inf)
+        self._ubx = np.full(variables.size, np.inf)
+        self._progress = variables["progress"].slice if model.path else None
 
     def reset(self) -> None:
         """Nothing to forget: IPOPT is warm started from the primal guess only."""
 
     def solve(self, tick: TickInput) -> SolveResult:
         """Solve one tick from the guess in ``tick``."""
-        output = self._solver(x0=tick.guess, p=tick.parameters, lbg=self._lbg, ubg=self._ubg)
+        if self._progress is not None and tick.path is not None:
+            self._lbx[self._progress] = tick.path.lower
+            self._ubx[self._progress] = tick.path.upper
+        output = self._solver(x0=tick.guess, p=tick.parameters, lbg=self._lbg, ubg=self._ubg,
+                              lbx=self._lbx, ubx=self._ubx)
         stats = self._solver.stats()
         solution = output["x"].full().ravel()
         success = bool(stats.get("success", False)) and bool(np.all(np.isfinite(solution)))
@@ -81,6 +97,7 @@ class NlpSolver:
             status=str(stats.get("return_status", "unknown")),
             poses=variables.view(solution, "poses"),
             twists=variables.view(solution, "twists"),
+            progress=variables.view(solution, "progress") if self.model.path else None,
             solve_time=float(stats.get("t_wall_total", 0.0)),
             iterations=int(stats.get("iter_count", 0)),
         )

@@ -20,7 +20,7 @@ from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.solvers.base import SolveResult
-from mpc.solvers.qp_structure import assemble_qp
+from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds
 
 _ACCEPTED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
 #: Out of work before converging: the iterate may still be a usable plan.
@@ -154,12 +154,7 @@ class QpSolver:
         lower[:3] = tick.pose
         lower[3:gaps] = stages[:, :3].ravel()
         upper[:gaps] = lower[:gaps]
-        accel = structure.accel
-        if accel is not None:
-            base = accel.rows @ tick.last_twist
-            stop = accel.start + structure.limit_rows
-            lower[accel.start:stop] = base - accel.bound
-            upper[accel.start:stop] = base + accel.bound
+        fill_inequality_bounds(structure, tick, lower, upper)
         if tick is not self._bound_tick:  # read p in place from now on (no copy a tick)
             self._evaluate_cost = BufferedFunction(self.structure.cost_terms, [tick.parameters],
                                                    [self._p_data, self._q])
@@ -181,6 +176,7 @@ class QpSolver:
             status=str(info.status),
             poses=variables.view(solution, "poses"),
             twists=variables.view(solution, "twists"),
+            progress=variables.view(solution, "progress") if self.model.path else None,
             # OSQP's own time: the KKT refactorisation done in update() plus the iterations.
             solve_time=float(info.update_time + info.solve_time),
             iterations=int(info.iter),

@@ -4,6 +4,9 @@
     subject to  x_0 = x0,  x_{k+1} - A_k x_k - B_k u_k = c_k,
                 |C u_k| <= speed bounds,  |C (u_k - u_{k-1})| <= accel bounds,
 
+and, in path mode, ``lower_k <= s_k <= upper_k`` (filled each tick: ``s_0``
+fixed, a trust region around the sampled progress, never ahead of the
+reference's own timing) and ``0 <= s_{k+1} - s_k <= max_progress_rate dt``,
 with ``z`` laid out as in :mod:`mpc.model.layout`. ``P`` and ``q`` are the
 CasADi cost's Hessian (upper triangle; CasADi's CCS order is OSQP's CSC
 order) and its gradient at ``z = 0`` (the cost is quadratic in ``z``),
@@ -23,6 +26,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, IntArray
+from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.robots.base import SpeedRows
 
@@ -37,6 +41,14 @@ class AccelRows:
 
 
 @dataclass(frozen=True, eq=False)
+class ProgressRows:
+    """Path mode's rows: ``stages`` bound rows on ``s_k`` from ``start``, then rate rows."""
+
+    start: int
+    stages: int
+
+
+@dataclass(frozen=True, eq=False)
 class QpStructure:
     """Everything about the QP that is fixed for a controller's life.
 
@@ -48,6 +60,7 @@ class QpStructure:
         dynamics_slots: (N, 18) positions in ``constraints.data`` of
             ``-vec A_k, -vec B_k`` (column-major, as CasADi's linearisation gives them).
         accel: the acceleration rows, or None without acceleration limits.
+        progress: path mode's progress rows, or None in time mode.
         limit_rows: speed rows per stage.
         dual_shift: index map moving each per-stage block of the multipliers one stage
             earlier (the last stage repeated), for the warm start.
@@ -60,6 +73,7 @@ class QpStructure:
     upper: FloatArray
     dynamics_slots: IntArray
     accel: AccelRows | None
+    progress: ProgressRows | None
     limit_rows: int
     dual_shift: IntArray
 
@@ -153,16 +167,29 @@ def assemble_qp(model: TrackingModel, speed: SpeedRows) -> QpStructure:
         lower.append(-np.tile(bound, n))
         upper.append(np.tile(bound, n))
         m_rows += n * n_limit
-    matrix, position = pattern.to_csc((m_rows, variables.size))
     blocks = [(0, 3, 1), (3, 3, n), (3 * (n + 1), n_limit, n)]
     if accel is not None:
         blocks.append((accel.start, n_limit, n))
+    progress: ProgressRows | None = None
+    if model.path:
+        progress = ProgressRows(m_rows, n + 1)
+        column = variables["progress"].start + np.arange(n + 1)
+        pattern.add(m_rows + np.arange(n + 1), column, 1.0)
+        rate_rows = m_rows + n + 1 + np.arange(n)
+        pattern.add(rate_rows, column[1:], 1.0)
+        pattern.add(rate_rows, column[:-1], -1.0)
+        lower += [np.zeros(n + 1), np.zeros(n)]
+        upper += [np.zeros(n + 1), np.full(n, model.max_progress_rate * model.dt)]
+        blocks += [(m_rows, 1, n + 1), (m_rows + n + 1, 1, n)]
+        m_rows += 2 * n + 1
+    matrix, position = pattern.to_csc((m_rows, variables.size))
     function, hessian = cost_terms(model)
     return QpStructure(
         cost_terms=function, hessian=hessian, constraints=matrix,
         lower=np.concatenate(lower), upper=np.concatenate(upper),
         dynamics_slots=np.concatenate((position[ids_a], position[ids_b]), axis=1),
-        accel=accel, limit_rows=n_limit, dual_shift=stage_shift(blocks, m_rows))
+        accel=accel, progress=progress, limit_rows=n_limit,
+        dual_shift=stage_shift(blocks, m_rows))
 
 
 def stage_shift(blocks: list[tuple[int, int, int]], size: int) -> IntArray:
@@ -174,3 +201,19 @@ def stage_shift(blocks: list[tuple[int, int, int]], size: int) -> IntArray:
         index[start : start + width * stages] = (
             start + width * stage[:, None] + np.arange(width)).ravel()
     return index
+
+
+def fill_inequality_bounds(structure: QpStructure, tick: TickInput, lower: FloatArray,
+                           upper: FloatArray) -> None:
+    """Write this tick's bounds of the rows on the inputs and the progress: the first
+    acceleration rows are against the last command, the progress rows from the tick."""
+    accel = structure.accel
+    if accel is not None:
+        base = accel.rows @ tick.last_twist
+        stop = accel.start + structure.limit_rows
+        lower[accel.start:stop] = base - accel.bound
+        upper[accel.start:stop] = base + accel.bound
+    rows, path = structure.progress, tick.path
+    if rows is not None and path is not None:
+        lower[rows.start:rows.start + rows.stages] = path.lower
+        upper[rows.start:rows.start + rows.stages] = path.upper

@@ -1,0 +1,159 @@
+"""The fast path's QP condensed onto the inputs (and, in path mode, the progress).
+
+The states are eliminated with the model linearised around the guess twists
+``ubar``: ``dx_{k+1} = A_k dx_k + B_k du_k`` along the exact rollout ``xbar`` of
+``ubar`` from the measured pose, where ``B_k = df/du`` and ``A_k = I + E_k``,
+``E_k`` turning stage ``k``'s displacement ``D_k = xbar_{k+1} - xbar_k`` with
+the heading (``E_k dx = (-D_ky, D_kx, 0) dtheta``). The QP is posed in the step
+``d = y - ybar`` from the guess ``ybar`` (``y = (u, s)``)::
+
+    minimise 1/2 d' H d + g' d,   H = S' P_xx S + (input and progress terms),
+
+with ``g`` the cost's exact gradient at the guess (an O(N) pass of suffix
+sums) and ``S`` the exact state sensitivities,
+``S_kj = B_j + (sum_{m=j+1}^{k-1} E_m) B_j``: the lever arm of a heading
+change on every later step (Gauss-Newton). A plan is a fixed point of the
+iteration iff the exact gradient meets the optimality conditions, so a
+Hessian kept from a nearby tick changes how fast the iteration converges,
+not where.
+
+``P`` and ``q`` are the sparse QP's cost terms (:mod:`.qp_structure`). Every
+inequality of the sparse QP is on the inputs and the progress only, so the
+constraint matrix carries over unchanged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mpc.arrays import FloatArray, IntArray
+from mpc.model.tracking import TrackingModel
+from mpc.solvers.qp_structure import QpStructure
+
+
+class Condenser:
+    """Index maps (built once) and the per-tick condensing arithmetic.
+
+    Args:
+        model: the tracking problem.
+        structure: its sparse QP (cost pattern and inequality rows).
+    """
+
+    def __init__(self, model: TrackingModel, structure: QpStructure) -> None:
+        n = model.horizon
+        variables = model.layouts.variables
+        self.horizon = n
+        self.n_inputs = 3 * n
+        poses, twists = variables["poses"], variables["twists"]
+        progress = variables.fields.get("progress")
+        self.size = self.n_inputs + (progress.size if progress is not None else 0)
+        coo = structure.hessian.tocoo()  # same entry order as the CSC data
+        self._rows, self._cols = coo.row.astype(np.intp), coo.col.astype(np.intp)
+        self.dense = np.zeros((variables.size, variables.size))  # symmetric P
+        stage = np.arange(n + 1)[:, None, None]
+        a, b = np.meshgrid(np.arange(3), np.arange(3), indexing="ij")
+        self._xx = (poses.start + 3 * stage + a, poses.start + 3 * stage + b)  # (N+1, 3, 3)
+        self._x = slice(poses.start, poses.start + poses.size)
+        self._u = slice(twists.start, twists.start + twists.size)
+        self._s = None if progress is None else slice(progress.start,
+                                                      progress.start + progress.size)
+        # later[j] = sum over stages k > j of a per-stage quantity: one small matrix product.
+        self._after = (np.arange(n + 1)[None, :] > np.arange(n)[:, None]).astype(float)
+        self._check_structure(structure)
+        rows = structure.constraints[3 * (n + 1):, :]
+        self.columns: IntArray = (np.r_[self._u, self._s] if self._s is not None
+                                  else np.r_[self._u])  # y's entries in z
+        self.constraints = rows[:, self.columns].toarray()  # rows on y
+        self.first_row = 3 * (n + 1)
+
+    def _check_structure(self, structure: QpStructure) -> None:
+        """The condensing relies on the cost's pattern: no state-input coupling, stage-wise
+        state blocks, and inequality rows that do not touch the states."""
+        self.scatter(np.arange(1.0, structure.hessian.nnz + 1))
+        dense = self.dense
+        x, u = self._x, self._u
+        stagewise = np.zeros_like(dense[x, x], dtype=bool)
+        stagewise[self._xx[0] - x.start, self._xx[1] - x.start] = True
+        if dense[x, u].any() or (dense[x, x] * ~stagewise).any():
+            raise RuntimeError("condensing needs a cost without state-input or cross-stage "
+                               "state coupling")
+        if structure.constraints[3 * (self.horizon + 1):, x].nnz:
+            raise RuntimeError("condensing needs inequality rows free of the states")
+
+    def scatter(self, p_data: FloatArray) -> None:
+        """Write the upper-triangle values of ``P`` into the dense symmetric ``P``."""
+        self.dense[self._rows, self._cols] = p_data
+        self.dense[self._cols, self._rows] = p_data
+
+    def isotropic(self) -> bool:
+        """Whether the scattered cost weighs every stage's position error alike in all
+        directions and has no position-progress coupling: then ``H`` is unchanged when the
+        whole plan turns (``B_k -> R B_k`` for one rotation ``R``)."""
+        stages = self.dense[self._xx]
+        planar = stages[:, :2, :2]
+        round_ = (np.allclose(planar[:, 0, 1], 0.0)
+                  and np.allclose(planar[:, 0, 0], planar[:, 1, 1])
+                  and np.allclose(stages[:, :2, 2], 0.0))
+        return bool(round_ and (self._s is None or not self.dense[self._x, self._s].any()))
+
+    def state_sensitivities(self, sensitivity: FloatArray,
+                            displacement: FloatArray) -> FloatArray:
+        """``S`` as (N+1, 3, 3N): stage ``k``'s pose against every input (Gauss-Newton)."""
+        n = self.horizon
+        mask = self._after.T[:, :, None, None]  # (N+1, N, 1, 1): input j acts before stage k
+        blocks = np.broadcast_to(sensitivity[None], (n + 1, n, 3, 3)) * mask
+        # The heading row of B_j is (0, 0, dt_j): a heading change of omega_j dt turns the
+        # steps of stages j+1 .. k-1, which moves x_k by sum of (-D_y, D_x) of those steps.
+        turned = np.concatenate((np.zeros((1, 2)), np.cumsum(
+            np.stack((-displacement[:, 1], displacement[:, 0]), axis=1), axis=0)))
+        lever = (turned[:, None, :] - turned[None, 1:, :]) * mask[:, :, :, 0]  # (N+1, N, 2)
+        blocks = blocks.copy()
+        blocks[:, :, :2, 2] += lever * sensitivity[None, :, 2, 2, None]
+        return blocks.transpose(0, 2, 1, 3).reshape(n + 1, 3, 3 * n)
+
+    def hessian(self, states: FloatArray) -> FloatArray:
+        """``H`` for the state sensitivities ``S`` (N+1, 3, 3N), from the scattered ``P``."""
+        dense, n3 = self.dense, self.n_inputs
+        stages = dense[self._xx]  # (N+1, 3, 3): P_xx of each stage
+        flat = states.reshape(-1, n3)
+        weighted = np.matmul(stages, states).reshape(-1, n3)  # P_xx S, stage by stage
+        hessian = np.empty((self.size, self.size))
+        hessian[:n3, :n3] = flat.T @ weighted + dense[self._u, self._u]
+        if self._s is not None:
+            coupling = dense[self._x, self._s].reshape(self.horizon + 1, 3, -1)
+            # P_xs couples x_k with s_k only: column k is stage k's 3-vector.
+            stages_k = np.arange(self.horizon + 1)
+            columns = coupling[stages_k, :, stages_k]  # (N+1, 3)
+            us = np.einsum("kam,ka->mk", states, columns) + dense[self._u, self._s]
+            hessian[:n3, n3:] = us
+            hessian[n3:, :n3] = us.T
+            hessian[n3:, n3:] = dense[self._s, self._s]
+        return hessian
+
+    def gradient(self, q: FloatArray, guess: FloatArray, sensitivity: FloatArray,
+                 displacement: FloatArray) -> FloatArray:
+        """The cost's exact gradient in ``y`` at the guess ``zbar`` (the rollout, the guess
+        twists and progress, laid out as ``z``); ``displacement`` (N, 2) the rollout's
+        planar steps ``D_k``."""
+        g = self.dense @ guess + q
+        later = self._after @ g[self._x].reshape(-1, 3)  # (N, 3): sum_{k > j} g_k
+        # A heading change at stage j turns every later step D_m: sum_{m > j} D_m x later_m.
+        lever = displacement[:, 0] * later[:, 1] - displacement[:, 1] * later[:, 0]
+        later[:, 2] += self._after[:, :-1] @ lever
+        gradient = np.empty(self.size)
+        # B_j' later_j for every stage, as a batch of (1, 3) @ (3, 3) products.
+        gradient[:self.n_inputs] = np.matmul(later[:, None, :], sensitivity).ravel()
+        gradient[:self.n_inputs] += g[self._u]
+        if self._s is not None:
+            gradient[self.n_inputs:] = g[self._s]
+        return gradient
+
+    def poses(self, rollout: FloatArray, sensitivity: FloatArray, step: FloatArray,
+              displacement: FloatArray) -> FloatArray:
+        """The predicted poses (N+1, 3) after the twist ``step`` (N, 3) from the guess (the
+        linearised dynamics, lever arm included)."""
+        moves = np.matmul(sensitivity, step[:, :, None])[:, :, 0]  # B_k d_k
+        turn = self._after.T[:-1] @ moves[:, 2]  # dtheta_k before stage k's step, k < N
+        moves[:, 0] -= displacement[:, 1] * turn
+        moves[:, 1] += displacement[:, 0] * turn
+        return rollout + self._after.T @ moves

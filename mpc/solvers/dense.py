@@ -1,0 +1,213 @@
+"""Fast path on a condensed QP: daqp, a dual active-set solver, one dense QP per tick.
+
+Each tick: one CasADi call rolls the guess twists out from the measured pose
+and gives the input sensitivities, one gives the cost terms; the QP is
+condensed onto the inputs (:mod:`.condensed`) and daqp solves it, warm
+started from its own last active set (daqp keeps it between solves).
+
+The QP is posed in the step from the guess with the cost's exact gradient
+there, so the Hessian only shapes the step: it is rebuilt and refactorised
+only when the cost terms or an input sensitivity moved by more than
+:data:`COST_TOLERANCE` / :data:`SENSITIVITY_TOLERANCE` since the last
+build. References whose heading profile is steady need almost no
+factorisations after the first tick.
+"""
+
+from __future__ import annotations
+
+import math
+
+import daqp
+import numpy as np
+
+from mpc.arrays import FloatArray
+from mpc.model.buffered import BufferedFunction
+from mpc.model.layout import TickInput
+from mpc.model.tracking import TrackingModel
+from mpc.solvers.base import SolveResult
+from mpc.solvers.condensed import Condenser
+from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds
+
+#: Largest change of an input sensitivity ``B_k`` [s] before the Hessian is rebuilt, as a
+#: fraction of ``dt`` (0.02: a heading that moved by 0.02 rad relative to the others). A
+#: stale Hessian slows the iteration's convergence; it does not move its fixed point (see
+#: :mod:`.condensed`); it is a trade of tracking precision (one step a tick) for speed.
+SENSITIVITY_TOLERANCE = 2e-2
+
+#: Largest change of a cost Hessian entry before the Hessian is rebuilt, as a fraction of
+#: the largest entry at set-up (path mode: the path's direction turns the contour terms).
+COST_TOLERANCE = 0.5
+
+#: daqp's constraint flag for an equality row (active and immutable).
+_EQUALITY = 5
+
+_STATUS = {1: "solved", 2: "solved (soft)", -1: "infeasible", -2: "cycling", -3: "unbounded",
+           -4: "maximum iterations reached", -5: "nonconvex", -6: "initial point infeasible",
+           -7: "time limit reached"}
+
+
+class DenseSolver:
+    """daqp real-time-iteration solver of a :class:`~mpc.model.tracking.TrackingModel`.
+
+    Args:
+        model: the tracking problem.
+        polygon_sides: sides of the polygon inscribed in a swerve module's speed
+            disk (even, >= 4); robots with exact linear rows ignore it.
+        max_iter: daqp iterations per tick at most.
+        time_limit: daqp time per tick at most [s]; 0 for none.
+    """
+
+    name = "daqp"
+
+    def __init__(self, model: TrackingModel, polygon_sides: int = 16, max_iter: int = 1000,
+                 time_limit: float = 0.0) -> None:
+        self.model = model
+        n = model.horizon
+        structure = assemble_qp(model, model.robot.qp_speed_rows(polygon_sides))
+        self.structure = structure
+        self.condenser = Condenser(model, structure)
+        self._p_data = structure.hessian.data.copy()
+        self._q = np.zeros(model.layouts.variables.size)
+        self._cost_for: TickInput | None = None
+        self._evaluate_cost: BufferedFunction | None = None
+        self._rollout = np.zeros((n + 1, 3))
+        self._sensitivity_vec = np.zeros((n, 9))
+        self._roll_for: TickInput | None = None
+        self._roll: BufferedFunction | None = None
+        self._lower, self._upper = structure.lower.copy(), structure.upper.copy()
+        self._cached_p: FloatArray | None = None
+        self._cached_b: FloatArray | None = None
+        self._scattered = np.full_like(self._p_data, np.nan)
+        self._p_stale = False  # the scattered cost terms differ from the cached Hessian's
+        self._isotropic = False  # whether the cost weighs positions alike in every direction
+        self._guess = np.zeros(model.layouts.variables.size)  # zbar
+        layout = model.layouts.variables
+        self._guess_poses = layout.view(self._guess, "poses")
+        self._guess_twists = layout.view(self._guess, "twists")
+        self._guess_progress = layout.view(self._guess, "progress") if model.path else None
+        self._tolerance = SENSITIVITY_TOLERANCE * model.dt
+        self._p_tolerance = COST_TOLERANCE * float(np.abs(self._p_data).max() or 1.0)
+        self._settings = {"iter_limit": int(max_iter), "time_limit": float(time_limit)}
+        self._solver: daqp.Model | None = None
+        self.factorisations = 0  # Hessian rebuilds so far (for benchmarks)
+
+    def reset(self) -> None:
+        """Forget the active set and the cached factorisation."""
+        self._solver = None
+        self._cached_p = self._cached_b = None
+
+    def _bind(self, tick: TickInput) -> tuple[BufferedFunction, BufferedFunction]:
+        """CasADi buffers that read the tick's vectors in place."""
+        if self._cost_for is not tick or self._evaluate_cost is None or self._roll is None:
+            self._evaluate_cost = BufferedFunction(self.structure.cost_terms, [tick.parameters],
+                                                   [self._p_data, self._q])
+            self._roll = BufferedFunction(self.model.rollout, [tick.pose, tick.guess_twists],
+                                          [self._rollout, self._sensitivity_vec])
+            self._cost_for = tick
+        return self._evaluate_cost, self._roll
+
+    def _sensitivities(self) -> FloatArray:
+        """``B_k`` (N, 3, 3) from the column-major vectors CasADi wrote."""
+        return self._sensitivity_vec.reshape(-1, 3, 3).transpose(0, 2, 1)
+
+    def solve(self, tick: TickInput) -> SolveResult:
+        """Solve one tick around the guess twists (and progress) in ``tick``."""
+        evaluate_cost, roll = self._bind(tick)
+        evaluate_cost()
+        roll()
+        condenser = self.condenser
+        sensitivity = self._sensitivities()
+        p_changed = not np.array_equal(self._p_data, self._scattered)
+        if p_changed:
+            condenser.scatter(self._p_data)
+            self._scattered[:] = self._p_data
+        if p_changed:
+            self._isotropic = condenser.isotropic()
+        displacement = np.diff(self._rollout[:, :2], axis=0)
+        rebuild = self._needs_rebuild(sensitivity, displacement, p_changed)
+        guess = self._guess
+        self._guess_poses[:] = self._rollout
+        self._guess_twists[:] = tick.guess_twists
+        if tick.path is not None and self._guess_progress is not None:
+            self._guess_progress[:] = tick.path.guess_progress
+        gradient = condenser.gradient(self._q, guess, sensitivity, displacement)
+        fill_inequality_bounds(self.structure, tick, self._lower, self._upper)
+        first = condenser.first_row
+        at_guess = condenser.constraints @ guess[condenser.columns]
+        lower = self._lower[first:] - at_guess
+        upper = self._upper[first:] - at_guess
+        if self._solver is None or rebuild:
+            hessian = condenser.hessian(condenser.state_sensitivities(sensitivity, displacement))
+            if self._solver is None:
+                self._setup(hessian, gradient, upper, lower)
+            else:
+                self._solver.update(H=hessian, f=gradient, bupper=upper, blower=lower)
+        else:
+            self._solver.update(f=gradient, bupper=upper, blower=lower)
+        solver = self._solver
+        if solver is None:  # pragma: no cover - _setup always sets it
+            raise RuntimeError("daqp was not set up")
+        step, _, flag, info = solver.solve()
+        step = np.asarray(step, dtype=float)
+        success = flag > 0 and math.isfinite(float(step.sum()))
+        n3 = condenser.n_inputs
+        twists = tick.guess_twists + step[:n3].reshape(-1, 3)
+        poses = condenser.poses(self._rollout, sensitivity, step[:n3].reshape(-1, 3),
+                                displacement)
+        progress = None
+        if tick.path is not None:
+            progress = tick.path.guess_progress + step[n3:]
+        return SolveResult(
+            success=success, status=_STATUS.get(int(flag), f"daqp exit flag {flag}"),
+            poses=poses, twists=twists, progress=progress,
+            solve_time=float(info["solve_time"]) + float(info["setup_time"]),
+            iterations=int(info["iterations"]))
+
+    def _needs_rebuild(self, sensitivity: FloatArray, displacement: FloatArray,
+                       p_changed: bool) -> bool:
+        """Whether the Hessian must be rebuilt: the cost terms, a sensitivity or a step of
+        the rollout (times ``dt``, as it enters ``S``) moved by more than the tolerances
+        since the last build (then remember these)."""
+        lever = displacement * self.model.dt
+        if self._isotropic:  # the Hessian does not see a rotation of the whole plan
+            sensitivity, lever = _unrotated(sensitivity, lever)
+        together = np.concatenate((sensitivity.ravel(), lever.ravel()))
+        if self._cached_b is not None and self._cached_p is not None:
+            p_moved = (np.abs(self._p_data - self._cached_p).max()
+                       if p_changed or self._p_stale else 0.0)
+            self._p_stale = self._p_stale or p_changed
+            if p_moved <= self._p_tolerance and (
+                    np.abs(together - self._cached_b).max() <= self._tolerance):
+                return False
+        self._cached_p, self._cached_b = self._p_data.copy(), together
+        self._p_stale = False
+        self.factorisations += 1
+        return True
+
+    def _setup(self, hessian: FloatArray, gradient: FloatArray, upper: FloatArray,
+               lower: FloatArray) -> None:
+        sense = np.zeros(upper.size, dtype=np.intc)
+        # Rows whose bounds meet (the fixed s_0; a failed wheel's speed) are equalities.
+        sense[lower == upper] = _EQUALITY
+        solver = daqp.Model()
+        solver.setup(hessian, gradient, self.condenser.constraints, upper, lower, sense)
+        settings = solver.settings
+        settings.update(self._settings)
+        solver.settings = settings
+        self._solver = solver
+
+
+def _unrotated(sensitivity: FloatArray,
+               steps: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The sensitivities (N, 3, 3) and planar steps (N, 2) with the world frame turned so
+    that stage 0's body x axis is the world x axis: equal for plans that differ by a
+    rotation of the whole plan."""
+    first = sensitivity[0]
+    angle = math.atan2(first[1, 0] - first[0, 1], first[0, 0] + first[1, 1])
+    c, s = math.cos(angle), math.sin(angle)
+    turned = sensitivity.copy()
+    turned[:, 0, :] = c * sensitivity[:, 0, :] + s * sensitivity[:, 1, :]
+    turned[:, 1, :] = c * sensitivity[:, 1, :] - s * sensitivity[:, 0, :]
+    planar = np.stack((c * steps[:, 0] + s * steps[:, 1], c * steps[:, 1] - s * steps[:, 0]),
+                      axis=1)
+    return turned, planar
