@@ -395,8 +395,8 @@ def time_optimal(
     bound = speed_bound(limits, coarse)
     solution = solve_lap(coarse, limits, bound, steady)
     b = solution.b
-    if steady:
-        b[0] = b[-1] = min(b[0], b[-1])
+    # the solver meets its equality rows to its tolerance: make the ends exact
+    b[0] = b[-1] = min(b[0], b[-1]) if steady else 0.0
     solver_lap = lap_time(coarse.s, b)
     speed, accel = peak_demand(fine, limits, b)
     factor = (1.0 - MARGIN) / max(speed * speed, accel)
