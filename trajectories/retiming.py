@@ -27,7 +27,8 @@ s_0 < ... < s_N with a_k constant in cell k (so b is linear in s there),
 a convex second-order cone program (Verscheure et al., IEEE TAC 2009) whose
 objective is exactly the lap time of the piecewise-constant-sddot timing;
 :mod:`trajectories.retiming_problem` solves it with clarabel. Between grid points
-the limits are then measured on a grid ``REFINEMENT`` times finer, and b and a
+the limits are then measured on a grid ``REFINEMENT`` times finer (and of at
+least ``MIN_CHECK_POINTS`` points), and b and a
 are scaled by one factor lambda (time stretched by 1 / sqrt(lambda)) so that
 every limit holds there, less a relative margin ``MARGIN``.
 
@@ -67,7 +68,9 @@ MIN_SAMPLES = 16
 #: Grid cells along the path unless asked otherwise.
 DEFAULT_SAMPLES = 1000
 #: The limits are checked on a grid this many times finer than the solve grid.
-REFINEMENT = 8
+REFINEMENT = 16
+#: ... and has at least this many points per lap.
+MIN_CHECK_POINTS = 16384
 #: Relative margin left below every limit on the check grid (rounding, and the
 #: second-order excess between its points).
 MARGIN = 1e-7
@@ -385,13 +388,14 @@ def time_optimal(
     source, steady, start, span = _checked_path(path, periodic)
     limits = checked_limits(robot, max_speed, max_heading_rate)
     cells = _checked_samples(samples)
-    fine = path_geometry(source, start + span * np.linspace(0.0, 1.0, cells * REFINEMENT + 1))
+    refine = max(REFINEMENT, -(-MIN_CHECK_POINTS // cells))
+    fine = path_geometry(source, start + span * np.linspace(0.0, 1.0, cells * refine + 1))
     if float(np.abs(fine.twist).max()) < _STILL_TWIST:
         raise TrajectoryError(
             f"path must move or turn, but its pose is constant for s in [{start!r}, "
             f"{start + span!r}] s: a path of zero length has no time-optimal timing"
         )
-    coarse = PathGeometry(*(array[::REFINEMENT] for array in fine))
+    coarse = PathGeometry(*(array[::refine] for array in fine))
     bound = speed_bound(limits, coarse)
     solution = solve_lap(coarse, limits, bound, steady)
     b = solution.b
