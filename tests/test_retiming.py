@@ -317,6 +317,16 @@ def test_circle_at_fixed_heading_on_omni4_x_matches_closed_form(radius: float) -
     assert speeds.min() == pytest.approx(1.0, rel=1e-4)  # a wheel in line with the motion
 
 
+def test_circle_at_fixed_heading_on_mecanum_matches_closed_form() -> None:
+    # Rim speeds vx -+ vy (omega = 0): the largest is |vx| + |vy| = v (|cos phi| + |sin phi|),
+    # so T = R / (r w) * integral_0^{2 pi} (|cos phi| + |sin phi|) dphi = 8 R / (r w);
+    # the preset's acceleration limit is not met on a 1 m circle.
+    robot = preset("mecanum")
+    retimed = time_optimal(Circle(1.0, 10.0, heading=0.0), robot)
+    assert retimed.lap_time == pytest.approx(8.0 * 1.0 / (0.05 * 20.0), rel=5e-5)
+    assert retimed.info is not None and retimed.info.accel_demand < 1.0
+
+
 class _Line(Trajectory):
     """A straight segment from the origin along ``direction`` [rad] at 1 m/s, ``length`` [m]."""
 

@@ -26,42 +26,54 @@ s_0 < ... < s_N with a_k constant in cell k (so b is linear in s there),
 
 a convex second-order cone program (Verscheure et al., IEEE TAC 2009) whose
 objective is exactly the lap time of the piecewise-constant-sddot timing;
-:mod:`trajectories.retiming_problem` solves it with clarabel. Between grid points
-the limits are then measured on a grid ``REFINEMENT`` times finer (and of at
-least ``MIN_CHECK_POINTS`` points), and b and a
-are scaled by one factor lambda (time stretched by 1 / sqrt(lambda)) so that
-every limit holds there, less a relative margin ``MARGIN``.
+:mod:`trajectories.retiming_problem` solves it with clarabel. Between grid
+points the limits are then measured on a grid ``REFINEMENT`` times finer (at
+least ``MIN_CHECK_POINTS`` points a lap), and b and a are scaled by one factor
+lambda (time stretched by 1 / sqrt(lambda)) so that every limit holds there,
+less a relative margin ``MARGIN``.
 
 In cell k, from its start time t_k: sddot = a_k, sdot = sqrt(b_k) + a_k tau and
 s = s_k + sqrt(b_k) tau + a_k tau^2 / 2 (tau = t - t_k), and the cell lasts
 2 ds / (sqrt(b_k) + sqrt(b_{k+1})) [s]. The retimed trajectory's velocity is
 dq/ds sdot and its acceleration d2q/ds2 sdot^2 + dq/ds sddot, from the source
-sampled at s: exact between grid points, heading included.
+sampled at s: exact between grid points, heading included
+(:class:`~trajectories.retiming_trajectory.RetimedTrajectory`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any, NamedTuple, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import FloatArray, as_times, shown
-from .base import Trajectory, TrajectorySample
+from ._validation import positive_number, shown
+from .base import Trajectory
 from .errors import TrajectoryError
-from .heading import HeadingDerivatives, HeadingProfile
-from .path import PathDerivatives
 from .retiming_problem import (
+    Limits,
     PathGeometry,
-    checked_limits,
     lap_time,
     path_geometry,
     peak_demand,
     solve_lap,
     speed_bound,
 )
+from .retiming_trajectory import PhaseGrid, RetimedTrajectory, RetimingInfo
+
+__all__ = [
+    "DEFAULT_SAMPLES",
+    "MARGIN",
+    "MIN_CHECK_POINTS",
+    "MIN_SAMPLES",
+    "REFINEMENT",
+    "PhaseGrid",
+    "RetimedTrajectory",
+    "RetimingInfo",
+    "RetimingRobot",
+    "time_optimal",
+]
 
 #: Fewest grid cells accepted by :func:`time_optimal`.
 MIN_SAMPLES = 16
@@ -94,262 +106,6 @@ class RetimingRobot(Protocol):
     def max_wheel_accel(self) -> npt.ArrayLike | None:
         """Acceleration limits, shape (n,) [rad/s^2], > 0, or None (unlimited)."""
         ...
-
-
-class PhaseGrid(NamedTuple):
-    """The timing on its grid: path parameter, its rates and the times reached.
-
-    ``s`` (m,) [s of the source], ``sdot`` (m,) [-], ``sddot`` (m - 1,) per
-    cell [1/s], ``t`` (m,) [s] the time each grid point is reached.
-    """
-
-    s: FloatArray
-    sdot: FloatArray
-    sddot: FloatArray
-    t: FloatArray
-
-
-@dataclass(frozen=True)
-class RetimingInfo:
-    """How :func:`time_optimal` found its timing.
-
-    ``status`` and ``iterations`` are clarabel's; ``solve_time`` [s] its own
-    timer, ``build_time`` [s] assembling the problem; ``solver_lap_time`` [s]
-    the cone program's lap; ``stretch`` = lap time / solver lap time (>= 1 when
-    the check between grid points slowed the timing down); ``speed_demand``
-    and ``accel_demand`` the peaks (1 = at a limit) on the check grid after it.
-    """
-
-    status: str
-    iterations: int
-    solve_time: float
-    build_time: float
-    solver_lap_time: float
-    stretch: float
-    speed_demand: float
-    accel_demand: float
-
-
-class _PhaseTiming:
-    """s(t), sdot(t) and sddot(t) from sdot on a grid, sddot constant in each cell."""
-
-    def __init__(self, s: FloatArray, sdot: FloatArray, start_time: float, periodic: bool) -> None:
-        steps = np.diff(s)
-        self.s = s
-        self.sdot = sdot
-        self.sddot = (sdot[1:] - sdot[:-1]) * (sdot[1:] + sdot[:-1]) / (2.0 * steps)
-        elapsed = np.concatenate([[0.0], np.cumsum(2.0 * steps / (sdot[:-1] + sdot[1:]))])
-        self.elapsed = elapsed  # [s] from the start to each grid point
-        self.start_time = start_time
-        self.lap_time = float(elapsed[-1])
-        self.periodic = periodic
-        self.span = float(s[-1] - s[0])
-
-    def evaluate(self, t: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """(s, sdot, sddot) at times ``t`` [s] (finite timings: already within the span)."""
-        offset = t - self.start_time
-        turns = None
-        if self.periodic:
-            turns = np.floor(offset / self.lap_time)
-            offset = offset - turns * self.lap_time
-        cell = np.searchsorted(self.elapsed, offset, side="right") - 1
-        cell = np.clip(cell, 0, self.sddot.size - 1)
-        tau = offset - self.elapsed[cell]
-        start_rate = self.sdot[cell]
-        accel = self.sddot[cell]
-        s = self.s[cell] + (start_rate + 0.5 * accel * tau) * tau
-        if turns is not None:
-            s = s + turns * self.span
-        return s, start_rate + accel * tau, accel
-
-
-@dataclass(frozen=True, repr=False)
-class _RetimedHeading(HeadingProfile):
-    """The source's heading theta(s) along the retimed s(t): thetadot = theta' sdot, ..."""
-
-    timing: _PhaseTiming
-    source: Trajectory
-
-    def evaluate(self, t: FloatArray, path: PathDerivatives) -> HeadingDerivatives:
-        """theta(s(t)), theta'(s) sdot and theta''(s) sdot^2 + theta'(s) sddot."""
-        s, rate, accel = self.timing.evaluate(t)
-        sample = self.source.sample(s)
-        slope = sample.velocity[..., 2]
-        return HeadingDerivatives(
-            sample.pose[..., 2], slope * rate, sample.acceleration[..., 2] * rate**2 + slope * accel
-        )
-
-    def __repr__(self) -> str:
-        return f"RetimedHeading({self.source.heading!r})"
-
-
-class RetimedTrajectory(Trajectory):
-    """The geometry of ``source`` driven with a new timing s(t), given as sdot on a grid of s.
-
-    Between grid points sddot is constant, so s(t) and sdot(t) are exact
-    quadratics and lines in t (see the module docstring); pose, velocity and
-    acceleration come from the source's exact derivatives at s(t), heading
-    included. Periodic (``period`` = lap time, one lap per source period) or
-    finite (``end_time`` = start + lap time, the end pose held after it); it
-    starts at the source's ``start_time``. Built by :func:`time_optimal`.
-
-    Args:
-        source: the trajectory whose pose over its own time is the path.
-        s: grid of path parameters (m,) [s of the source], strictly increasing;
-            periodic: exactly one source period long.
-        sdot: ds/dt at the grid points (m,) [-], >= 0, never 0 at two neighbours;
-            periodic: the same at both ends.
-        periodic: steady laps (True) or one pass (False).
-        info: how the timing was found, if it was (:class:`RetimingInfo`).
-    """
-
-    def __init__(self, source: Trajectory, s: npt.ArrayLike, sdot: npt.ArrayLike, *,
-                 periodic: bool, info: RetimingInfo | None = None) -> None:
-        if not isinstance(source, Trajectory):
-            raise TrajectoryError(f"source must be a Trajectory, got {shown(source)}")
-        if not isinstance(periodic, bool):
-            raise TrajectoryError(f"periodic must be True or False, got {shown(periodic)}")
-        grid, rates = _checked_grid(s, sdot)
-        if periodic:
-            _check_periodic_grid(source, grid, rates)
-        grid.flags.writeable = False
-        rates.flags.writeable = False
-        self._source = source
-        self._info = info
-        self._timing = _PhaseTiming(grid, rates, source.start_time, periodic)
-        self._timing.sddot.flags.writeable = False
-        self._timing.elapsed.flags.writeable = False
-        super().__init__(_RetimedHeading(self._timing, source))
-
-    @property
-    def source(self) -> Trajectory:
-        """The trajectory whose geometry is driven."""
-        return self._source
-
-    @property
-    def info(self) -> RetimingInfo | None:
-        """How :func:`time_optimal` found the timing (None if built directly)."""
-        return self._info
-
-    @property
-    def grid(self) -> PhaseGrid:
-        """The timing on its grid: s, sdot, sddot per cell, and times t [s] (read-only)."""
-        timing = self._timing
-        times = timing.start_time + timing.elapsed
-        times.flags.writeable = False
-        return PhaseGrid(timing.s, timing.sdot, timing.sddot, times)
-
-    @property
-    def lap_time(self) -> float:
-        """Time for one lap (periodic) or the whole path (finite) [s]."""
-        return self._timing.lap_time
-
-    @property
-    def period(self) -> float | None:
-        """The lap time [s] for steady laps, else None."""
-        return self._timing.lap_time if self._timing.periodic else None
-
-    @property
-    def start_time(self) -> float:
-        """The source's start time [s]: the first grid point is reached then."""
-        return self._timing.start_time
-
-    @property
-    def end_time(self) -> float | None:
-        """start_time + lap time [s] for one pass, None for steady laps."""
-        if self._timing.periodic:
-            return None
-        return self._timing.start_time + self._timing.lap_time
-
-    def path_parameter(self, t: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """(s, sdot, sddot) at times t [s]: [s of the source], [-], [1/s], each of t's shape."""
-        return self._timing.evaluate(self._clamped(as_times(t)))
-
-    def sample(self, t: npt.ArrayLike) -> TrajectorySample:
-        """Pose, velocity dq/ds sdot and acceleration d2q/ds2 sdot^2 + dq/ds sddot at t [s].
-
-        One pass over the source (the base class would sample it twice); after
-        the end of a finite timing the end pose is held at rest.
-        """
-        times = as_times(t)
-        inside = self._clamped(times)
-        s, rate, accel = self._timing.evaluate(inside)
-        source = self._source.sample(s)
-        velocity = source.velocity * rate[..., np.newaxis]
-        acceleration = source.acceleration * (rate * rate)[..., np.newaxis]
-        acceleration += source.velocity * accel[..., np.newaxis]
-        if inside is not times:
-            still = (inside != times)[..., np.newaxis]
-            velocity = np.where(still, 0.0, velocity)
-            acceleration = np.where(still, 0.0, acceleration)
-        return TrajectorySample(source.pose, velocity, acceleration)
-
-    def _clamped(self, times: FloatArray) -> FloatArray:
-        end = self.end_time
-        if end is None:
-            return times
-        clamped = np.clip(times, self.start_time, end)
-        return times if np.array_equal(clamped, times) else clamped
-
-    def _path(self, t: FloatArray) -> PathDerivatives:
-        s, rate, accel = self._timing.evaluate(t)
-        path = self._source.path(s)
-        rate_ = rate[..., np.newaxis]
-        accel_ = accel[..., np.newaxis]
-        return PathDerivatives(
-            path.position,
-            path.velocity * rate_,
-            path.acceleration * rate_**2 + path.velocity * accel_,
-            path.jerk * rate_**3 + 3.0 * path.acceleration * rate_ * accel_,
-        )
-
-    def __repr__(self) -> str:
-        kind = "steady laps" if self._timing.periodic else "one pass"
-        return (f"RetimedTrajectory(<lap {self.lap_time:.6g} s, {kind}, "
-                f"{self._timing.s.size - 1} cells>, source={self._source!r})")
-
-
-def _checked_grid(s: npt.ArrayLike, sdot: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
-    try:
-        grid = np.array(s, dtype=np.float64)
-        rates = np.array(sdot, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise TrajectoryError(
-            f"s and sdot must be 1-D arrays of finite numbers, got {shown(s)} and {shown(sdot)}"
-        ) from error
-    if grid.ndim != 1 or grid.size < 2 or rates.shape != grid.shape:
-        raise TrajectoryError(
-            f"s and sdot must be 1-D arrays of the same length >= 2, got shapes {grid.shape} "
-            f"and {rates.shape}"
-        )
-    if not (np.isfinite(grid).all() and np.isfinite(rates).all()):
-        raise TrajectoryError("s and sdot must be finite")
-    if not (np.diff(grid) > 0.0).all():
-        raise TrajectoryError("s must be strictly increasing")
-    if (rates < 0.0).any():
-        raise TrajectoryError(f"sdot must be >= 0, got min {float(rates.min())!r}")
-    stopped = np.flatnonzero((rates[:-1] == 0.0) & (rates[1:] == 0.0))
-    if stopped.size:
-        k = int(stopped[0])
-        raise TrajectoryError(
-            f"sdot must not be 0 at two neighbouring grid points (the timing would never "
-            f"move on), got sdot = 0 at s={grid[k]!r} and s={grid[k + 1]!r}"
-        )
-    return grid, rates
-
-
-def _check_periodic_grid(source: Trajectory, grid: FloatArray, rates: FloatArray) -> None:
-    period = source.period
-    if period is None:
-        raise TrajectoryError("periodic=True needs a periodic source (period not None), got "
-                              f"{source!r}")
-    span = float(grid[-1] - grid[0])
-    if not math.isclose(span, period, rel_tol=1e-9):
-        raise TrajectoryError(f"a periodic timing must cover one source period {period!r} s, "
-                              f"got s from {grid[0]!r} to {grid[-1]!r}")
-    if not math.isclose(rates[0], rates[-1], rel_tol=1e-9, abs_tol=1e-12):
-        raise TrajectoryError(f"a periodic timing needs the same sdot at both ends, got "
-                              f"{rates[0]!r} and {rates[-1]!r}")
 
 
 def time_optimal(
@@ -386,7 +142,7 @@ def time_optimal(
             clarabel's status).
     """
     source, steady, start, span = _checked_path(path, periodic)
-    limits = checked_limits(robot, max_speed, max_heading_rate)
+    limits = _checked_limits(robot, max_speed, max_heading_rate)
     cells = _checked_samples(samples)
     refine = max(REFINEMENT, -(-MIN_CHECK_POINTS // cells))
     fine = path_geometry(source, start + span * np.linspace(0.0, 1.0, cells * refine + 1))
@@ -452,3 +208,38 @@ def _checked_samples(samples: Any) -> int:
         )
     return int(samples)
 
+
+def _checked_limits(robot: Any, max_speed: Any, max_heading_rate: Any) -> Limits:
+    """The robot's wheel maps and limits, and the caps, checked."""
+    expected = ("robot must have wheel_blocks (n, d, 3), max_wheel_speed (n,) [rad/s] and "
+                "max_wheel_accel (n,) [rad/s^2] or None, like an mpc.robots.Robot")
+    try:
+        blocks = np.array(robot.wheel_blocks, dtype=np.float64)
+        speed = np.array(robot.max_wheel_speed, dtype=np.float64)
+        raw_accel = robot.max_wheel_accel
+        accel = None if raw_accel is None else np.array(raw_accel, dtype=np.float64)
+    except (AttributeError, TypeError, ValueError) as error:
+        raise TrajectoryError(f"{expected}; got {shown(robot)}: {error}") from None
+    if blocks.ndim != 3 or blocks.shape[0] < 1 or blocks.shape[1] < 1 or blocks.shape[2] != 3:
+        raise TrajectoryError(f"{expected}; got wheel_blocks of shape {blocks.shape}")
+    n = blocks.shape[0]
+    if speed.ndim == 0:
+        speed = np.full(n, float(speed))
+    if not np.isfinite(blocks).all():
+        raise TrajectoryError(f"{expected}; got wheel_blocks that are not all finite")
+    if speed.shape != (n,) or not (np.isfinite(speed) & (speed >= 0.0)).all():
+        raise TrajectoryError(f"{expected}; got max_wheel_speed {shown(speed)} for {n} wheels "
+                              "(each finite and >= 0)")
+    if accel is not None and (
+        accel.shape != (n,) or not (np.isfinite(accel) & (accel > 0.0)).all()
+    ):
+        raise TrajectoryError(f"{expected}; got max_wheel_accel {shown(accel)} for {n} wheels "
+                              "(each finite and > 0)")
+    return Limits(
+        blocks,
+        speed,
+        accel,
+        None if max_speed is None else positive_number("max_speed [m/s]", max_speed),
+        None if max_heading_rate is None else positive_number(
+            "max_heading_rate [rad/s]", max_heading_rate),
+    )

@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from ._validation import FloatArray, positive_number, shown
+from ._validation import FloatArray
 from .base import Trajectory
 from .errors import TrajectoryError
 
@@ -313,39 +313,3 @@ def speed_bound(limits: Limits, geometry: PathGeometry) -> FloatArray:
             "limit is 0 rad/s (a failed wheel) to turn"
         )
     return bound
-
-
-def checked_limits(robot: Any, max_speed: Any, max_heading_rate: Any) -> Limits:
-    """The robot's wheel maps and limits, and the caps, checked."""
-    expected = ("robot must have wheel_blocks (n, d, 3), max_wheel_speed (n,) [rad/s] and "
-                "max_wheel_accel (n,) [rad/s^2] or None, like an mpc.robots.Robot")
-    try:
-        blocks = np.array(robot.wheel_blocks, dtype=np.float64)
-        speed = np.array(robot.max_wheel_speed, dtype=np.float64)
-        raw_accel = robot.max_wheel_accel
-        accel = None if raw_accel is None else np.array(raw_accel, dtype=np.float64)
-    except (AttributeError, TypeError, ValueError) as error:
-        raise TrajectoryError(f"{expected}; got {shown(robot)}: {error}") from None
-    if blocks.ndim != 3 or blocks.shape[0] < 1 or blocks.shape[1] < 1 or blocks.shape[2] != 3:
-        raise TrajectoryError(f"{expected}; got wheel_blocks of shape {blocks.shape}")
-    n = blocks.shape[0]
-    if speed.ndim == 0:
-        speed = np.full(n, float(speed))
-    if not np.isfinite(blocks).all():
-        raise TrajectoryError(f"{expected}; got wheel_blocks that are not all finite")
-    if speed.shape != (n,) or not (np.isfinite(speed) & (speed >= 0.0)).all():
-        raise TrajectoryError(f"{expected}; got max_wheel_speed {shown(speed)} for {n} wheels "
-                              "(each finite and >= 0)")
-    if accel is not None and (
-        accel.shape != (n,) or not (np.isfinite(accel) & (accel > 0.0)).all()
-    ):
-        raise TrajectoryError(f"{expected}; got max_wheel_accel {shown(accel)} for {n} wheels "
-                              "(each finite and > 0)")
-    return Limits(
-        blocks,
-        speed,
-        accel,
-        None if max_speed is None else positive_number("max_speed [m/s]", max_speed),
-        None if max_heading_rate is None else positive_number(
-            "max_heading_rate [rad/s]", max_heading_rate),
-    )
