@@ -447,6 +447,15 @@ def test_caps_on_path_speed_and_heading_rate() -> None:
     assert np.abs(turning.sample(np.linspace(0.0, 13.0, 101)).velocity[:, 2]).max() <= 0.5
 
 
+@pytest.mark.parametrize("period", [0.5, 50.0])
+def test_only_the_geometry_matters(period: float) -> None:
+    # the source's own timing and where the path lies are not part of the answer
+    robot = preset("omni3")
+    reference = _retimed("omni3", "figure8", "tangent").lap_time
+    moved = FigureEight(1.0, period, center=(3.0, -2.0), heading="tangent")
+    assert time_optimal(moved, robot).lap_time == pytest.approx(reference, rel=1e-6)
+
+
 def test_grid_and_info_are_exposed_read_only() -> None:
     retimed = _retimed("omni4", "circle", "fixed")
     grid = retimed.grid

@@ -159,7 +159,11 @@ def time_optimal(
     b[0] = b[-1] = min(b[0], b[-1]) if steady else 0.0
     solver_lap = lap_time(coarse.s, b)
     speed, accel = peak_demand(fine, limits, b)
-    factor = (1.0 - MARGIN) / max(speed * speed, accel)
+    demand = max(speed * speed, accel)  # both scale with b: speed with sqrt(b), accel with b
+    if not (demand > 0.0 and math.isfinite(demand)):
+        raise TrajectoryError(f"the retiming cone program returned an unusable timing (peak "
+                              f"speed demand {speed!r}, acceleration demand {accel!r})")
+    factor = (1.0 - MARGIN) / demand
     b *= factor
     info = RetimingInfo(
         status=solution.status,

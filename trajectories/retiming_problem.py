@@ -186,7 +186,7 @@ def solve_lap(
         raise TrajectoryError(
             f"the retiming cone program was not solved: clarabel status {status} after "
             f"{solution.iterations} iterations ({m} grid points, {accel_cones} acceleration "
-            "cones); try another number of samples"
+            "cones)"
         )
     b = np.clip(np.asarray(solution.x[:m]) * scale, 0.0, bound)
     return ConeSolution(b, status, int(solution.iterations), float(solution.solve_time), built)
