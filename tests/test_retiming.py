@@ -367,6 +367,36 @@ def test_straight_line_with_speed_cap_is_a_trapezoid(length: float, cap: float) 
     assert path_accel.max() == pytest.approx(accel, rel=1e-5)
 
 
+class _BackAndForth(Trajectory):
+    """x = cos(t), y = 0: periodic (2 pi), reverses at x = +-1 where dq/ds = 0."""
+
+    def __init__(self) -> None:
+        super().__init__(0.0)
+
+    @property
+    def period(self) -> float:
+        return 2.0 * math.pi
+
+    def _path(self, t: np.ndarray) -> PathDerivatives:
+        zero = np.zeros_like(t)
+        return PathDerivatives(*(np.stack((f, zero), axis=-1) for f in (
+            np.cos(t), -np.sin(t), -np.cos(t), np.sin(t))))
+
+
+def test_a_path_that_reverses_stops_there_two_trapezoids() -> None:
+    # Nothing bounds sdot where dq/ds = 0, yet the robot must stop to reverse: each
+    # 2 m pass along x is a rest-to-rest trapezoid at the omni-4 X's top speed along x,
+    # r w / cos(pi/4), and acceleration A r / cos(pi/4).
+    robot = preset("omni4")
+    speed, accel = 1.0 / math.cos(math.pi / 4.0), 2.0 / math.cos(math.pi / 4.0)
+    expected = 2.0 * (2.0 / speed + speed / accel)
+    retimed = time_optimal(_BackAndForth(), robot)
+    assert retimed.lap_time == pytest.approx(expected, rel=2e-4)
+    turn = retimed.sample([0.0, 0.5 * retimed.lap_time])
+    np.testing.assert_allclose(turn.velocity, 0.0, atol=1e-9)
+    assert feasibility(retimed, robot, samples=16001).peak_ratio <= FEASIBLE
+
+
 # ---------------------------------------------------------------- the timed trajectory
 
 
