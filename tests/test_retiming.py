@@ -564,7 +564,7 @@ def test_a_path_that_needs_a_failed_wheel_is_refused() -> None:
 
 
 def test_a_solver_failure_names_the_status(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(retiming_problem, "_MAX_ITERATIONS", 2)
+    monkeypatch.setattr(retiming_problem, "MAX_ITERATIONS", 2)
     with pytest.raises(TrajectoryError, match="clarabel status MaxIterations after 2 iterations"):
         time_optimal(Circle(1.0, 10.0), preset("omni4"), samples=50)
 

@@ -24,7 +24,8 @@ from .errors import TrajectoryError
 
 #: Statuses of clarabel whose solution is used (the check afterwards makes it feasible).
 _ACCEPTED_STATUSES = ("Solved", "AlmostSolved")
-_MAX_ITERATIONS = 200
+#: Interior-point iterations clarabel may take (it needs 10 to 35 on the benchmark paths).
+MAX_ITERATIONS = 200
 
 _Index = npt.NDArray[np.integer[Any]]
 #: Where the path does not move (g = 0) nothing bounds b; it is capped there at this
@@ -175,7 +176,7 @@ def solve_lap(
     kinds += cones.cones
     settings = clarabel.DefaultSettings()
     settings.verbose = False
-    settings.max_iter = _MAX_ITERATIONS
+    settings.max_iter = MAX_ITERATIONS
     built = time.perf_counter() - started
     solver = clarabel.DefaultSolver(sp.csc_matrix((width, width)), objective, matrix, rhs,
                                     kinds, settings)
