@@ -27,6 +27,7 @@ from .heading import (
     make_heading,
 )
 from .path import PathDerivatives, TimedPath
+from .retiming import PhaseGrid, RetimedTrajectory, RetimingInfo, RetimingRobot, time_optimal
 from .shapes import Circle, FigureEight
 from .waypoints import Waypoints, read_waypoint_csv
 
@@ -40,6 +41,10 @@ __all__ = [
     "HeadingProfile",
     "HeadingSpec",
     "PathDerivatives",
+    "PhaseGrid",
+    "RetimedTrajectory",
+    "RetimingInfo",
+    "RetimingRobot",
     "SpinHeading",
     "TangentHeading",
     "TimedPath",
@@ -52,4 +57,5 @@ __all__ = [
     "feasibility",
     "make_heading",
     "read_waypoint_csv",
+    "time_optimal",
 ]

@@ -1,0 +1,249 @@
+"""Time-optimal retiming: drive a path as fast as the wheels physically allow.
+
+The geometry of a :class:`~trajectories.Trajectory` is its pose q(s) = (x, y, theta)
+as a function of its own time s [s], over one period (periodic) or its span
+(finite); the path parameter s keeps that unit. Driving it with sdot = ds/dt
+gives the body twist and its rate
+
+    u = g(s) sdot,   du/dt = h(s) sdot^2 + g(s) sddot,
+    g = R(theta)^T dq/ds,   h = dg/ds,
+
+and the limits of wheel i (its velocity map W_i, shape (d, 3): d = 1 a signed
+Swedish wheel speed, d = 2 a swerve module's velocity, whose norm is the speed)
+
+    ||W_i u|| <= max_wheel_speed_i [rad/s],   ||W_i du/dt|| <= max_wheel_accel_i [rad/s^2],
+
+plus optional caps |dxy/dt| <= max_speed [m/s] and |thetadot| <= max_heading_rate
+[rad/s]. With b = sdot^2 and a = sddot (db/ds = 2 a) every speed limit is an
+upper bound on b and every acceleration limit is a linear pair of rows
+(Swedish) or a second-order cone (swerve) in (b, a). On a uniform grid
+s_0 < ... < s_N with a_k constant in cell k (so b is linear in s there),
+
+    minimise  sum_k 2 ds / (c_k + c_{k+1})  over b, a, c with  c_k^2 <= b_k,
+              b_{k+1} - b_k = 2 ds a_k,  b_k <= speed bound(s_k),
+              acceleration limits at s_k and s_{k+1} with a_k,
+              b_N = b_0 (steady laps) or b_0 = b_N = 0 (rest to rest),
+
+a convex second-order cone program (Verscheure et al., IEEE TAC 2009) whose
+objective is exactly the lap time of the piecewise-constant-sddot timing;
+:mod:`trajectories.retiming_problem` solves it with clarabel. Between grid
+points the limits are then measured on a grid ``REFINEMENT`` times finer (at
+least ``MIN_CHECK_POINTS`` points a lap), and b and a are scaled by one factor
+lambda (time stretched by 1 / sqrt(lambda)) so that every limit holds there,
+less a relative margin ``MARGIN``.
+
+In cell k, from its start time t_k: sddot = a_k, sdot = sqrt(b_k) + a_k tau and
+s = s_k + sqrt(b_k) tau + a_k tau^2 / 2 (tau = t - t_k), and the cell lasts
+2 ds / (sqrt(b_k) + sqrt(b_{k+1})) [s]. The retimed trajectory's velocity is
+dq/ds sdot and its acceleration d2q/ds2 sdot^2 + dq/ds sddot, from the source
+sampled at s: exact between grid points, heading included
+(:class:`~trajectories.retiming_trajectory.RetimedTrajectory`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from ._validation import positive_number, shown
+from .base import Trajectory
+from .errors import TrajectoryError
+from .retiming_problem import (
+    Limits,
+    PathGeometry,
+    lap_time,
+    path_geometry,
+    peak_demand,
+    solve_lap,
+    speed_bound,
+)
+from .retiming_trajectory import PhaseGrid, RetimedTrajectory, RetimingInfo
+
+__all__ = [
+    "DEFAULT_SAMPLES",
+    "MARGIN",
+    "MIN_CHECK_POINTS",
+    "MIN_SAMPLES",
+    "REFINEMENT",
+    "PhaseGrid",
+    "RetimedTrajectory",
+    "RetimingInfo",
+    "RetimingRobot",
+    "time_optimal",
+]
+
+#: Fewest grid cells accepted by :func:`time_optimal`.
+MIN_SAMPLES = 16
+#: Grid cells along the path unless asked otherwise.
+DEFAULT_SAMPLES = 1000
+#: The limits are checked on a grid this many times finer than the solve grid.
+REFINEMENT = 16
+#: ... and has at least this many points per lap.
+MIN_CHECK_POINTS = 16384
+#: Relative margin left below every limit on the check grid (rounding, and the
+#: second-order excess between its points).
+MARGIN = 1e-7
+_STILL_TWIST = 1e-12  # [m per s of the source] below this the path does not move
+
+
+class RetimingRobot(Protocol):
+    """What :func:`time_optimal` needs from a robot (an :class:`mpc.robots.Robot` has it)."""
+
+    @property
+    def wheel_blocks(self) -> npt.ArrayLike:
+        """Wheel velocity maps W_i, shape (n, d, 3) [rad/s per twist unit]."""
+        ...
+
+    @property
+    def max_wheel_speed(self) -> npt.ArrayLike:
+        """Speed limits, shape (n,) [rad/s], >= 0 (0: a failed wheel held at rest)."""
+        ...
+
+    @property
+    def max_wheel_accel(self) -> npt.ArrayLike | None:
+        """Acceleration limits, shape (n,) [rad/s^2], > 0, or None (unlimited)."""
+        ...
+
+
+def time_optimal(
+    path: Trajectory,
+    robot: RetimingRobot,
+    *,
+    periodic: bool | None = None,
+    max_speed: float | None = None,
+    max_heading_rate: float | None = None,
+    samples: int = DEFAULT_SAMPLES,
+) -> RetimedTrajectory:
+    """The fastest timing of the geometry of ``path`` within the robot's exact wheel limits.
+
+    Args:
+        path: a periodic or finite trajectory; its pose over its own time
+            (one period, or its span) is the path, heading included.
+        robot: ``wheel_blocks`` (n, d, 3), ``max_wheel_speed`` (n,) [rad/s] and
+            ``max_wheel_accel`` (n,) [rad/s^2] or None, e.g. an :class:`mpc.robots.Robot`.
+        periodic: steady laps (sdot the same at the start and end of a lap;
+            the default for a periodic path) or rest to rest (False; the
+            default for a finite path).
+        max_speed: optional cap on the path speed |dxy/dt| [m/s].
+        max_heading_rate: optional cap on |dtheta/dt| [rad/s].
+        samples: grid cells along the path (>= ``MIN_SAMPLES``); the lap time
+            converges as the grid is refined (the cost grows about linearly).
+
+    Returns:
+        A :class:`RetimedTrajectory` within every limit between grid points
+        too (see the module docstring), with its :class:`RetimingInfo`.
+
+    Raises:
+        TrajectoryError: bad arguments, a path that neither moves nor turns, a
+            path the limits cannot drive at all, or a failed solve (naming
+            clarabel's status).
+    """
+    source, steady, start, span = _checked_path(path, periodic)
+    limits = _checked_limits(robot, max_speed, max_heading_rate)
+    cells = _checked_samples(samples)
+    refine = max(REFINEMENT, -(-MIN_CHECK_POINTS // cells))
+    fine = path_geometry(source, start + span * np.linspace(0.0, 1.0, cells * refine + 1))
+    if float(np.abs(fine.twist).max()) < _STILL_TWIST:
+        raise TrajectoryError(
+            f"path must move or turn, but its pose is constant for s in [{start!r}, "
+            f"{start + span!r}] s: a path of zero length has no time-optimal timing"
+        )
+    coarse = PathGeometry(*(array[::refine] for array in fine))
+    bound = speed_bound(limits, coarse)
+    solution = solve_lap(coarse, limits, bound, steady)
+    b = solution.b
+    # the solver meets its equality rows to its tolerance: make the ends exact
+    b[0] = b[-1] = min(b[0], b[-1]) if steady else 0.0
+    solver_lap = lap_time(coarse.s, b)
+    speed, accel = peak_demand(fine, limits, b)
+    demand = max(speed * speed, accel)  # both scale with b: speed with sqrt(b), accel with b
+    if not (demand > 0.0 and math.isfinite(demand)):
+        raise TrajectoryError(f"the retiming cone program returned an unusable timing (peak "
+                              f"speed demand {speed!r}, acceleration demand {accel!r})")
+    factor = (1.0 - MARGIN) / demand
+    b *= factor
+    info = RetimingInfo(
+        status=solution.status,
+        iterations=solution.iterations,
+        solve_time=solution.solve_time,
+        build_time=solution.build_time,
+        solver_lap_time=solver_lap,
+        stretch=1.0 / math.sqrt(factor),
+        speed_demand=speed * math.sqrt(factor),
+        accel_demand=accel * factor,
+    )
+    return RetimedTrajectory(source, coarse.s, np.sqrt(b), periodic=steady, info=info)
+
+
+def _checked_path(path: Any, periodic: Any) -> tuple[Trajectory, bool, float, float]:
+    """(path, steady laps?, start s, span of s) or TrajectoryError."""
+    if not isinstance(path, Trajectory):
+        raise TrajectoryError(
+            "path must be a trajectories.Trajectory (its pose over its own time is the path), "
+            f"got {shown(path)} of type {type(path).__name__}"
+        )
+    if periodic is not None and not isinstance(periodic, bool):
+        raise TrajectoryError(f"periodic must be None, True or False, got {shown(periodic)}")
+    if path.period is None and path.end_time is None:
+        raise TrajectoryError("path must be periodic or finite (a period or an end_time), "
+                              f"got {path!r} with neither")
+    steady = path.period is not None if periodic is None else periodic
+    if steady and path.period is None:
+        raise TrajectoryError(
+            f"periodic=True needs a periodic path (period not None), got {path!r}; use "
+            "periodic=False to drive a finite path from rest to rest"
+        )
+    span = path.period if path.period is not None else path.duration
+    if span is None or not span > 0.0:
+        raise TrajectoryError(f"path must last a positive time, got {span!r} s for {path!r}")
+    return path, steady, path.start_time, float(span)
+
+
+def _checked_samples(samples: Any) -> int:
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or (
+        samples < MIN_SAMPLES
+    ):
+        raise TrajectoryError(
+            f"samples must be an integer >= {MIN_SAMPLES} (grid cells along the path), "
+            f"got {shown(samples)}"
+        )
+    return int(samples)
+
+
+def _checked_limits(robot: Any, max_speed: Any, max_heading_rate: Any) -> Limits:
+    """The robot's wheel maps and limits, and the caps, checked."""
+    expected = ("robot must have wheel_blocks (n, d, 3), max_wheel_speed (n,) [rad/s] and "
+                "max_wheel_accel (n,) [rad/s^2] or None, like an mpc.robots.Robot")
+    try:
+        blocks = np.array(robot.wheel_blocks, dtype=np.float64)
+        speed = np.array(robot.max_wheel_speed, dtype=np.float64)
+        raw_accel = robot.max_wheel_accel
+        accel = None if raw_accel is None else np.array(raw_accel, dtype=np.float64)
+    except (AttributeError, TypeError, ValueError) as error:
+        raise TrajectoryError(f"{expected}; got {shown(robot)}: {error}") from None
+    if blocks.ndim != 3 or blocks.shape[0] < 1 or blocks.shape[1] < 1 or blocks.shape[2] != 3:
+        raise TrajectoryError(f"{expected}; got wheel_blocks of shape {blocks.shape}")
+    n = blocks.shape[0]
+    if speed.ndim == 0:
+        speed = np.full(n, float(speed))
+    if not np.isfinite(blocks).all():
+        raise TrajectoryError(f"{expected}; got wheel_blocks that are not all finite")
+    if speed.shape != (n,) or not (np.isfinite(speed) & (speed >= 0.0)).all():
+        raise TrajectoryError(f"{expected}; got max_wheel_speed {shown(speed)} for {n} wheels "
+                              "(each finite and >= 0)")
+    if accel is not None and (
+        accel.shape != (n,) or not (np.isfinite(accel) & (accel > 0.0)).all()
+    ):
+        raise TrajectoryError(f"{expected}; got max_wheel_accel {shown(accel)} for {n} wheels "
+                              "(each finite and > 0)")
+    return Limits(
+        blocks,
+        speed,
+        accel,
+        None if max_speed is None else positive_number("max_speed [m/s]", max_speed),
+        None if max_heading_rate is None else positive_number(
+            "max_heading_rate [rad/s]", max_heading_rate),
+    )
