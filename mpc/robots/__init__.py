@@ -11,12 +11,21 @@ wheel type is a :class:`Robot` subclass plus a factory passed to
 
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.files import PRESETS, from_dict, load, preset
+from mpc.robots.mobility import (
+    Mobility,
+    WheelSpec,
+    mobility,
+    require_omnidirectional,
+    robot_description,
+    robot_mobility,
+)
 from mpc.robots.registry import register, robot_types
 from mpc.robots.spherical import SphericalRobot, spherical
 from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
 from mpc.robots.swerve import SwerveRobot, swerve, wrap_angle
 
 __all__ = [
+    "Mobility",
     "PRESETS",
     "Robot",
     "SpeedRows",
@@ -25,12 +34,17 @@ __all__ = [
     "SwedishWheel",
     "SwerveRobot",
     "WheelCommands",
+    "WheelSpec",
     "from_dict",
     "load",
     "mecanum",
+    "mobility",
     "omni",
     "preset",
     "register",
+    "require_omnidirectional",
+    "robot_description",
+    "robot_mobility",
     "robot_types",
     "spherical",
     "swerve",
