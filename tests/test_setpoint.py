@@ -108,8 +108,9 @@ def test_a_twist_beyond_the_limits_is_desaturated() -> None:
 def test_near_the_at_rest_speed_the_step_is_shortened_until_steering_holds() -> None:
     """Module speeds of a few um/s, about the at-rest threshold (1 um/s): module 2 is at rest
     (angle kept at 0.869 rad) but the step the fractions allow would start it moving at
-    1.562 rad, 0.693 rad away, beyond 0.6 rad. The step is shortened along the same segment until every
-    module's steering holds, and still makes progress. (Found by a seeded random search.)"""
+    1.562 rad, 0.693 rad away, beyond 0.6 rad. The step is shortened along the same
+    segment until every module's steering holds, and still makes progress. (Found by a
+    seeded random search.)"""
     previous = SwerveSetpoint.from_twist(
         SWERVE, [-1.3913822075888658e-06, -5.993840418036229e-07, -2.393263267432371e-06],
         [-2.043344027915537, 0.5582625212930923, 0.8691455536951747, 3.0854286289803454])
