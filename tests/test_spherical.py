@@ -4,6 +4,7 @@ contact point, round trips, validation, and closed-loop tracking with both solve
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -167,7 +168,7 @@ def test_per_ball_and_per_actuator_limits() -> None:
     assert isinstance(derated, SphericalRobot)
 
 
-def test_description_and_toml_build_the_robot(tmp_path) -> None:
+def test_description_and_toml_build_the_robot(tmp_path: Path) -> None:
     path = tmp_path / "balls.toml"
     path.write_text('type = "spherical"\nname = "mine"\n'
                     "positions = [[0.2, 0.1], [-0.1, 0.3]]\nwheel_radius = [0.05, 0.04]\n"
