@@ -1,34 +1,52 @@
-"""Robot descriptions: Swedish-wheel (omni, Mecanum) and swerve layouts.
+"""Robot descriptions: Swedish-wheel (omni, Mecanum), swerve and driven-ball layouts.
 
 Conventions: REP-103 body frame (x forward, y left, yaw counter-clockwise),
 twists ``(vx, vy, omega)`` in m/s and rad/s, wheel speeds in rad/s. Wheel
 orders: Mecanum FL, FR, RL, RR; omni counter-clockwise from
-``first_wheel_angle``; swerve as ``module_positions`` lists them. A new
+``first_wheel_angle``; swerve as ``module_positions`` lists them; driven
+balls ball by ball, the actuator about +x then the one about +y. A new
 wheel type is a :class:`Robot` subclass plus a factory passed to
 :func:`register`.
 """
 
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.files import PRESETS, from_dict, load, preset
+from mpc.robots.mobility import (
+    Mobility,
+    WheelSpec,
+    mobility,
+    require_omnidirectional,
+    robot_description,
+    robot_mobility,
+)
 from mpc.robots.registry import register, robot_types
+from mpc.robots.spherical import SphericalRobot, spherical
 from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
 from mpc.robots.swerve import SwerveRobot, swerve, wrap_angle
 
 __all__ = [
+    "Mobility",
     "PRESETS",
     "Robot",
     "SpeedRows",
+    "SphericalRobot",
     "SwedishRobot",
     "SwedishWheel",
     "SwerveRobot",
     "WheelCommands",
+    "WheelSpec",
     "from_dict",
     "load",
     "mecanum",
+    "mobility",
     "omni",
     "preset",
     "register",
+    "require_omnidirectional",
+    "robot_description",
+    "robot_mobility",
     "robot_types",
+    "spherical",
     "swerve",
     "wrap_angle",
 ]

@@ -5,13 +5,15 @@
 - :mod:`.simulate`: the closed loop, :func:`simulate`;
 - :mod:`.recorder`: :class:`Recorder`, the same record from a loop of your own;
 - :mod:`.result`: :class:`SimResult` and its metrics;
-- :mod:`.baselines`: feedforward + P controllers with per-wheel clipping or desaturation.
+- :mod:`.baselines`: feedforward + P controllers with per-wheel clipping or desaturation;
+- :mod:`.setpoint`: feedforward + P through a swerve setpoint generator (Team 254 style).
 """
 
 from mpc.sim.baselines import SATURATIONS, FeedforwardPController
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.sim.recorder import Recorder
 from mpc.sim.result import LIMIT_RTOL, SimResult
+from mpc.sim.setpoint import FeedforwardPSetpointController, SwerveSetpoint, generate_setpoint
 from mpc.sim.simulate import TrackingController, simulate
 
 __all__ = [
@@ -19,10 +21,13 @@ __all__ = [
     "PLANT_PRESETS",
     "SATURATIONS",
     "FeedforwardPController",
+    "FeedforwardPSetpointController",
     "Plant",
     "PlantConfig",
     "Recorder",
     "SimResult",
+    "SwerveSetpoint",
     "TrackingController",
+    "generate_setpoint",
     "simulate",
 ]

@@ -1,0 +1,211 @@
+"""Driven ball (spherical) wheels: each ball spun by two actuators about the body's x and y axes.
+
+Conventions (REP-103): body frame x forward, y left, z up; body twist
+``xi = (vx, vy, omega)`` [m/s, m/s, rad/s]; spin rates [rad/s] positive by the
+right-hand rule about the body's +x and +y axes.
+
+A ball of radius ``r`` whose centre sits above body point ``p = (px, py)``
+moves with the body at ``v(p) = (vx - omega*py, vy + omega*px)``. Spinning at
+``w = (w_x, w_y, w_z)`` (body axes), its contact point, ``r`` below the centre,
+moves at ``v(p) + w x (0, 0, -r) = (vx - omega*py - r*w_y, vy + omega*px + r*w_x)``.
+No slip makes that zero:
+
+    w_x = -(vy + omega*px) / r
+    w_y =  (vx - omega*py) / r
+
+The spin about z is free (it moves no contact point) and needs no actuator;
+the body's rotation does (through ``v(p)``). Each ball gives two constant rows, one per
+actuator, and each actuator has its own limit ``|w| <= max_wheel_speed``: the
+feasible set of one ball is a box in ``(w_x, w_y)``, not a disk. In the
+:class:`~mpc.robots.base.Robot` interface every actuator is one "wheel"
+(``wheel_dim`` 1), ordered ball by ball, about +x then about +y:
+``n_wheels = 2 * balls``. Forward kinematics is the least-squares twist of the
+spin rates (spin rates outside the range of the rows mean slip).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import casadi as ca
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mpc.arrays import FloatArray, readonly
+from mpc.errors import RobotError
+from mpc.robots.base import Robot, SpeedRows, WheelCommands
+from mpc.robots.registry import register
+
+
+def _has_bool(value: object) -> bool:
+    if isinstance(value, (bool, np.bool_)):
+        return True
+    if isinstance(value, (list, tuple)):
+        return any(_has_bool(item) for item in value)
+    return isinstance(value, np.ndarray) and value.dtype == np.bool_
+
+
+def _expand(name: str, value: object, balls: int, *, pairs: bool) -> FloatArray:
+    """Finite numbers > 0 given as one number, one per ball (n,) or, if ``pairs``, one per
+    actuator (n, 2); returned one per actuator, shape (2n,)."""
+    forms = f"a number, {balls} numbers (one per ball)" + (
+        f" or {balls} pairs (about x, about y)" if pairs else "")
+    if _has_bool(value):
+        raise RobotError(f"{name} must be {forms}, not booleans, got {value!r}")
+    try:
+        array = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise RobotError(f"{name} must be {forms}, got {value!r}") from None
+    if array.shape == ():
+        array = np.full(2 * balls, float(array))
+    elif array.shape == (balls,):
+        array = np.repeat(array, 2)
+    elif pairs and array.shape == (balls, 2):
+        array = array.reshape(-1)
+    else:
+        raise RobotError(f"{name} must be {forms}, got shape {array.shape}")
+    if not np.all(np.isfinite(array)) or np.any(array <= 0.0):
+        raise RobotError(f"{name} must be finite numbers > 0, got {np.asarray(value).tolist()}")
+    return readonly(array)
+
+
+@dataclass(frozen=True, eq=False)
+class SphericalRobot(Robot):
+    """A robot on driven balls; ``wheel_speeds`` are the 2n actuator spin rates [rad/s].
+
+    Attributes:
+        ball_positions: (n, 2) ball centres over the body frame [m], n >= 2, not all
+            at one point.
+        wheel_radius: ball radius [m], scalar or one per ball; stored as (n,).
+        max_speed: spin-rate limit of each actuator [rad/s]: scalar, one per ball, or one
+            per actuator as (n, 2) pairs (about x, about y); stored as (n, 2).
+        max_accel: spin acceleration limit [rad/s^2] in the same forms, or None.
+    """
+
+    kind = "spherical"
+
+    ball_positions: ArrayLike = field(default_factory=lambda: np.zeros((0, 2)))
+    wheel_radius: ArrayLike = field(default=0.05, kw_only=True)
+    max_speed: ArrayLike = field(default=20.0, kw_only=True)
+    max_accel: ArrayLike | None = field(default=None, kw_only=True)
+
+    def __post_init__(self) -> None:
+        try:
+            if _has_bool(self.ball_positions):
+                raise TypeError
+            positions = np.array(self.ball_positions, dtype=float)
+        except (TypeError, ValueError):
+            raise RobotError("positions must be an (n, 2) array of numbers [m], "
+                             f"got {self.ball_positions!r}") from None
+        if positions.ndim != 2 or positions.shape[1] != 2 or positions.shape[0] < 2:
+            raise RobotError("positions must have shape (n, 2) with n >= 2 balls, "
+                             f"got shape {positions.shape}")
+        if not np.all(np.isfinite(positions)):
+            raise RobotError(f"positions must be finite, got {positions.tolist()}")
+        balls = positions.shape[0]
+        object.__setattr__(self, "ball_positions", readonly(positions))
+        radius = _expand("wheel_radius", self.wheel_radius, balls, pairs=False)[0::2]
+        object.__setattr__(self, "wheel_radius", readonly(radius))
+        speed = _expand("max_wheel_speed", self.max_speed, balls, pairs=True)
+        object.__setattr__(self, "max_speed", readonly(speed.reshape(balls, 2)))
+        accel = None
+        if self.max_accel is not None:
+            accel = _expand("max_wheel_accel", self.max_accel, balls, pairs=True)
+            object.__setattr__(self, "max_accel", readonly(accel.reshape(balls, 2)))
+        object.__setattr__(self, "wheel_blocks", readonly(self.spin_rows()[:, None, :]))
+        object.__setattr__(self, "nominal_max_wheel_speed", speed)
+        object.__setattr__(self, "nominal_max_wheel_accel", accel)
+        self._finish()
+
+    def spin_rows(self) -> FloatArray:
+        """Spin rate per twist unit, ``[0, -1, -px] / r`` then ``[1, 0, -py] / r`` per ball,
+        shape (2n, 3) [rad/s per (m/s, m/s, rad/s)]."""
+        positions = np.asarray(self.ball_positions, dtype=float)
+        radius = np.asarray(self.wheel_radius, dtype=float)
+        rows = np.zeros((positions.shape[0], 2, 3))
+        rows[:, 0, 1] = -1.0
+        rows[:, 0, 2] = -positions[:, 0]
+        rows[:, 1, 0] = 1.0
+        rows[:, 1, 2] = -positions[:, 1]
+        return (rows / radius[:, None, None]).reshape(-1, 3)
+
+    @property
+    def n_balls(self) -> int:
+        return int(np.asarray(self.ball_positions).shape[0])
+
+    @property
+    def jacobian(self) -> FloatArray:
+        """Inverse-kinematics Jacobian (2n x 3) [rad/s per twist unit]."""
+        return self.wheel_blocks[:, 0, :]
+
+    @property
+    def wheel_positions(self) -> FloatArray:
+        """Each actuator's ball centre [m], shape (2n, 2) (a ball's two actuators share it)."""
+        return np.repeat(np.asarray(self.ball_positions, dtype=float), 2, axis=0)
+
+    def wheel_speeds(self, twist: ArrayLike) -> FloatArray:
+        """Spin rates [rad/s] ordered ball by ball (about +x, about +y), shape (2n,) or
+        (k, 2n)."""
+        return self.wheel_velocities(twist)[..., 0]
+
+    def wheel_magnitudes(self, twist: FloatArray) -> FloatArray:
+        return np.abs(self.jacobian @ twist)
+
+    def twist(self, spin_rates: ArrayLike) -> FloatArray:
+        """Forward kinematics: the least-squares twist of spin rates (2n,) or (k, 2n)."""
+        try:
+            rates = np.asarray(spin_rates, dtype=float)
+        except (TypeError, ValueError):
+            raise RobotError(f"spin_rates must be numbers, got {spin_rates!r}") from None
+        if rates.ndim not in (1, 2) or rates.shape[-1] != self.n_wheels:
+            raise RobotError(f"spin_rates must have shape ({self.n_wheels},) or "
+                             f"(k, {self.n_wheels}), got shape {rates.shape}")
+        if not np.all(np.isfinite(rates)):
+            raise RobotError(f"spin_rates must be finite, got {rates}")
+        return rates @ self._flat_pinv.T
+
+    def forward_kinematics(self, wheel_speeds: FloatArray,
+                           steer_angles: FloatArray | None) -> FloatArray:
+        return self._flat_pinv @ wheel_speeds
+
+    def commands_from_velocities(self, velocities: FloatArray,
+                                 steer_angles: FloatArray | None) -> WheelCommands:
+        return WheelCommands(velocities[:, 0].copy(), None)
+
+    def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
+        """Exact: one two-sided row per actuator (the box)."""
+        return SpeedRows(self.jacobian.copy(), np.arange(self.n_wheels), 1.0)
+
+    def casadi_limits(self, twist: ca.SX, bounds: FloatArray) -> tuple[ca.SX, FloatArray,
+                                                                         FloatArray]:
+        bounds = np.asarray(bounds, dtype=float)
+        return ca.DM(self.jacobian) @ twist, -bounds, bounds
+
+    def _with_derating(self, derating: tuple[float, ...]) -> SphericalRobot:
+        return replace(self, derating=derating)
+
+
+def spherical(
+    *,
+    positions: ArrayLike,
+    wheel_radius: ArrayLike,
+    max_wheel_speed: ArrayLike,
+    max_wheel_accel: ArrayLike | None = None,
+    name: str = "spherical",
+) -> SphericalRobot:
+    """A robot on driven balls, each spun about the body's +x and +y axes.
+
+    Args:
+        positions: (n, 2) ball centres in the body frame [m], n >= 2.
+        wheel_radius: ball radius [m], a number or one per ball.
+        max_wheel_speed: actuator spin-rate limit [rad/s]: a number, one per ball, or
+            (n, 2) pairs (about x, about y).
+        max_wheel_accel: actuator spin acceleration limit [rad/s^2] in the same forms, or
+            None for unlimited.
+        name: a label.
+    """
+    return SphericalRobot(positions, name=name, wheel_radius=wheel_radius,
+                          max_speed=max_wheel_speed, max_accel=max_wheel_accel)
+
+
+register("spherical", spherical)
