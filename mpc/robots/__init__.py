@@ -5,22 +5,27 @@ twists ``(vx, vy, omega)`` in m/s and rad/s, wheel speeds in rad/s. Wheel
 orders: Mecanum FL, FR, RL, RR; omni counter-clockwise from
 ``first_wheel_angle``; swerve as ``module_positions`` lists them. A new
 wheel type is a :class:`Robot` subclass plus a factory passed to
-:func:`register`.
+:func:`register`. Motors: :class:`DCMotor` (WPILib's DC motor model and
+presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel).
 """
 
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.files import PRESETS, from_dict, load, preset
+from mpc.robots.motor import MOTOR_PRESETS, DCMotor, SysIdMotor
 from mpc.robots.registry import register, robot_types
 from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
 from mpc.robots.swerve import SwerveRobot, swerve, wrap_angle
 
 __all__ = [
+    "MOTOR_PRESETS",
     "PRESETS",
+    "DCMotor",
     "Robot",
     "SpeedRows",
     "SwedishRobot",
     "SwedishWheel",
     "SwerveRobot",
+    "SysIdMotor",
     "WheelCommands",
     "from_dict",
     "load",
