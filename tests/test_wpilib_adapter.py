@@ -38,7 +38,7 @@ from mpc.adapters.wpilib import (  # noqa: E402
     twist_from_chassis_speeds,
 )
 from mpc.errors import ControllerError, RobotError, TrajectoryError  # noqa: E402
-from mpc.robots import SwedishRobot, SwerveRobot, mecanum  # noqa: E402
+from mpc.robots import SwedishRobot, SwerveRobot, mecanum, preset  # noqa: E402
 from trajectories import Circle  # noqa: E402
 
 CORNERS = [(0.3, 0.3), (0.3, -0.3), (-0.3, 0.3), (-0.3, -0.3)]  # [m] FL, FR, RL, RR
@@ -231,6 +231,8 @@ def test_commands_as_wpilib_module_states_and_wheel_speeds() -> None:
                 mecanum_array(follower.wheel_speeds()))
             with pytest.raises(RobotError, match="swerve"):
                 swerve_module_states(robot, command)
+            with pytest.raises(RobotError, match="Mecanum"):  # four omni wheels are not
+                mecanum_wheel_speeds(preset("omni4"), command)
 
 
 def test_follower_clock() -> None:
@@ -256,6 +258,8 @@ def test_follower_clock() -> None:
         follower.reset(pose, ChassisSpeeds(), timestamp=math.inf)
     with pytest.raises(ControllerError, match="ChassisSpeeds"):
         follower.reset(pose, (0.0, 0.0, 0.0))  # type: ignore[arg-type]
+    with pytest.raises(ControllerError, match=r"t \[s\] must be a finite number"):
+        follower.calculate(pose, math.nan)
 
 
 def test_reset_speeds_are_the_controllers_last_twist() -> None:

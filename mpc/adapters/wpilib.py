@@ -116,8 +116,10 @@ def _three(name: str, value: ArrayLike, what: str) -> tuple[float, float, float]
 
 
 def _is_mecanum(robot: Robot) -> TypeGuard[SwedishRobot]:
+    """Four Swedish wheels with rollers at -45, +45, +45, -45 deg: FL, FR, RL, RR as ours."""
+    pattern = (-math.pi / 4, math.pi / 4, math.pi / 4, -math.pi / 4)
     return (isinstance(robot, SwedishRobot) and robot.n_wheels == 4
-            and all(math.isclose(abs(w.gamma), math.pi / 4) for w in robot.wheels))
+            and all(math.isclose(w.gamma, g) for w, g in zip(robot.wheels, pattern, strict=True)))
 
 
 # ---------------------------------------------------------------- robots from kinematics
