@@ -1,37 +1,28 @@
 """WPILib / robotpy adapter: WPILib types in and out of the MPC (optional extra ``wpilib``).
 
-Needs ``robotpy-wpimath`` (``pip install 'holonomic-mpc[wpilib]'``); the core
-library never imports this module. What it gives:
-
-- conversions: ``Pose2d`` <-> pose ``(x, y, theta)``, ``ChassisSpeeds`` <->
-  twist ``(vx, vy, omega)`` (both robot-relative), a :class:`~mpc.control.Command`
-  -> ``SwerveModuleState`` list or ``MecanumDriveWheelSpeeds``;
-- robots from WPILib kinematics objects (:func:`robot_from_swerve_kinematics`,
-  :func:`robot_from_mecanum_kinematics`; same module order as the kinematics);
-- :class:`MpcFollower`, shaped like PathPlanner's path-following controllers:
-  ``reset(pose, speeds)`` then ``calculate(pose, t) -> ChassisSpeeds`` every loop;
-- :func:`reference_from_wpilib_trajectory`: a WPILib ``Trajectory`` as a reference
-  that reproduces its ``sample(t)`` exactly.
+Needs ``robotpy-wpimath`` (``pip install 'holonomic-mpc[wpilib]'``); the core library
+never imports this module. It converts ``Pose2d``, ``ChassisSpeeds`` (robot-relative, as
+our twist), ``SwerveModuleState`` and ``MecanumDriveWheelSpeeds``; builds robots from
+WPILib kinematics objects; follows a reference with :class:`MpcFollower`
+(PathPlanner's shape: ``reset(pose, speeds)``, then ``calculate(pose, t)`` each loop);
+and turns a WPILib ``Trajectory`` into a reference that reproduces its ``sample(t)``.
 
 Read before wiring it into a robot:
 
-- **Units.** Our wheel speeds are wheel *angular* speeds [rad/s]; WPILib's module
-  and wheel speeds are rim speeds [m/s]. The helpers here multiply by the wheel
-  radius; ``max_wheel_speed`` arguments stay in rad/s (WPILib's attainable module
-  speed [m/s] divided by the wheel radius [m]).
-- **Time base.** ``Controller.step(pose, t)`` wants ``t`` on the reference's clock:
-  seconds since the reference's start (0 for the built-in shapes). WPILib times
-  are FPGA timestamps (``Timer.getFPGATimestamp()``, seconds since the robot
-  booted) or a ``Timer`` you reset. :class:`MpcFollower` converts: the reference
-  time is ``start_time + (t - t_reset)``, where ``t_reset`` is the ``timestamp``
-  given to :meth:`MpcFollower.reset` or, without one, the first ``t`` passed to
-  :meth:`MpcFollower.calculate`. Passing an FPGA or epoch time straight to
-  ``Controller.step`` would track an arbitrary point of the reference.
-- **No ``ChassisSpeeds.discretize``.** WPILib's swerve templates discretize the
-  desired speeds to correct the skew of a twist held over a loop period. Our
-  twist already is the exact constant twist over the tick (the plan's model is
-  the SE(2) exponential), so discretizing it again would double-correct: send
-  the speeds :meth:`MpcFollower.calculate` returns as they are.
+- **Units.** Our wheel speeds are wheel *angular* speeds [rad/s]; WPILib's module and
+  wheel speeds are rim speeds [m/s]. The helpers here multiply by the wheel radius;
+  ``max_wheel_speed`` arguments stay in rad/s (attainable rim speed [m/s] / radius [m]).
+- **Time base.** ``Controller.step(pose, t)`` wants ``t`` in seconds since the
+  reference's start (0 for the built-in shapes); WPILib's clocks are FPGA timestamps
+  (``Timer.getFPGATimestamp()``, seconds since boot) or a ``Timer`` you reset, and
+  passing one straight to ``step`` tracks an arbitrary point of the reference.
+  :class:`MpcFollower` converts: reference time = ``start_time + (t - t_reset)``, with
+  ``t_reset`` the ``timestamp`` given to :meth:`MpcFollower.reset` or, without one,
+  the first ``t`` given to :meth:`MpcFollower.calculate`.
+- **No ``ChassisSpeeds.discretize``.** WPILib's swerve templates discretize the desired
+  speeds to correct the skew of a twist held over a loop period. Our twist already is
+  the exact constant twist over the tick (the plan's model is the SE(2) exponential);
+  discretizing it again would double-correct. Send the speeds as they come.
 - **Desaturation.** Commands are already within every wheel's limit, so WPILib's
   ``desaturateWheelSpeeds`` is not needed (it would leave them as they are).
 """
@@ -288,7 +279,8 @@ class WpilibReference(Trajectory):
     that curve; its velocity and acceleration are its exact time derivatives (jerk 0).
     WPILib's trajectories are for robots that face their direction of travel, so the
     heading is the poses' rotation unless ``heading`` (a heading spec, e.g. ``0.0``) says.
-    Times are WPILib's: seconds since the trajectory's start.
+    Times are WPILib's: seconds since the trajectory's start. A step without translation
+    holds its first pose (WPILib's ``sample`` divides by its zero length there).
     """
 
     def __init__(self, trajectory: WpilibTrajectory, heading: HeadingSpec | None = None) -> None:
