@@ -7,6 +7,8 @@ and are skipped without it; the hand-derived checks always run.
 from __future__ import annotations
 
 import math
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 import pytest
@@ -28,7 +30,8 @@ WPILIB_NAMES = {
 }
 
 
-def wpimath_plant():  # type: ignore[no-untyped-def]
+def wpimath_plant() -> ModuleType:
+    """wpimath.system.plant, or skip the test without robotpy-wpimath."""
     pytest.importorskip("wpimath")
     from wpimath.system import plant
 
@@ -143,7 +146,7 @@ def test_sysid_hand_values() -> None:
     with pytest.raises(RobotError, match="kV"):
         SysIdMotor(0.1, 0.0, 0.0)
     with pytest.raises(RobotError, match="kS"):
-        SysIdMotor(True, 0.1, 0.0)  # type: ignore[arg-type]
+        SysIdMotor(True, 0.1, 0.0)
 
 
 def test_sysid_step_reaches_next_speed() -> None:
@@ -180,7 +183,8 @@ def _samples(rng: np.random.Generator, motor: DCMotor, n: int) -> dict[str, np.n
     }
 
 
-def _compare(ours: DCMotor, theirs: object, rng: np.random.Generator) -> None:
+def _compare(ours: DCMotor, theirs: Any, rng: np.random.Generator) -> None:
+    """Constants and every method of our motor against a wpimath DCMotor."""
     t = theirs
     for attribute, value in (("R", ours.R), ("Kv", ours.kv), ("Kt", ours.kt),
                              ("stallTorque", ours.total_stall_torque),
@@ -192,13 +196,13 @@ def _compare(ours: DCMotor, theirs: object, rng: np.random.Generator) -> None:
     s = _samples(rng, ours, 40)
     pairs = [
         (ours.voltage(s["torque"], s["speed"]),
-         [t.voltage(a, b) for a, b in zip(s["torque"], s["speed"], strict=True)]),  # type: ignore[attr-defined]
+         [t.voltage(a, b) for a, b in zip(s["torque"], s["speed"], strict=True)]),
         (ours.current(s["speed"], s["voltage"]),
-         [t.current(a, b) for a, b in zip(s["speed"], s["voltage"], strict=True)]),  # type: ignore[attr-defined]
-        (ours.current_for_torque(s["torque"]), [t.current(a) for a in s["torque"]]),  # type: ignore[attr-defined]
-        (ours.torque(s["current"]), [t.torque(a) for a in s["current"]]),  # type: ignore[attr-defined]
+         [t.current(a, b) for a, b in zip(s["speed"], s["voltage"], strict=True)]),
+        (ours.current_for_torque(s["torque"]), [t.current(a) for a in s["torque"]]),
+        (ours.torque(s["current"]), [t.torque(a) for a in s["current"]]),
         (ours.speed(s["torque"], s["voltage"]),
-         [t.speed(a, b) for a, b in zip(s["torque"], s["voltage"], strict=True)]),  # type: ignore[attr-defined]
+         [t.speed(a, b) for a, b in zip(s["torque"], s["voltage"], strict=True)]),
     ]
     for mine, wpilib in pairs:
         np.testing.assert_allclose(mine, wpilib, rtol=RTOL, atol=0.0)

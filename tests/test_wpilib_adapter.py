@@ -20,6 +20,7 @@ from wpimath.kinematics import (  # noqa: E402
     SwerveDrive4Kinematics,
     SwerveModuleState,
 )
+from wpimath.trajectory import Trajectory as WpilibTrajectory  # noqa: E402
 from wpimath.trajectory import TrajectoryConfig, TrajectoryGenerator  # noqa: E402
 from wpimath.trajectory.constraint import CentripetalAccelerationConstraint  # noqa: E402
 
@@ -39,7 +40,7 @@ from mpc.adapters.wpilib import (  # noqa: E402
 )
 from mpc.errors import ControllerError, RobotError, TrajectoryError  # noqa: E402
 from mpc.robots import SwedishRobot, SwerveRobot, mecanum, preset  # noqa: E402
-from trajectories import Circle  # noqa: E402
+from trajectories import Circle, Trajectory  # noqa: E402
 
 CORNERS = [(0.3, 0.3), (0.3, -0.3), (-0.3, 0.3), (-0.3, -0.3)]  # [m] FL, FR, RL, RR
 MECANUM_CORNERS = [(0.15, 0.125), (0.15, -0.125), (-0.15, 0.125), (-0.15, -0.125)]
@@ -281,7 +282,7 @@ def test_reset_speeds_are_the_controllers_last_twist() -> None:
 # ---------------------------------------------------------------- WPILib trajectories
 
 
-def wpilib_trajectory(reversed_: bool = False):  # type: ignore[no-untyped-def]
+def wpilib_trajectory(reversed_: bool = False) -> WpilibTrajectory:
     """An S through (1, 1) and (2, -1) at up to 1 m/s, 1 m/s^2 and 1.5 m/s^2 sideways."""
     config = TrajectoryConfig(1.0, 1.0)
     config.addConstraint(CentripetalAccelerationConstraint(1.5))
@@ -338,7 +339,7 @@ def test_reference_heading_override_and_errors() -> None:
 
 
 def wpilib_loop(follower: MpcFollower, pose: Pose2d, ticks: int, clock: float,
-                reference: object) -> np.ndarray:
+                reference: Trajectory) -> np.ndarray:
     """The plant is WPILib's Pose2d.exp of the commanded ChassisSpeeds over each tick.
     Returns the position error [m] after every tick."""
     dt = follower.controller.dt
@@ -347,7 +348,7 @@ def wpilib_loop(follower: MpcFollower, pose: Pose2d, ticks: int, clock: float,
         speeds = follower.calculate(pose, clock + k * dt)
         assert follower.controller.robot.is_feasible(twist_from_chassis_speeds(speeds))
         pose = pose.exp(Twist2d(speeds.vx * dt, speeds.vy * dt, speeds.omega * dt))
-        target = reference.sample((k + 1) * dt).pose  # type: ignore[attr-defined]
+        target = reference.sample((k + 1) * dt).pose
         errors[k] = math.hypot(pose.X() - target[0], pose.Y() - target[1])
     return errors
 
