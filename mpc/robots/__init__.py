@@ -6,7 +6,8 @@ orders: Mecanum FL, FR, RL, RR; omni counter-clockwise from
 ``first_wheel_angle``; swerve as ``module_positions`` lists them; driven
 balls ball by ball, the actuator about +x then the one about +y. A new
 wheel type is a :class:`Robot` subclass plus a factory passed to
-:func:`register`.
+:func:`register`. Motors: :class:`DCMotor` (WPILib's DC motor model and
+presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel).
 """
 
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
@@ -19,20 +20,24 @@ from mpc.robots.mobility import (
     robot_description,
     robot_mobility,
 )
+from mpc.robots.motor import MOTOR_PRESETS, DCMotor, SysIdMotor
 from mpc.robots.registry import register, robot_types
 from mpc.robots.spherical import SphericalRobot, spherical
 from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
 from mpc.robots.swerve import SwerveRobot, swerve, wrap_angle
 
 __all__ = [
+    "MOTOR_PRESETS",
     "Mobility",
     "PRESETS",
+    "DCMotor",
     "Robot",
     "SpeedRows",
     "SphericalRobot",
     "SwedishRobot",
     "SwedishWheel",
     "SwerveRobot",
+    "SysIdMotor",
     "WheelCommands",
     "WheelSpec",
     "from_dict",
