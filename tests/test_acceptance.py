@@ -71,21 +71,6 @@ def test_reference_beyond_the_limits_keeps_every_limit(solver: str, robot_name: 
     assert metrics["max_cross_track_error"] < cross_track + 0.02
 
 
-@pytest.mark.parametrize("robot_name", PRESETS)
-def test_reference_beyond_the_limits_with_time_scaling_stays_on_the_path(
-    robot_name: str,
-) -> None:
-    """With time scaling the robot slows down on the path instead of cutting corners.
-    Measured max cross-track: 0.02-0.03 m (Swedish), 0.11 m (swerve) in the start-up
-    transient, under 0.1 mm after 4 s."""
-    robot = preset(robot_name)
-    controller = Controller(robot, too_fast_circle(robot), time_scaling=True)
-    result = simulate(controller, 8.0)
-    assert_within_limits(result)
-    assert result.metrics()["max_cross_track_error"] < 0.13
-    assert result.metrics(skip=4.0)["max_cross_track_error"] < 5e-4
-
-
 @pytest.mark.parametrize("trajectory_name", inside_limits().keys())
 def test_swerve_with_rate_limited_steering(trajectory_name: str) -> None:
     """Steer angles are given, wrapped into (-pi, pi]; the steering plant (12 rad/s) keeps

@@ -131,9 +131,11 @@ TRAJECTORY = Circle(1.0, 12.0)
         ({"dt": math.nan}, r"dt \[s\] must be a finite number > 0"),
         ({"dt": True}, r"dt \[s\] must be a finite number > 0"),
         ({"time_scaling": "no"}, "time_scaling must be True or False"),
+        ({"mode": "contour"}, r"unknown mode 'contour'.*'time', 'path'"),
+        ({"mode": "path", "max_progress_rate": 0.5}, "max_progress_rate must be >= 1"),
         ({"max_iter": 0}, "max_iter must be an integer >= 1"),
         ({"polygon_sides": 5}, "polygon_sides must be an even integer >= 4"),
-        ({"polygon_sides": 8, "solver": "ipopt"}, "polygon_sides applies to the OSQP path"),
+        ({"polygon_sides": 8, "solver": "ipopt"}, "polygon_sides applies to the QP paths"),
         ({"weights": {"pose": 1.0, "bogus": 2.0}}, r"unknown weight name\(s\) \['bogus'\]"),
         ({"weights": {"pose": [1.0, 2.0]}}, r"weight 'pose' must be .* shape \(3,\).*\(2,\)"),
         ({"weights": {"twist": -1.0}}, "weight 'twist' must be finite and >= 0"),
@@ -272,10 +274,10 @@ def test_reset_with_last_twist_limits_the_first_step_from_it() -> None:
     check_command(robot, command, np.zeros(3))
 
 
-def test_new_trajectory_starts_without_the_old_time_scaling_lag() -> None:
+def test_new_trajectory_starts_without_the_old_path_lag() -> None:
     robot = preset("mecanum")
     too_fast = too_fast_circle(robot, overload=1.5)
-    controller = Controller(robot, too_fast, time_scaling=True)
+    controller = Controller(robot, too_fast, mode="path")
     loop = Loop(controller, too_fast.sample(0.0).pose)
     for _ in range(100):
         command = loop.step()
@@ -285,3 +287,11 @@ def test_new_trajectory_starts_without_the_old_time_scaling_lag() -> None:
     assert command.reference_time == pytest.approx((loop.tick - 1) * DT)
 
 
+
+
+def test_time_scaling_is_deprecated_for_path_mode() -> None:
+    with pytest.warns(DeprecationWarning, match="mode='path'"):
+        controller = Controller(preset("mecanum"), TRAJECTORY, time_scaling=True)
+    assert controller.mode == "path"
+    with pytest.warns(DeprecationWarning):
+        assert Controller(preset("mecanum"), TRAJECTORY, time_scaling=False).mode == "time"

@@ -16,7 +16,14 @@ import numpy as np
 import pytest
 from numpy.typing import ArrayLike
 
-from mpc.model import SMALL_ROTATION, TrackingModel, Weights, integrate, twist_integral
+from mpc.model import (
+    SMALL_ROTATION,
+    TrackingModel,
+    Weights,
+    integrate,
+    make_weights,
+    twist_integral,
+)
 from mpc.robots import SwerveRobot, preset
 
 DT = 0.05
@@ -201,21 +208,37 @@ def test_linearization_structure_at_theta_zero_and_rest() -> None:
 # Cost ------------------------------------------------------------------------
 
 
-def hand_cost(model: TrackingModel, z: np.ndarray, p: np.ndarray) -> float:
-    """The cost written from Weights' docstring, in NumPy, independent of the CasADi code."""
+def hand_cost(model: TrackingModel, z: np.ndarray, p: np.ndarray, exact: bool = False) -> float:
+    """The cost written from Weights' docstring, in NumPy, independent of the CasADi code
+    (path mode: the reference at the planned progress, expanded around where it was
+    sampled, to second order if ``exact``)."""
     n, w, robot = model.horizon, model.weights, model.robot
     variables, parameters = model.layouts
     poses, twists = variables.view(z, "poses"), variables.view(z, "twists")
-    poses_ref = parameters.view(p, "poses_ref")
-    twists_ref = parameters.view(p, "twists_ref")
+    poses_ref = parameters.view(p, "poses_ref").copy()
+    twists_ref = parameters.view(p, "twists_ref").copy()
     directions = parameters.view(p, "directions")
     last = parameters.view(p, "last_twist")
+    contour, extra = 0.0, 0.0
+    if model.path:
+        progress = variables.view(z, "progress")
+        shift = progress - parameters.view(p, "progress_guess")
+        poses_ref += parameters.view(p, "path_rates") * shift[:, None]
+        if exact:
+            poses_ref += 0.5 * parameters.view(p, "path_curvatures") * shift[:, None] ** 2
+        rates = np.diff(progress) / model.dt
+        twists_ref = parameters.view(p, "feedforward_rates") * rates[:, None]
+        contour = w.contour
+        extra = (w.progress * float(np.sum((model.max_progress_rate - rates) ** 2))
+                 - w.progress_reward * float(np.sum(shift[1:]))
+                 + w.progress_rate * float(np.sum(np.diff(rates) ** 2)))
 
     def pose_term(k: int, diagonal: np.ndarray) -> float:
         error = poses[k] - poses_ref[k]
         along = directions[k] @ error[:2]
+        across = directions[k, 0] * error[1] - directions[k, 1] * error[0]
         relief = (1.0 - w.along_track) * min(diagonal[0], diagonal[1])
-        return float(error @ (diagonal * error) - relief * along**2)
+        return float(error @ (diagonal * error) - relief * along**2 + contour * across**2)
 
     positions = robot.wheel_positions if robot.steered else None
     total = 0.0
@@ -229,7 +252,7 @@ def hand_cost(model: TrackingModel, z: np.ndarray, p: np.ndarray) -> float:
             vx = change[0] - change[2] * positions[:, 1]
             vy = change[1] + change[2] * positions[:, 0]
             total += w.module_rate * float(np.sum(vx**2 + vy**2))
-    return total + pose_term(n, w.terminal)
+    return total + pose_term(n, w.terminal) + extra
 
 
 CUSTOM_WEIGHTS = Weights(pose=np.array([150.0, 90.0, 30.0]), twist=np.array([2.0, 0.5, 0.3]),
@@ -326,3 +349,36 @@ def test_numpy_integral_matches_the_casadi_dynamics(rotation: float) -> None:
         twist = np.array([*rng.uniform(-2, 2, 2), rotation / DT])
         np.testing.assert_allclose(integrate(pose, twist, DT), evaluate(function, pose, twist),
                                    rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_path_mode_cost_matches_hand_written_cost(exact: bool) -> None:
+    """Contouring geometry: the error against the reference expanded at the planned
+    progress, the across-path weight, the progress terms (CUSTOM weights, path mode)."""
+    weights = make_weights({"pose": [150.0, 90.0, 30.0], "contour": 700.0, "progress": 0.3,
+                            "progress_reward": 0.7, "progress_rate": 0.05})
+    model = TrackingModel(preset("mecanum"), HORIZON, DT, weights, path=True)
+    z, p = model.symbols()
+    cost = ca.Function("cost", [z, p], [model.cost(z, p, exact=exact)])
+    rng = np.random.default_rng(17)
+    for _ in range(5):
+        zv = rng.normal(size=model.layouts.variables.size)
+        pv = rng.normal(size=model.layouts.parameters.size)
+        assert float(cost(zv, pv)) == pytest.approx(hand_cost(model, zv, pv, exact), rel=1e-12)
+
+
+def test_contour_error_by_hand() -> None:
+    """One stage by hand (horizon 1: the terminal stage): direction of travel +y, the robot
+    3 cm to the right of and 1 cm behind its reference point: across error 3 cm (weight
+    terminal + contour), along 1 cm (weight terminal)."""
+    weights = make_weights({"pose": 0.0, "twist": 0.0, "rate": 0.0,
+                            "terminal": [100.0, 100.0, 0.0], "contour": 900.0, "progress": 0.0,
+                            "progress_reward": 0.0, "progress_rate": 0.0})
+    model = TrackingModel(preset("mecanum"), 1, DT, weights, path=True)
+    variables, parameters = model.layouts
+    zv, pv = np.zeros(variables.size), np.zeros(parameters.size)
+    parameters.view(pv, "directions")[:] = [0.0, 1.0]
+    variables.view(zv, "poses")[:] = [0.03, -0.01, 0.0]  # x right of +y travel, y behind
+    z, p = model.symbols()
+    value = float(ca.Function("cost", [z, p], [model.cost(z, p)])(zv, pv))
+    assert value == pytest.approx((100.0 + 900.0) * 0.03**2 + 100.0 * 0.01**2, rel=1e-12)

@@ -115,9 +115,13 @@ def test_skip_leaving_no_ticks_raises(skip: float) -> None:
 def test_one_command_over_the_limit_is_one_violation() -> None:
     command = np.full((TICKS, ROBOT.n_wheels), 0.5 * 20.0)
     command[37, 2] = -1.1 * 20.0  # the magnitude counts
-    metrics = synthetic(wheel_command=command).metrics(skip=3.0)  # skip: tracking only
-    assert metrics["limit_violations"] == 1
-    assert metrics["max_wheel_speed_ratio"] == pytest.approx(1.1, rel=1e-12)
+    result = synthetic(wheel_command=command)
+    assert result.metrics()["limit_violations"] == 1
+    assert result.metrics()["max_wheel_speed_ratio"] == pytest.approx(1.1, rel=1e-12)
+    # Violations count every tick; the peak ratio, like the errors, only those after skip.
+    windowed = result.metrics(skip=3.0)
+    assert windowed["limit_violations"] == 1
+    assert windowed["max_wheel_speed_ratio"] == pytest.approx(0.5, rel=1e-12)
 
 
 def test_commands_at_the_limit_within_its_tolerance_are_not_violations() -> None:
@@ -302,3 +306,24 @@ def test_recorder_rejects_bad_ticks_and_empty_results() -> None:
         recorder.record(math.inf, np.zeros(3), command)
     with pytest.raises(MpcError, match=r"wheel_actual must have shape \(4,\)"):
         recorder.record(0.0, np.zeros(3), command, wheel_actual=[1.0])
+
+
+def test_lap_times_from_the_tracked_reference_time() -> None:
+    """A robot that lags the clock more and more (tracking 0.8x the reference's pace)
+    completes a 12 s lap every 15 s; lag and the tracked reference follow."""
+    time = DT * np.arange(TICKS * 6)  # 36 s
+    lag = 0.2 * time
+    tracked = CIRCLE.sample(time - lag).pose
+    result = synthetic(time=time, pose=tracked, measured=tracked, reference=tracked,
+                       wheel_command=np.zeros((time.size, ROBOT.n_wheels)),
+                       wheel_actual=np.zeros((time.size, ROBOT.n_wheels)),
+                       twist_command=np.zeros((time.size, 3)), status=("solved",) * time.size,
+                       tick_time=np.full(time.size, 1e-3), solve_time=np.full(time.size, 5e-4),
+                       iterations=np.full(time.size, 1.0), lag=lag)
+    np.testing.assert_allclose(result.reference_time, 0.8 * time)
+    np.testing.assert_allclose(result.lap_times(), [15.0], atol=1e-9)  # passes at 15 and 30 s
+    metrics = result.metrics(skip=1.0)
+    assert metrics["lap_time"] == pytest.approx(15.0, abs=1e-9)
+    assert metrics["max_lag"] == pytest.approx(0.2 * time[-1])
+    assert metrics["rms_position_error"] == 0.0
+    assert synthetic().metrics()["lap_time"] is None  # 6 s of a 12 s circle: no whole lap

@@ -15,7 +15,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from mpc.control.timing import ReferenceWindow
+from mpc.control.timing import PROGRESS_TRUST, PathProgress, ReferenceWindow
 from mpc.model import (
     DIRECTION_SPEED,
     SMALL_ROTATION,
@@ -192,3 +192,59 @@ def test_twist_logarithm_continuous_across_its_switch() -> None:
     above = start + np.array([0.03, 0.01, np.nextafter(SMALL_ROTATION, 1.0)])
     np.testing.assert_allclose(np.asarray(log(start, below).full()),
                                np.asarray(log(start, above).full()), rtol=0, atol=1e-13)
+
+
+# Path mode's progress ------------------------------------------------------------------
+
+
+def path_timing(trajectory: Trajectory) -> tuple[PathProgress, TickInput]:
+    model = TrackingModel(preset("omni4"), HORIZON, DT, Weights(), path=True)
+    tick = TickInput(model.layouts)
+    return PathProgress(ReferenceWindow(trajectory, model, tick), model), tick
+
+
+def test_first_path_tick_samples_on_the_clock_with_the_stated_bounds() -> None:
+    trajectory = TRAJECTORIES["figure_eight_tangent"]
+    timing, tick = path_timing(trajectory)
+    assert tick.path is not None
+    start = timing.fill(3.0, 3.1, heading=float(trajectory.sample(3.1).pose[2]))
+    clock = 3.1 + DT * np.arange(HORIZON + 1)
+    assert start == 3.1
+    np.testing.assert_allclose(tick.path.progress_guess, clock)
+    np.testing.assert_allclose(tick.poses_ref, trajectory.sample(clock).pose, atol=1e-12)
+    np.testing.assert_allclose(tick.path.path_rates, trajectory.sample(clock).velocity)
+    assert tick.path.lower[0] == tick.path.upper[0] == 3.1  # s_0 fixed
+    np.testing.assert_allclose(tick.path.upper[1:], clock[1:])  # never ahead of the clock
+    np.testing.assert_allclose(tick.path.lower[1:], clock[1:] - PROGRESS_TRUST)
+    # The feedforward per unit progress rate, at rate 1, is the sampled feedforward.
+    np.testing.assert_allclose(tick.path.feedforward_rates, tick.twists_ref)
+
+
+def test_progress_is_carried_from_the_plan_and_resynchronised_after_a_jump() -> None:
+    trajectory = TRAJECTORIES["circle_tangent"]
+    timing, tick = path_timing(trajectory)
+    timing.fill(0.0, 0.0, heading=0.0)
+    plan: np.ndarray = 0.5 * DT * np.arange(HORIZON + 1, dtype=float)  # half the pace
+    timing.solved(plan)
+    assert timing.refine(plan, 0.0)  # no settled plan yet: the first tick is refined
+    timing.solved(plan)
+    assert timing.fill(DT, DT, heading=0.0) == pytest.approx(plan[1])
+    assert tick.path is not None
+    steps = np.diff(tick.path.progress_guess)
+    np.testing.assert_allclose(steps, 0.5 * DT)  # the plan's pace, shifted
+    assert not timing.refine(tick.path.progress_guess, 0.0)  # settled: no more rounds
+    timing.solved(tick.path.progress_guess)
+    assert timing.fill(5.0, 5.0, heading=0.0) == 5.0  # t jumped: back on the clock
+    assert timing.fill(4.0, 4.0, heading=0.0) == 4.0  # and backwards
+
+
+def test_a_failed_solve_keeps_the_guess_and_warms_up_again() -> None:
+    trajectory = TRAJECTORIES["circle_tangent"]
+    timing, tick = path_timing(trajectory)
+    timing.fill(0.0, 0.0, heading=0.0)
+    timing.solved(DT * np.arange(HORIZON + 1, dtype=float))
+    timing.fill(DT, DT, heading=0.0)
+    timing.solved(None)  # failure
+    assert timing.fill(2 * DT, 2 * DT, heading=0.0) == pytest.approx(2 * DT)
+    assert tick.path is not None
+    assert timing.refine(tick.path.progress_guess + 1e-2, 0.0)  # warming up again

@@ -72,11 +72,14 @@ class Controller:
         trajectory: the reference to track.
         horizon: control intervals in the plan, >= 1.
         dt: control interval [s], > 0; also the tick of :meth:`step`.
-        solver: ``"osqp"`` (fast real-time iteration) or ``"ipopt"`` (exact NLP).
+        solver: ``"daqp"`` (the fast path: real-time iteration on the condensed QP,
+            :mod:`mpc.solvers.dense`), ``"osqp"`` (real-time iteration on the sparse QP)
+            or ``"ipopt"`` (the exact NLP).
         weights: :class:`~mpc.model.weights.Weights` or a dict of overrides.
-        polygon_sides: OSQP only: sides of the polygon inside a swerve module's
+        polygon_sides: QP paths only: sides of the polygon inside a swerve module's
             speed disk (even, >= 4; default 16); IPOPT uses the exact disk.
-        max_iter: solver iterations per tick at most (default 500 OSQP, 100 IPOPT).
+        max_iter: solver iterations per tick at most (default 1000 daqp, 500 OSQP,
+            100 IPOPT).
         time_limit: solver time per tick at most [s]; 0 for none.
         delay_ticks: known command latency in whole ticks; the controller
             predicts the pose forward through the commands already sent.
@@ -92,7 +95,7 @@ class Controller:
         trajectory: Trajectory,
         horizon: int = 20,
         dt: float = 0.05,
-        solver: str = "osqp",
+        solver: str = "daqp",
         weights: Weights | Mapping[str, ArrayLike] | None = None,
         *,
         polygon_sides: int | None = None,
@@ -245,7 +248,7 @@ def _make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
     limit = non_negative("time_limit [s]", time_limit, ControllerError)
     if name == "ipopt":
         if polygon_sides is not None:
-            raise ControllerError("polygon_sides applies to the OSQP path only; IPOPT uses "
+            raise ControllerError("polygon_sides applies to the QP paths only; IPOPT uses "
                                   "each swerve module's exact speed disk")
         return NlpSolver(model, max_iter=iterations or 100, time_limit=limit)
     sides = DEFAULT_POLYGON_SIDES if polygon_sides is None else polygon_sides

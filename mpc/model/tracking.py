@@ -137,7 +137,11 @@ class TrackingModel:
         # flat along the path and slow for a first-order solver).
         push = self.weights.progress * ca.sumsqr(self.max_progress_rate - rates)
         bends = rates[1:] - rates[:-1]
-        return push + self.weights.progress_rate * ca.sumsqr(bends)
+        # A constant pull on every stage's progress: where the robot can keep up, the
+        # progress stays pinned to the clock (its upper bound) despite small errors.
+        guess = self.layouts.parameters.symbol(p, "progress_guess")
+        pull = -self.weights.progress_reward * ca.sum1(progress[1:] - guess[1:])
+        return push + pull + self.weights.progress_rate * ca.sumsqr(bends)
 
     def cost(self, z: ca.SX, p: ca.SX, exact: bool = False) -> ca.SX:
         """The tracking cost (see :class:`~mpc.model.weights.Weights`) as a CasADi expression;

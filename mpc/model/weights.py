@@ -34,7 +34,8 @@ def _diagonal(name: str, value: ArrayLike) -> FloatArray:
     return array
 
 
-_SCALARS = ("along_track", "module_rate", "progress", "progress_rate", "contour")
+_SCALARS = ("along_track", "module_rate", "progress", "progress_reward", "progress_rate",
+            "contour")
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,10 +52,11 @@ class Weights:
 
     Path mode (``Controller(mode="path")``) measures the pose error against the
     reference at the planned progress ``s_k`` instead of at ``t + k dt`` and adds
-    ``contour * sum_k (n_k . e_k)^2 - progress * sum_k s_k
-    + progress_rate * sum_k ((s_{k+1} - 2 s_k + s_{k-1}) / dt)^2``: a heavier weight
-    on the error across the path (``n_k`` the normal to the direction of travel), a
-    reward for progress along the path and a smoothing of its rate.
+    ``contour * sum_k (n_k . e_k)^2 + progress * sum_k (r_max - r_k)^2
+    - progress_reward * sum_k s_k + progress_rate * sum_k (r_{k+1} - r_k)^2`` with
+    ``r_k = (s_{k+1} - s_k) / dt``: a heavier weight on the error across the path
+    (``n_k`` the normal to the direction of travel), a pull of the progress rate
+    towards the fastest allowed, a reward for progress and a smoothing of its rate.
 
     Attributes:
         pose: on (x, y, theta) error [1/m^2, 1/m^2, 1/rad^2].
@@ -66,9 +68,13 @@ class Weights:
         module_rate: swerve only, on the change of each module's ground
             velocity between ticks [s^2/m^2]; it keeps steering motions
             smooth enough for a rate-limited steering motor.
-        progress: path mode, reward per second of reference progress at each stage [1/s].
-            At equilibrium the reference point leads a robot that cannot keep up by
-            about ``progress / (2 pose_xy |v_ref|^2)`` seconds of reference time.
+        progress: path mode, pull of every stage's progress rate towards the fastest
+            allowed [1]: keeps the robot driving at the pace its wheels allow along the
+            whole horizon.
+        progress_reward: path mode, reward per second of progress at each stage [1/s]:
+            holds the progress on the clock where the robot can keep up and makes good a
+            lag where the reference slows down. A robot that cannot keep up trails its
+            reference point by about ``progress_reward / (2 pose_xy |v_ref|^2)`` s.
         progress_rate: path mode, on the change of the progress rate between stages
             (dimensionless rate, so [1]).
         contour: path mode, added on the position error across the path (normal to the
@@ -83,6 +89,7 @@ class Weights:
     along_track: float = 1.0
     module_rate: float = 1.0
     progress: float = 0.1
+    progress_reward: float = 0.2
     progress_rate: float = 0.01
     contour: float = 2000.0
 
@@ -91,7 +98,7 @@ class Weights:
             if item.name in _SCALARS:
                 continue
             object.__setattr__(self, item.name, _diagonal(item.name, getattr(self, item.name)))
-        for name in ("module_rate", "progress", "progress_rate", "contour"):
+        for name in ("module_rate", "progress", "progress_reward", "progress_rate", "contour"):
             value = getattr(self, name)
             if not is_finite_number(value) or value < 0.0:
                 raise ControllerError(f"weight {name!r} must be a finite number >= 0, "

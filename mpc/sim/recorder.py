@@ -66,9 +66,10 @@ class Recorder:
         times, poses, measured, actual, commands = zip(*self._rows, strict=True)
         robot = self.robot
         time = np.array(times)
+        lag = np.array([c.lag for c in commands])
         return SimResult(
             time=time, pose=np.array(poses), measured=np.array(measured),
-            reference=self.trajectory.sample(time).pose,
+            reference=self.trajectory.sample(time - lag).pose, lag=lag,
             wheel_command=np.array([c.wheel_speeds for c in commands]),
             wheel_actual=np.array(actual),
             wheel_limit=robot.max_wheel_speed.copy(), wheel_accel_limit=robot.max_wheel_accel,

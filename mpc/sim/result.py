@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
@@ -26,7 +27,8 @@ class SimResult:
         time: tick start times (K,) [s].
         pose: true pose at each tick (K, 3) [m, m, rad].
         measured: the pose the controller saw (K, 3).
-        reference: reference pose at each tick (K, 3).
+        reference: the reference pose the controller tracked at each tick (K, 3): at
+            ``time`` in time mode, at ``time - lag`` (its progress) in path mode.
         wheel_command: commanded wheel speeds (K, n) [rad/s].
         wheel_actual: wheel speeds reached at the end of each tick (K, n) [rad/s].
         wheel_limit: per-wheel speed limit (n,) [rad/s].
@@ -39,6 +41,7 @@ class SimResult:
         dt: control tick [s].
         trajectory: the reference (for cross-track error).
         wheel_blocks: the robot's wheel velocity maps, to measure command changes.
+        lag: how far the tracked reference time trailed ``time`` (K,) [s]; None: never.
     """
 
     time: FloatArray
@@ -57,6 +60,27 @@ class SimResult:
     dt: float
     trajectory: Trajectory = field(repr=False)
     wheel_blocks: FloatArray = field(repr=False)
+    lag: FloatArray | None = None
+
+    @property
+    def reference_time(self) -> FloatArray:
+        """The reference time tracked at each tick (K,) [s]: ``time - lag``."""
+        return self.time if self.lag is None else self.time - self.lag
+
+    def lap_times(self, skip: float = 0.0) -> FloatArray:
+        """Durations of the complete laps of a periodic reference after ``skip`` [s]:
+        between the ticks at which the tracked reference time passes whole periods
+        (interpolated). Empty for a non-periodic reference or fewer than two passes."""
+        period = self.trajectory.period
+        progress = self.reference_time
+        if period is None or progress[-1] <= progress[0]:
+            return np.zeros(0)
+        first = math.floor(progress[0] / period) + 1
+        marks = period * np.arange(first, math.floor(progress[-1] / period) + 1)
+        # progress never decreases, so np.interp inverts it (ties: the first tick)
+        passes = np.interp(marks, progress, self.time)
+        passes = passes[passes >= self.time[0] + skip - 1e-12]
+        return np.diff(passes)
 
     def position_error(self) -> FloatArray:
         """Distance to the time-indexed reference position (K,) [m]."""
@@ -97,7 +121,11 @@ class SimResult:
         acceleration limit); ``control_effort`` (RMS over ticks and wheels of
         command / limit); ``tick_time_p50/p95/p99/max`` and
         ``solve_time_p50/p99`` [s]; ``deadline_misses`` (ticks longer than
-        dt); ``failures`` (ticks not solved) and ``failures_by_status``.
+        dt); ``failures`` (ticks not solved) and ``failures_by_status``;
+        ``max_lag`` and ``mean_lag`` [s] (how far the tracked reference time trailed
+        the clock); ``lap_time`` [s] (the last complete lap after ``skip``, None if
+        there is none). Errors and the peak wheel ratio cover the ticks after
+        ``skip``; violations count every tick.
         """
         if not is_finite_number(skip) or skip < 0:
             raise SimulationError(f"skip must be a finite number of seconds >= 0, got {skip!r}")
@@ -115,6 +143,8 @@ class SimResult:
         violations = (magnitude > limit * (1 + LIMIT_RTOL) + 1e-12).any(axis=1)
         failures = Counter(s for s in self.status if s != "solved")
         ticks = self.tick_time
+        lag = np.zeros(len(self.time)) if self.lag is None else self.lag
+        laps = self.lap_times(skip)
         return {
             "rms_position_error": _rms(position),
             "max_position_error": float(position.max()),
@@ -122,7 +152,7 @@ class SimResult:
             "max_cross_track_error": float(cross.max()),
             "rms_heading_error": _rms(heading),
             "max_heading_error": float(heading.max()),
-            "max_wheel_speed_ratio": float(ratio.max()),
+            "max_wheel_speed_ratio": float(ratio[keep].max()),
             "limit_violations": int(violations.sum()),
             "accel_violations": self._accel_violations(),
             "control_effort": _rms(np.where(np.isfinite(ratio), ratio, 0.0)),
@@ -135,6 +165,9 @@ class SimResult:
             "deadline_misses": int((ticks > self.dt).sum()),
             "failures": int(sum(failures.values())),
             "failures_by_status": dict(failures),
+            "max_lag": float(lag[keep].max()),
+            "mean_lag": float(lag[keep].mean()),
+            "lap_time": float(laps[-1]) if laps.size else None,
         }
 
     def _accel_violations(self) -> int:
