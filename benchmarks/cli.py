@@ -21,6 +21,8 @@ from benchmarks import perf, soak
 from benchmarks.runner import build_scenarios, results_document, run_all, summary_table, write_csv
 from benchmarks.scenarios import (
     CONTROLLERS,
+    DEFAULT_CONTROLLERS,
+    DEFAULT_HEADINGS,
     HEADINGS,
     PRESETS,
     TRAJECTORIES,
@@ -48,9 +50,11 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--speeds", help="comma list of inside (peak wheel speed 0.8 x limit), "
                                          "beyond (1.3 x) or peak ratios like 1.1 (default: both)")
     parser.add_argument("--controllers",
-                        help=f"comma list of {', '.join(CONTROLLERS)} (default: all)")
-    parser.add_argument("--heading", default="fixed", choices=HEADINGS,
-                        help="heading profile of the shapes (default: fixed)")
+                        help=f"comma list of {', '.join(CONTROLLERS)} "
+                             f"(default: {', '.join(DEFAULT_CONTROLLERS)})")
+    parser.add_argument("--heading", metavar="HEADINGS",
+                        help=f"comma list of heading profiles, {', '.join(HEADINGS)} "
+                             f"(default: {','.join(DEFAULT_HEADINGS)})")
     parser.add_argument("--horizon", type=int, default=20, help="MPC horizon in ticks (20)")
     parser.add_argument("--dt", type=float, default=0.05, help="control tick [s] (0.05)")
     parser.add_argument("--polygon-sides", type=int, default=16,
@@ -81,6 +85,7 @@ def run(argv: list[str]) -> int:
     if args.quick:
         args.layouts = args.layouts or "mecanum"
         args.trajectories = args.trajectories or "figure8"
+        args.heading = args.heading or "fixed"
         args.duration = args.duration or 3.0
         args.skip = min(args.skip, 1.0)
     if args.horizon < 1 or not args.dt > 0 or (args.duration is not None and not args.duration > 0):
@@ -92,14 +97,15 @@ def run(argv: list[str]) -> int:
     layouts = choose("layout", args.layouts, PRESETS)
     chosen_robots = robots(layouts, args.robot)
     trajectories = choose("trajectory", args.trajectories, TRAJECTORIES)
-    controllers = choose("controller", args.controllers, CONTROLLERS)
+    controllers = choose("controller", args.controllers, CONTROLLERS, DEFAULT_CONTROLLERS)
+    headings = choose("heading", args.heading, HEADINGS, DEFAULT_HEADINGS)
     speeds = parse_speeds(args.speeds)
     csv_trajectory = csv_reference(args.trajectory_csv) if args.trajectory_csv else None
     settings = Settings(horizon=args.horizon, dt=args.dt, polygon_sides=args.polygon_sides)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
 
-    scenarios = build_scenarios(chosen_robots, trajectories, speeds, args.heading, csv_trajectory)
+    scenarios = build_scenarios(chosen_robots, trajectories, speeds, headings, csv_trajectory)
     print(f"mpc-bench: {len(scenarios)} scenarios x {len(controllers)} controllers, "
           f"plant {args.plant}, horizon {args.horizon}, dt {args.dt} s", flush=True)
     started = time.perf_counter()
@@ -110,7 +116,7 @@ def run(argv: list[str]) -> int:
         command=" ".join(["mpc-bench", *argv]),
         settings={"horizon": args.horizon, "dt": args.dt, "polygon_sides": args.polygon_sides,
                   "duration": args.duration,
-                  "plant": args.plant, "skip": args.skip, "heading": args.heading,
+                  "plant": args.plant, "skip": args.skip, "headings": headings,
                   "seed": args.seed},
     )
     (out / "results.json").write_text(json.dumps(document))

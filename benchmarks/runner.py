@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import datetime
+import functools
 import math
 import os
 import platform
@@ -15,10 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.scenarios import Settings, controller, reference
+from benchmarks.scenarios import Settings, applies, controller, reference
+from mpc.errors import MpcError
 from mpc.robots import Robot
 from mpc.sim import SimResult, simulate
-from trajectories import Trajectory, feasibility
+from trajectories import Trajectory, feasibility, time_optimal
 
 
 @dataclass(frozen=True)
@@ -36,16 +38,38 @@ class Scenario:
     def peak_ratio(self) -> float:
         return float(feasibility(self.trajectory, self.robot).peak_ratio)
 
+    @functools.cached_property
+    def optimal_lap(self) -> float | None:
+        """The time-optimal lap of the reference's path under the robot's wheel limits [s]
+        (the yardstick of path following), None for a reference that is not periodic."""
+        if self.trajectory.period is None:
+            return None
+        try:
+            return float(time_optimal(self.trajectory, self.robot).lap_time)
+        except MpcError:  # a path the retimer cannot time: report no yardstick
+            return None
+
+    @property
+    def target_lap(self) -> float | None:
+        """The fastest lap a controller that never runs ahead of the reference can drive:
+        ``max(period, optimal lap)`` [s]."""
+        period, optimal = self.trajectory.period, self.optimal_lap
+        if period is None:
+            return None
+        return max(period, optimal) if optimal is not None else period
+
 
 def build_scenarios(robots: dict[str, Robot], trajectories: list[str], speeds: dict[str, float],
-                    heading: str, csv_trajectory: Trajectory | None) -> list[Scenario]:
-    """Every layout x trajectory x speed (a CSV reference runs as given, once per layout)."""
+                    headings: list[str], csv_trajectory: Trajectory | None) -> list[Scenario]:
+    """Every layout x trajectory x heading x speed (a CSV reference runs as given, once per
+    layout)."""
     scenarios = []
     for layout, robot in robots.items():
         for name in trajectories:
-            for label, ratio in speeds.items():
-                trajectory = reference(name, heading, robot, ratio)
-                scenarios.append(Scenario(layout, robot, name, trajectory, label, heading))
+            for heading in headings:
+                for label, ratio in speeds.items():
+                    trajectory = reference(name, heading, robot, ratio)
+                    scenarios.append(Scenario(layout, robot, name, trajectory, label, heading))
         if csv_trajectory is not None:
             scenarios.append(Scenario(layout, robot, "csv", csv_trajectory, "as-given", "csv"))
     return scenarios
@@ -65,10 +89,13 @@ def machine() -> dict[str, Any]:
             "cpu_count": os.cpu_count(), "processor": processor}
 
 
-def default_duration(trajectory: Trajectory, skip: float) -> float:
-    """One lap (or the waypoints' span) after the settling time, at least 6 s [s]."""
-    span = trajectory.period or trajectory.duration or 10.0
-    return max(6.0, float(span) + skip)
+def default_duration(scenario: Scenario, skip: float) -> float:
+    """Two laps at the fastest pace a path follower can keep (or the waypoints' span) after
+    the settling time, at least 6 s [s]: a steady lap for path mode to be timed on."""
+    trajectory = scenario.trajectory
+    if trajectory.period is not None:
+        return max(6.0, 2.2 * (scenario.target_lap or trajectory.period) + skip)
+    return max(6.0, float(trajectory.duration or 10.0) + skip)
 
 
 def run_all(
@@ -83,22 +110,33 @@ def run_all(
 ) -> list[dict[str, Any]]:
     """Simulate every scenario with every controller; print one line per run."""
     runs = []
-    total = len(scenarios) * len(controllers)
-    for scenario in scenarios:
-        for name in controllers:
-            started = time.perf_counter()
-            control = controller(name, scenario.robot, scenario.trajectory, settings)
-            length = duration or default_duration(scenario.trajectory, skip)
-            result = simulate(control, length, plant=plant, seed=seed)
-            metrics = result.metrics(skip=min(skip, 0.5 * length))
-            runs.append(pack_run(scenario, name, metrics, result))
-            log(f"[{len(runs):3d}/{total}] {scenario.layout:8s} {scenario.trajectory_name:8s} "
-                f"{scenario.speed:8s} {name:10s} rms {metrics['rms_position_error'] * 1e3:8.3g} mm"
-                f"  cross {metrics['max_cross_track_error'] * 1e3:8.3g} mm"
-                f"  peak {metrics['max_wheel_speed_ratio']:.3f}"
-                f"  tick p50 {metrics['tick_time_p50'] * 1e3:6.3f} ms"
-                f"  ({time.perf_counter() - started:.1f} s)")
+    plan = [(scenario, name) for scenario in scenarios for name in controllers
+            if applies(name, scenario.robot)]
+    for scenario, name in plan:
+        started = time.perf_counter()
+        control = controller(name, scenario.robot, scenario.trajectory, settings)
+        length = duration or default_duration(scenario, skip)
+        result = simulate(control, length, plant=plant, seed=seed)
+        metrics = result.metrics(skip=min(skip, 0.5 * length))
+        runs.append(pack_run(scenario, name, metrics, result))
+        pace = run_pace(runs[-1])
+        log(f"[{len(runs):3d}/{len(plan)}] {scenario.layout:8s} {scenario.trajectory_name:8s} "
+            f"{scenario.heading:7s} {scenario.speed:7s} {name:14s} "
+            f"rms {metrics['rms_position_error'] * 1e3:8.3g} mm"
+            f"  path {metrics['max_cross_track_error'] * 1e3:8.3g} mm"
+            f"  lap/target {'-' if pace is None else f'{pace:.3f}':>5s}"
+            f"  tick p50 {metrics['tick_time_p50'] * 1e3:6.3f} ms"
+            f"  ({time.perf_counter() - started:.1f} s)")
     return runs
+
+
+def run_pace(run: dict[str, Any]) -> float | None:
+    """A run's steady lap time over the fastest lap it could keep (1 = as fast as the
+    wheels and the reference's own timing allow); None without a lap or a yardstick."""
+    lap, target = run["metrics"].get("lap_time"), run.get("target_lap")
+    if not isinstance(lap, (int, float)) or not isinstance(target, (int, float)):
+        return None
+    return float(lap) / float(target)
 
 
 def _robot_info(robot: Robot) -> dict[str, Any]:
@@ -119,6 +157,9 @@ def pack_run(scenario: Scenario, name: str, metrics: dict[str, Any],
         "heading": scenario.heading,
         "speed": scenario.speed,
         "peak_ratio": round(scenario.peak_ratio, 4),
+        "period": scenario.trajectory.period,
+        "optimal_lap": scenario.optimal_lap,
+        "target_lap": scenario.target_lap,
         "controller": name,
         "metrics": metrics,
         "series": {
@@ -126,7 +167,7 @@ def pack_run(scenario: Scenario, name: str, metrics: dict[str, Any],
             "reference": _list(result.reference), "wheel_command": _list(result.wheel_command),
             "wheel_limit": _list(result.wheel_limit), "tick_time": _list(result.tick_time, 8),
             "solve_time": _list(result.solve_time, 8), "status": list(result.status),
-            "dt": result.dt,
+            "lag": _list(result.time - result.reference_time), "dt": result.dt,
         },
         "robot": _robot_info(scenario.robot),
     }
@@ -147,38 +188,49 @@ CSV_METRICS = ("rms_position_error", "max_position_error", "rms_cross_track_erro
                "max_cross_track_error", "rms_heading_error", "max_heading_error",
                "max_wheel_speed_ratio", "limit_violations", "accel_violations", "control_effort",
                "tick_time_p50", "tick_time_p95", "tick_time_p99", "tick_time_max",
-               "solve_time_p50", "solve_time_p99", "deadline_misses", "failures")
+               "solve_time_p50", "solve_time_p99", "deadline_misses", "failures", "lap_time",
+               "max_lag", "mean_lag")
 
 
 def write_csv(runs: list[dict[str, Any]], path: Path) -> None:
     """One row per run: scenario columns then the metrics (SI units)."""
     with path.open("w", newline="") as handle:
         writer = csv.writer(handle)
-        writer.writerow(["layout", "trajectory", "heading", "speed", "peak_ratio", "controller",
-                         *CSV_METRICS, "failures_by_status"])
+        writer.writerow(["layout", "trajectory", "heading", "speed", "peak_ratio", "period",
+                         "optimal_lap", "controller", *CSV_METRICS, "failures_by_status"])
         for run in runs:
             metrics = run["metrics"]
             failures = sorted(metrics["failures_by_status"].items())
             by_status = ";".join(f"{k}:{v}" for k, v in failures)
             writer.writerow([run["layout"], run["trajectory"], run["heading"], run["speed"],
-                             run["peak_ratio"], run["controller"],
+                             run["peak_ratio"], run["period"], run["optimal_lap"],
+                             run["controller"],
                              *(metrics[key] for key in CSV_METRICS), by_status])
 
 
 def summary_table(runs: list[dict[str, Any]]) -> str:
-    """A fixed-width text table of the headline numbers."""
-    header = (f"{'layout':8s} {'traj':8s} {'speed':8s} {'controller':10s} {'rms pos':>9s} "
-              f"{'max cross':>9s} {'rms head':>8s} {'peak':>6s} {'viol':>4s} {'fail':>4s} "
-              f"{'tick p50':>9s}")
-    units = (f"{'':8s} {'':8s} {'':8s} {'':10s} {'[mm]':>9s} {'[mm]':>9s} {'[deg]':>8s} "
-             f"{'[lim]':>6s} {'':>4s} {'':>4s} {'[ms]':>9s}")
+    """A fixed-width text table of the headline numbers (columns sized to the names)."""
+    width = max([14] + [len(str(run["controller"])) for run in runs])
+    head = (("layout", 8, "", "s"), ("traj", 8, "", "s"), ("heading", 7, "", "s"),
+            ("speed", 7, "", "s"), ("controller", width, "", "s"), ("rms pos", 9, "[mm]", ">"),
+            ("max path", 9, "[mm]", ">"), ("rms head", 8, "[deg]", ">"),
+            ("lap/target", 10, "", ">"), ("max lag", 8, "[s]", ">"), ("peak", 6, "[lim]", ">"),
+            ("viol", 4, "", ">"), ("fail", 4, "", ">"), ("tick p50", 9, "[ms]", ">"),
+            ("tick p99", 9, "[ms]", ">"))
+    header = " ".join(f"{title:{align if align != 's' else '<'}{size}}"
+                      for title, size, _, align in head)
+    units = " ".join(f"{unit:{align if align != 's' else '<'}{size}}"
+                     for _, size, unit, align in head)
     lines = [header, units, "-" * len(header)]
     for run in runs:
         m = run["metrics"]
+        pace = run_pace(run)
         lines.append(
-            f"{run['layout']:8s} {run['trajectory']:8s} {run['speed']:8s} {run['controller']:10s} "
-            f"{m['rms_position_error'] * 1e3:9.3g} {m['max_cross_track_error'] * 1e3:9.3g} "
-            f"{math.degrees(m['rms_heading_error']):8.3g} {m['max_wheel_speed_ratio']:6.3f} "
-            f"{m['limit_violations']:4d} {m['failures']:4d} {m['tick_time_p50'] * 1e3:9.3f}"
+            f"{run['layout']:8s} {run['trajectory']:8s} {run['heading']:7s} {run['speed']:7s} "
+            f"{run['controller']:{width}s} {m['rms_position_error'] * 1e3:9.3g} "
+            f"{m['max_cross_track_error'] * 1e3:9.3g} {math.degrees(m['rms_heading_error']):8.3g} "
+            f"{'-' if pace is None else f'{pace:.3f}':>10s} {m['max_lag']:8.3f} "
+            f"{m['max_wheel_speed_ratio']:6.3f} {m['limit_violations'] + m['accel_violations']:4d} "
+            f"{m['failures']:4d} {m['tick_time_p50'] * 1e3:9.3f} {m['tick_time_p99'] * 1e3:9.3f}"
         )
     return "\n".join(lines)

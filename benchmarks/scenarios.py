@@ -19,16 +19,25 @@ from typing import NoReturn
 from mpc import Controller
 from mpc.errors import MpcError
 from mpc.robots import PRESETS, Robot, load, preset
-from mpc.sim import FeedforwardPController, TrackingController
+from mpc.sim import FeedforwardPController, FeedforwardPSetpointController, TrackingController
 from trajectories import Circle, FigureEight, SpinHeading, Trajectory, Waypoints, feasibility
 
 #: Named speeds: the reference's peak wheel speed / limit.
 SPEEDS: dict[str, float] = {"inside": 0.8, "beyond": 1.3}
 TRAJECTORIES: tuple[str, ...] = ("circle", "figure8")
-#: mpc-osqp-ts is the fast path with time scaling: it slows the reference
-#: down where the wheels cannot follow it (path following over timing).
-CONTROLLERS: tuple[str, ...] = ("mpc-osqp", "mpc-ipopt", "mpc-osqp-ts", "ff-p-clip", "ff-p-desat")
+#: Every controller the benchmark knows: this project in time mode (the daqp fast path,
+#: the OSQP fast path, the exact IPOPT path) and in path mode, and the baselines a user
+#: would otherwise pick (feedforward + P with per-wheel clipping, WPILib-style
+#: desaturation, or, for swerve, a Team 254-style setpoint generator).
+CONTROLLERS: tuple[str, ...] = ("mpc-daqp", "mpc-osqp", "mpc-ipopt", "mpc-path", "mpc-path-ipopt",
+                                "ff-p-clip", "ff-p-desat", "ff-p-setpoint")
+#: What runs by default (mpc-osqp and mpc-path-ipopt on request).
+DEFAULT_CONTROLLERS: tuple[str, ...] = ("mpc-daqp", "mpc-ipopt", "mpc-path", "ff-p-clip",
+                                        "ff-p-desat", "ff-p-setpoint")
+#: Controllers that only apply to robots with steered wheels.
+STEERED_ONLY: frozenset[str] = frozenset({"ff-p-setpoint"})
 HEADINGS: tuple[str, ...] = ("fixed", "tangent", "spin")
+DEFAULT_HEADINGS: tuple[str, ...] = ("fixed", "tangent")
 
 #: Size of the shapes [m] and the period used to measure their wheel load [s].
 SHAPE_SIZE = 1.0
@@ -46,10 +55,11 @@ class ScenarioError(MpcError):
     """An unknown name or an unusable file among the benchmark's options."""
 
 
-def choose(kind: str, requested: str | None, valid: tuple[str, ...] | list[str]) -> list[str]:
-    """Split a comma list and check each name, or return every valid name."""
+def choose(kind: str, requested: str | None, valid: tuple[str, ...] | list[str],
+           default: tuple[str, ...] | list[str] | None = None) -> list[str]:
+    """Split a comma list and check each name, or return the default (every valid name)."""
     if requested is None:
-        return list(valid)
+        return list(valid if default is None else default)
     names = [name.strip() for name in requested.split(",") if name.strip()]
     unknown = [name for name in names if name not in valid]
     if unknown or not names:
@@ -133,21 +143,31 @@ class Settings:
 def controller(name: str, robot: Robot, trajectory: Trajectory,
                settings: Settings) -> TrackingController:
     """A controller by its benchmark name (one of :data:`CONTROLLERS`)."""
-    sides = settings.polygon_sides if robot.kind == "swerve" else None
-    if name == "mpc-osqp":
-        return Controller(robot, trajectory, settings.horizon, settings.dt, solver="osqp",
-                          polygon_sides=sides)
-    if name == "mpc-ipopt":
-        return Controller(robot, trajectory, settings.horizon, settings.dt, solver="ipopt")
-    if name == "mpc-osqp-ts":
-        return Controller(robot, trajectory, settings.horizon, settings.dt, solver="osqp",
-                          polygon_sides=sides, time_scaling=True)
+    if name in _MPC:
+        solver, mode = _MPC[name]
+        sides = settings.polygon_sides if robot.kind == "swerve" and solver != "ipopt" else None
+        return Controller(robot, trajectory, settings.horizon, settings.dt, solver=solver,
+                          mode=mode, polygon_sides=sides)
+    if name == "ff-p-setpoint":
+        return FeedforwardPSetpointController(robot, trajectory, settings.dt)
     saturation = "clip" if name == "ff-p-clip" else "desaturate"
     return FeedforwardPController(robot, trajectory, settings.dt, saturation=saturation)
 
 
+#: The MPC controllers by benchmark name: (solver, mode).
+_MPC: dict[str, tuple[str, str]] = {
+    "mpc-daqp": ("daqp", "time"), "mpc-osqp": ("osqp", "time"), "mpc-ipopt": ("ipopt", "time"),
+    "mpc-path": ("daqp", "path"), "mpc-path-ipopt": ("ipopt", "path"),
+}
+
+
+def applies(name: str, robot: Robot) -> bool:
+    """Whether controller ``name`` can drive ``robot`` (the setpoint generator: swerve)."""
+    return name not in STEERED_ONLY or robot.steered
+
+
 __all__ = [
-    "CONTROLLERS", "HEADINGS", "PRESETS", "SPEEDS", "TRAJECTORIES", "Parser", "ScenarioError",
-    "Settings",
-    "choose", "controller", "csv_reference", "parse_speeds", "reference", "robots",
+    "CONTROLLERS", "DEFAULT_CONTROLLERS", "DEFAULT_HEADINGS", "HEADINGS", "PRESETS", "SPEEDS",
+    "TRAJECTORIES", "Parser", "ScenarioError", "Settings", "applies", "choose", "controller",
+    "csv_reference", "parse_speeds", "reference", "robots",
 ]

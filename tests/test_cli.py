@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from benchmarks.cli import main
-from benchmarks.scenarios import CONTROLLERS
+from benchmarks.scenarios import DEFAULT_CONTROLLERS
 
 
 @pytest.fixture(scope="module")
@@ -22,9 +22,11 @@ def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_quick_run_writes_results_and_report(quick_run: Path) -> None:
     document = json.loads((quick_run / "results.json").read_text())
     runs = document["runs"]
-    # mecanum x figure8 x {inside, beyond} x every controller
-    assert len(runs) == 2 * len(CONTROLLERS)
-    assert {run["controller"] for run in runs} == set(CONTROLLERS)
+    # mecanum x figure8 x fixed heading x {inside, beyond} x every default controller that
+    # applies (the setpoint generator is for swerve)
+    shown = set(DEFAULT_CONTROLLERS) - {"ff-p-setpoint"}
+    assert len(runs) == 2 * len(shown)
+    assert {run["controller"] for run in runs} == shown
     assert {run["speed"] for run in runs} == {"inside", "beyond"}
     assert document["meta"]["machine"]["cpu_count"] >= 1
     for run in runs:
@@ -39,7 +41,7 @@ def test_quick_run_writes_results_and_report(quick_run: Path) -> None:
         assert float(row["rms_position_error"]) == pytest.approx(
             run["metrics"]["rms_position_error"], rel=1e-12)
     index = (quick_run / "report" / "index.html").read_text()
-    assert "mecanum-figure8-beyond-mpc-osqp" in index
+    assert "mecanum-figure8-fixed-beyond-mpc-daqp" in index
     assert (quick_run / "report" / "summary.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
@@ -53,7 +55,9 @@ def test_mpc_never_exceeds_a_limit_beyond_the_limits(quick_run: Path) -> None:
 def test_report_subcommand_rebuilds_the_report(quick_run: Path, tmp_path: Path) -> None:
     assert main(["report", str(quick_run / "results.json"), "--out", str(tmp_path / "again")]) == 0
     assert (tmp_path / "again" / "index.html").exists()
-    assert len(list((tmp_path / "again" / "figures").glob("*.png"))) == 2 * len(CONTROLLERS)
+    figures = list((tmp_path / "again" / "figures").glob("*.png"))
+    assert len(figures) == 2 * (len(DEFAULT_CONTROLLERS) - 1)
+    assert not (tmp_path / "again" / "pace.png").exists()  # 3 s runs: no lap to time
 
 
 def test_polygon_sides_reach_the_swerve_qp(tmp_path: Path) -> None:
@@ -80,7 +84,8 @@ def test_robot_file_and_csv_trajectory(tmp_path: Path) -> None:
     path.write_text("t,x,y,theta\n0,0,0,0\n2,0.5,0.2,0.3\n4,1.0,0.0,0.0\n")
     out = tmp_path / "out"
     code = main(["--layouts", "mecanum", "--trajectories", "circle", "--speeds", "0.5",
-                 "--controllers", "mpc-osqp,ff-p-desat", "--robot", str(robot),
+                 "--heading", "fixed", "--controllers", "mpc-osqp,ff-p-desat",
+                 "--robot", str(robot),
                  "--trajectory-csv", str(path), "--duration", "2", "--no-report",
                  "--out", str(out)])
     assert code == 0
@@ -95,7 +100,8 @@ def test_robot_file_and_csv_trajectory(tmp_path: Path) -> None:
     ("argv", "message"),
     [
         (["--layouts", "tank"], "unknown layout tank; valid: omni3, omni4, mecanum, swerve"),
-        (["--controllers", "pid"], "unknown controller pid; valid: mpc-osqp"),
+        (["--controllers", "pid"], "unknown controller pid; valid: mpc-daqp, mpc-osqp"),
+        (["--heading", "sideways"], "unknown heading sideways; valid: fixed, tangent, spin"),
         (["--trajectories", "square"], "unknown trajectory square; valid: circle, figure8"),
         (["--speeds", "fast"], "unknown speed 'fast'"),
         (["--robot", "/no/such/robot.toml", "--quick"], "cannot read robot file"),

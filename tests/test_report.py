@@ -144,14 +144,16 @@ def test_progress_called_per_figure(report: tuple[Path, list[tuple[int, int]]]) 
 
 def test_summary_markdown_has_a_row_per_run(report: tuple[Path, list[tuple[int, int]]]) -> None:
     lines = (report[0].parent / "summary.md").read_text(encoding="utf-8").splitlines()
-    assert lines[0].startswith("| layout | trajectory | speed |") and set(lines[1]) <= set("|- ")
+    assert lines[0].startswith("| layout | trajectory | heading | speed |")
+    assert set(lines[1]) <= set("|- ")
     rows = lines[2:]
     assert len(rows) == 4
     for row, run in zip(rows, _results()["runs"], strict=True):
         cells = [cell.strip() for cell in row.strip("|").split("|")]
-        assert cells[:5] == [run["layout"], run["trajectory"], run["speed"],
+        # runs without a heading (results of older versions) count as fixed heading
+        assert cells[:6] == [run["layout"], run["trajectory"], "fixed", run["speed"],
                              f"{run['peak_ratio']:.2f}", run["controller"]]
-        assert cells[5] == ("**12.3**" if run["controller"] == "mpc-osqp" else "45.6")
+        assert cells[6] == ("**12.3**" if run["controller"] == "mpc-osqp" else "45.6")
 
 
 def test_run_id_is_a_safe_file_name() -> None:
@@ -226,3 +228,18 @@ def test_degenerate_runs_do_not_crash(tmp_path: Path) -> None:
     assert "mecanum-circle-1.3-ff-p-clip.png" in page
     for png in (tmp_path / "figures").iterdir():
         assert png.read_bytes()[:8] == PNG_MAGIC
+
+
+def test_pace_figure_and_column_for_runs_with_laps(tmp_path: Path) -> None:
+    """Runs that carry a steady lap and the fastest lap they could keep get the lap/target
+    column and the pace figure (lap ratio against path error per scenario)."""
+    results = _results()
+    for run, lap in zip(results["runs"], (6.0, 6.3, 8.0, 8.8), strict=True):
+        run["metrics"]["lap_time"] = lap
+        run["target_lap"] = 6.0 if run["layout"] == "mecanum" else 8.0
+    index = write_report(results, tmp_path / "report")
+    pace = tmp_path / "report" / "pace.png"
+    assert pace.read_bytes()[:8] == PNG_MAGIC
+    page = index.read_text(encoding="utf-8")
+    assert 'src="pace.png"' in page
+    assert "<td>1.05</td>" in page and "<td>1.1</td>" in page  # 6.3 / 6.0, 8.8 / 8.0

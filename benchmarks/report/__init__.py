@@ -9,6 +9,7 @@ A report directory holds::
     index.html              self-contained page (inline CSS, no JavaScript)
     summary.md              the summary table in Markdown
     summary.png             controllers compared across scenarios
+    pace.png                lap time against path error per scenario (periodic references)
     figures/<run_id>.png    one 2x2 figure per run
 
 Units: results store SI units (m, rad, s, rad/s); the report shows lengths in mm,
@@ -25,7 +26,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-from .figures import write_run_figure, write_summary_figure
+from .figures import write_pace_figure, write_run_figure, write_summary_figure
 from .page import html_page, html_table
 from .results import (
     ReportError,
@@ -78,10 +79,11 @@ def write_report(
         if on_figure is not None:
             on_figure(index, total)
     write_summary_figure(runs, dt, out_dir / "summary.png")
+    pace = write_pace_figure(runs, out_dir / "pace.png")
     if on_figure is not None:
         on_figure(total, total)
     groups = grouped_rows(runs, ids)
     (out_dir / "summary.md").write_text(markdown_table(groups), encoding="utf-8")
     index_path = out_dir / "index.html"
-    index_path.write_text(html_page(results, ids, html_table(groups)), encoding="utf-8")
+    index_path.write_text(html_page(results, ids, html_table(groups), pace), encoding="utf-8")
     return index_path

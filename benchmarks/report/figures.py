@@ -18,8 +18,9 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import PolyCollection
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
-from .results import Run, Series, format_value, metric_value, run_title, scenario_of
+from .results import Run, Series, format_value, metric_value, pace_of, run_title, scenario_of
 
 FIGURE_DPI = 100
 N_FOOTPRINTS = 8
@@ -253,7 +254,8 @@ def write_run_figure(run: Run, data: Series, path: Path) -> None:
 # --------------------------------------------------------------------------- summary figure
 
 
-def _scenarios_and_controllers(runs: Sequence[Run]) -> tuple[list[tuple[str, str, str]], list[str]]:
+def _scenarios_and_controllers(
+        runs: Sequence[Run]) -> tuple[list[tuple[str, str, str, str]], list[str]]:
     """Scenarios and controllers in order of first appearance."""
     scenarios = list(dict.fromkeys(scenario_of(run) for run in runs))
     controllers = list(dict.fromkeys(str(run["controller"]) for run in runs))
@@ -337,6 +339,49 @@ def write_summary_figure(runs: Sequence[Run], dt: float, path: Path) -> None:
         rotation=30 if len(scenarios) > 3 else 0,
         ha="right" if len(scenarios) > 3 else "center",
     )
-    bottom.set_xlabel("scenario (layout / trajectory / speed)")
+    bottom.set_xlabel("scenario (layout / trajectory / heading / speed)")
     figure.suptitle("Controllers across scenarios", fontsize="large")
     _save(figure, path)
+
+
+# --------------------------------------------------------------------------- pace figure
+
+
+def write_pace_figure(runs: Sequence[Run], path: Path) -> bool:
+    """Lap time against path error, one panel per scenario with a lap to time: who is
+    fastest on the path. x: steady lap / the fastest lap the run could keep (1 = the
+    time-optimal lap, or the reference's own period where that is slower); y: the largest
+    distance from the path after the settling time. Returns False if no run has a lap."""
+    timed = [run for run in runs if math.isfinite(pace_of(run))]
+    if not timed:
+        return False
+    scenarios, controllers = _scenarios_and_controllers(timed)
+    columns = min(4, len(scenarios))
+    rows = math.ceil(len(scenarios) / columns)
+    figure = _new_figure(3.2 * columns + 2.0, 2.8 * rows + 0.8, constrained=True)
+    axes = np.atleast_1d(figure.subplots(rows, columns, squeeze=False)).ravel()
+    for ax, scenario in zip(axes, scenarios, strict=False):
+        for run in timed:
+            if scenario_of(run) != scenario:
+                continue
+            index = controllers.index(str(run["controller"]))
+            error = max(metric_value(run, "max_cross_track_error") * 1e3, 1e-3)
+            ax.scatter(pace_of(run), error, color=f"C{index % 10}", s=40, zorder=3,
+                       label=str(run["controller"]))
+        ax.axvline(1.0, color="0.5", lw=0.8, ls="--")
+        ax.set_yscale("log")
+        ax.set_title(" / ".join(scenario), fontsize="small")
+        ax.grid(True, alpha=0.4)
+    for ax in axes[len(scenarios):]:
+        ax.set_visible(False)
+    for ax in axes[::columns]:
+        ax.set_ylabel("max path error [mm]")
+    for ax in axes[-columns:]:
+        ax.set_xlabel("lap / fastest possible lap")
+    handles = [Line2D([], [], marker="o", ls="", color=f"C{i % 10}", label=name)
+               for i, name in enumerate(controllers)]
+    figure.legend(handles=handles, loc="outside lower center", ncols=min(len(controllers), 6))
+    figure.suptitle("Pace and path error: left of 1 is faster than the path allows "
+                    "(it cuts corners), high is off the path", fontsize="medium")
+    _save(figure, path)
+    return True

@@ -92,8 +92,15 @@ def _html_run_section(run: Run, rid: str) -> str:
     )
 
 
-def html_page(results: Mapping[str, Any], ids: Sequence[str], table: str) -> str:
+def html_page(results: Mapping[str, Any], ids: Sequence[str], table: str,
+              pace: bool = False) -> str:
     runs = results["runs"]
+    pace_block = ('<h2>Pace on the path</h2>\n<p>Steady lap time over the fastest lap the '
+                  "run could keep (the time-optimal lap under the same wheel limits, or the "
+                  "reference's own period where that is slower) against the largest distance "
+                  "from the path after the settling time.</p>\n"
+                  '<img src="pace.png" alt="lap time against path error per scenario">'
+                  if pace else "")
     sections = "\n".join(_html_run_section(run, rid) for run, rid in zip(runs, ids, strict=True))
     return f"""<!DOCTYPE html>
 <html lang="en">
@@ -113,6 +120,7 @@ def html_page(results: Mapping[str, Any], ids: Sequence[str], table: str) -> str
 in bold. Click a controller for its figure.</p>
 {table}
 <img src="summary.png" alt="summary: controllers across scenarios">
+{pace_block}
 <h2>Runs</h2>
 {sections}
 </body>

@@ -85,11 +85,13 @@ def _validate_run(run: object, where: str) -> None:
 
 
 def run_id(run: Run) -> str:
-    """``"{layout}-{trajectory}-{speed}-{controller}"``, safe as a file name and an HTML id.
+    """``"{layout}-{trajectory}-{heading}-{speed}-{controller}"`` (no heading part for runs
+    without one), safe as a file name and an HTML id.
 
     Characters other than letters, digits, ``.``, ``_``, ``+`` and ``-`` become ``_``.
     """
-    parts = (run["layout"], run["trajectory"], run["speed"], run["controller"])
+    heading = (run["heading"],) if "heading" in run else ()
+    parts = (run["layout"], run["trajectory"], *heading, run["speed"], run["controller"])
     return "-".join(re.sub(r"[^A-Za-z0-9._+-]+", "_", str(part)) for part in parts)
 
 
@@ -138,8 +140,20 @@ def format_value(value: object, scale: float = 1.0) -> str:
     return f"{shown:.0f}" if abs(shown) >= 1000 else f"{shown:.3g}"
 
 
-def scenario_of(run: Run) -> tuple[str, str, str]:
-    return str(run["layout"]), str(run["trajectory"]), str(run["speed"])
+def scenario_of(run: Run) -> tuple[str, str, str, str]:
+    """(layout, trajectory, heading, speed); runs without a heading count as fixed."""
+    return (str(run["layout"]), str(run["trajectory"]), str(run.get("heading", "fixed")),
+            str(run["speed"]))
+
+
+def pace_of(run: Run) -> float:
+    """Steady lap time / the fastest lap the run could keep (``target_lap``); NaN if unknown."""
+    lap, target = run["metrics"].get("lap_time"), run.get("target_lap")
+    if isinstance(lap, bool) or not isinstance(lap, (int, float)):
+        return math.nan
+    if isinstance(target, bool) or not isinstance(target, (int, float)) or not target > 0:
+        return math.nan
+    return float(lap) / float(target)
 
 
 def peak_ratio_text(run: Run) -> str:
@@ -150,10 +164,10 @@ def peak_ratio_text(run: Run) -> str:
 
 
 def run_title(run: Run) -> str:
-    """``"mecanum / circle / beyond (peak 1.30x limit) / mpc-osqp"``."""
-    layout, trajectory, speed = scenario_of(run)
+    """``"mecanum / circle / fixed / beyond (peak 1.30x limit) / mpc-daqp"``."""
+    layout, trajectory, heading, speed = scenario_of(run)
     peak = f"(peak {peak_ratio_text(run)}\u00d7 limit)"
-    return f"{layout} / {trajectory} / {speed} {peak} / {run['controller']}"
+    return f"{layout} / {trajectory} / {heading} / {speed} {peak} / {run['controller']}"
 
 
 # --------------------------------------------------------------------------- series

@@ -7,7 +7,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from .results import Run, format_value, metric_value, peak_ratio_text, scenario_of
+from .results import Run, format_value, metric_value, pace_of, peak_ratio_text, scenario_of
 
 # --------------------------------------------------------------------------- tables
 
@@ -25,7 +25,9 @@ _METRIC_COLUMNS = (
     _Column("RMS pos. err. [mm]", "rms_position_error", 1e3),
     _Column("max pos. err. [mm]", "max_position_error", 1e3),
     _Column("RMS heading err. [deg]", "rms_heading_error", 180.0 / math.pi),
-    _Column("max cross-track [mm]", "max_cross_track_error", 1e3),
+    _Column("max path err. [mm]", "max_cross_track_error", 1e3),
+    _Column("lap / target", "pace"),
+    _Column("max lag [s]", "max_lag"),
     _Column("max wheel ratio", "max_wheel_speed_ratio"),
     _Column("limit viol.", "limit_violations"),
     _Column("accel viol.", "accel_violations"),
@@ -34,7 +36,7 @@ _METRIC_COLUMNS = (
     _Column("tick p99 [ms]", "tick_time_p99", 1e3),
     _Column("deadline misses", "deadline_misses"),
 )
-TABLE_HEADERS = ("layout", "trajectory", "speed", "peak ratio", "controller") + tuple(
+TABLE_HEADERS = ("layout", "trajectory", "heading", "speed", "peak ratio", "controller") + tuple(
     column.title for column in _METRIC_COLUMNS
 )
 RMS_CELL = TABLE_HEADERS.index("RMS pos. err. [mm]")
@@ -57,6 +59,8 @@ def _row_cells(run: Run) -> list[str]:
     for column in _METRIC_COLUMNS:
         if column.metric == "failures":
             cells.append(failures_text(run["metrics"]))
+        elif column.metric == "pace":
+            cells.append(format_value(pace_of(run)))
         else:
             cells.append(format_value(run["metrics"].get(column.metric), column.scale))
     return cells
@@ -67,7 +71,7 @@ Row = tuple[str, list[str], bool]  # run id, plain-text cells, has the best RMS 
 
 def grouped_rows(runs: Sequence[Run], ids: Sequence[str]) -> list[list[Row]]:
     """Rows grouped by scenario: ``(run id, cells, has the best RMS of its scenario)``."""
-    groups: dict[tuple[str, str, str], list[int]] = {}
+    groups: dict[tuple[str, str, str, str], list[int]] = {}
     for index, run in enumerate(runs):
         groups.setdefault(scenario_of(run), []).append(index)
     table = []

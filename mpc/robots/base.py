@@ -218,6 +218,12 @@ class Robot(abc.ABC):
         """What to send for wheel velocities (n, d) [rad/s] that need not come from one twist
         (e.g. after per-wheel clipping), given the present steer angles."""
 
+    def command_velocities(self, speeds: FloatArray,
+                           steer_angles: FloatArray | None) -> FloatArray:
+        """The wheel velocity vectors (n, d) [rad/s] that sent speeds (and steer angles)
+        ask for: what the limits bound. Default: the signed speeds as (n, 1)."""
+        return np.asarray(speeds, dtype=float)[:, None]
+
     def initial_steer_angles(self) -> FloatArray | None:
         """Steer angles of a robot at rest [rad] (steered wheels point forward), else None."""
         return np.zeros(self.n_wheels) if self.steered else None

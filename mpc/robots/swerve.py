@@ -195,6 +195,11 @@ class SwerveRobot(Robot):
         stacked = np.stack([speeds * np.cos(angles), speeds * np.sin(angles)], axis=-1)
         return stacked.reshape(*speeds.shape[:-1], 2 * self.n_wheels) @ self._flat_pinv.T
 
+    def command_velocities(self, speeds: FloatArray,
+                           steer_angles: FloatArray | None) -> FloatArray:
+        angles = np.zeros(self.n_wheels) if steer_angles is None else steer_angles
+        return np.stack([speeds * np.cos(angles), speeds * np.sin(angles)], axis=1)
+
     def forward_kinematics(self, wheel_speeds: FloatArray,
                            steer_angles: FloatArray | None) -> FloatArray:
         angles = np.zeros(self.n_wheels) if steer_angles is None else steer_angles

@@ -67,6 +67,8 @@ class Recorder:
         robot = self.robot
         time = np.array(times)
         lag = np.array([c.lag for c in commands])
+        velocities = np.array([robot.command_velocities(c.wheel_speeds, c.steer_angles)
+                               for c in commands])
         return SimResult(
             time=time, pose=np.array(poses), measured=np.array(measured),
             reference=self.trajectory.sample(time - lag).pose, lag=lag,
@@ -78,4 +80,5 @@ class Recorder:
             tick_time=np.array([c.tick_time for c in commands]),
             solve_time=np.array([c.solve_time for c in commands]),
             iterations=np.array([float(c.iterations) for c in commands]),
-            dt=self.dt, trajectory=self.trajectory, wheel_blocks=robot.wheel_blocks)
+            dt=self.dt, trajectory=self.trajectory, wheel_blocks=robot.wheel_blocks,
+            wheel_velocity_command=velocities)

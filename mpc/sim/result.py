@@ -42,6 +42,9 @@ class SimResult:
         trajectory: the reference (for cross-track error).
         wheel_blocks: the robot's wheel velocity maps, to measure command changes.
         lag: how far the tracked reference time trailed ``time`` (K,) [s]; None: never.
+        wheel_velocity_command: the wheel velocity vectors the commands asked for
+            (K, n, d) [rad/s] (what the acceleration limits bound); None: measured from
+            the commanded twists instead.
     """
 
     time: FloatArray
@@ -61,6 +64,7 @@ class SimResult:
     trajectory: Trajectory = field(repr=False)
     wheel_blocks: FloatArray = field(repr=False)
     lag: FloatArray | None = None
+    wheel_velocity_command: FloatArray | None = None
 
     @property
     def reference_time(self) -> FloatArray:
@@ -174,9 +178,14 @@ class SimResult:
         """Ticks whose command changed a wheel faster than its acceleration limit."""
         if self.wheel_accel_limit is None:
             return 0
-        twists = np.vstack([np.zeros((1, 3)), self.twist_command])
-        steps = np.diff(twists, axis=0)
-        change = np.linalg.norm(np.einsum("ndj,kj->knd", self.wheel_blocks, steps), axis=-1)
+        if self.wheel_velocity_command is not None:  # what was sent, wheel by wheel
+            velocities = self.wheel_velocity_command
+            steps = np.diff(velocities, axis=0, prepend=np.zeros_like(velocities[:1]))
+            change = np.linalg.norm(steps, axis=-1)
+        else:
+            twists = np.vstack([np.zeros((1, 3)), self.twist_command])
+            steps = np.diff(twists, axis=0)
+            change = np.linalg.norm(np.einsum("ndj,kj->knd", self.wheel_blocks, steps), axis=-1)
         bound = self.wheel_accel_limit * self.dt
         return int((change > bound * (1 + LIMIT_RTOL) + 1e-12).any(axis=1).sum())
 
