@@ -14,6 +14,7 @@ vector ``z`` and the parameter vector ``p`` are laid out once.
   directions: t_0 .. t_N, last_twist: u_{-1})`` where ``t_k`` is the
   reference's unit direction of travel.
 
+Robots with steered wheels append their present ``steer_angles`` to ``p``.
 Path mode appends ``progress: s_0 .. s_N`` (reference time reached at each
 stage [s]) to ``z`` and ``progress_guess: sbar_0 .. sbar_N`` (where the
 reference was sampled), ``path_rates`` (d pose_ref / d s at ``sbar_k``),
@@ -98,14 +99,16 @@ class TrackingLayouts(NamedTuple):
     parameters: Layout
 
 
-def tracking_layouts(horizon: int, path: bool = False) -> TrackingLayouts:
+def tracking_layouts(horizon: int, path: bool = False, steered: int = 0) -> TrackingLayouts:
     """The layouts of ``z`` and ``p`` for a horizon of ``N`` ticks (module docstring);
-    ``path`` adds the path-mode fields."""
+    ``path`` adds the path-mode fields, ``steered`` wheels their present steer angles."""
     n = horizon
     z_fields: list[tuple[str, tuple[int, ...]]] = [("poses", (n + 1, 3)), ("twists", (n, 3))]
     p_fields: list[tuple[str, tuple[int, ...]]] = [
         ("x0", (3,)), ("poses_ref", (n + 1, 3)), ("twists_ref", (n, 3)),
         ("directions", (n + 1, 2)), ("last_twist", (3,))]
+    if steered:
+        p_fields.append(("steer_angles", (steered,)))
     if path:
         z_fields.append(("progress", (n + 1,)))
         p_fields += [("progress_guess", (n + 1,)), ("path_rates", (n + 1, 3)),
@@ -132,6 +135,9 @@ class TickInput:
         self.last_twist = p.view(self.parameters, "last_twist")  # last command (3,)
         self.guess_poses = z.view(self.guess, "poses")  # (N+1, 3)
         self.guess_twists = z.view(self.guess, "twists")  # (N, 3)
+        # present steer angles of steered wheels [rad] (the last command's), else None
+        self.steer_angles = (p.view(self.parameters, "steer_angles")
+                             if "steer_angles" in p.fields else None)
         self.path = PathInput(layouts, self) if "progress" in z.fields else None
 
 

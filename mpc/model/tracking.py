@@ -72,7 +72,8 @@ class TrackingModel:
     rate_matrix: FloatArray = field(init=False)
 
     def __post_init__(self) -> None:
-        self.layouts = tracking_layouts(self.horizon, self.path)
+        steered = self.robot.n_wheels if self.robot.steered else 0
+        self.layouts = tracking_layouts(self.horizon, self.path, steered)
         pose, twist = ca.SX.sym("x", 3), ca.SX.sym("u", 3)
         following = twist_integral(pose, twist, self.dt)
         self.dynamics = ca.Function("dynamics", [pose, twist], [following], ["x", "u"], ["x_next"])

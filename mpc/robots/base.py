@@ -31,22 +31,10 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mpc.arrays import BoolArray, FloatArray, IntArray, readonly
+from mpc.arrays import BoolArray, FloatArray, readonly
 from mpc.errors import RobotError
+from mpc.robots.limits import SpeedRows, StageLimits, linear_stage_limits
 from mpc.validation import is_finite_number, is_integer
-
-
-class SpeedRows(NamedTuple):
-    """Wheel speed limits as linear rows: ``|rows @ xi| <= scale * max_wheel_speed[wheel]``.
-
-    ``rows`` (m, 3) [rad/s per twist unit], ``wheel`` (m,) the wheel each row
-    belongs to, ``scale`` <= 1 (1 where the rows are exact, the inscribed
-    polygon's apothem for a disk).
-    """
-
-    rows: FloatArray
-    wheel: IntArray
-    scale: float
 
 
 class WheelCommands(NamedTuple):
@@ -238,6 +226,40 @@ class Robot(abc.ABC):
                                                                          FloatArray]:
         """``(g, lower, upper)`` with ``lower <= g <= upper`` iff ``||W_i twist|| <= bounds[i]``
         for every wheel, exactly (the NLP's constraint)."""
+
+    def stage_limits(self, horizon: int, dt: float, polygon_sides: int) -> StageLimits:
+        """The QP's limit rows for a plan of ``horizon`` stages of ``dt`` seconds (see
+        :mod:`mpc.robots.limits`). Default: the constant rows of :meth:`qp_speed_rows` on
+        every twist and every change of twist."""
+        return linear_stage_limits(self.qp_speed_rows(polygon_sides), self.max_wheel_speed,
+                                   self.max_wheel_accel, horizon, dt)
+
+    def update_stage_limits(self, limits: StageLimits, guess: FloatArray, last: FloatArray,
+                            steer_angles: FloatArray | None) -> None:
+        """Refill rows that depend on the plan the solver starts from (``guess`` twists
+        (N, 3), ``last`` command, present steer angles). Default: nothing to refill."""
+        return None
+
+    def nlp_stage_limits(self, twists: ca.SX, last: ca.SX, steer_angles: ca.SX | None,
+                         dt: float) -> tuple[list[ca.SX], list[FloatArray], list[FloatArray]]:
+        """The NLP's exact limits on every stage's twist (``twists`` 3 x N, ``last`` 3,
+        ``steer_angles`` the present ones for steered wheels): lists of ``(g, lower,
+        upper)``. Default: :meth:`casadi_limits` on every twist and every change."""
+        accel = self.max_wheel_accel
+        values: list[ca.SX] = []
+        lower: list[FloatArray] = []
+        upper: list[FloatArray] = []
+        for k in range(twists.shape[1]):
+            change = twists[:, k] - (last if k == 0 else twists[:, k - 1])
+            pairs = [(twists[:, k], self.max_wheel_speed)]
+            if accel is not None:
+                pairs.append((change, accel * dt))
+            for twist, bound in pairs:
+                value, low, high = self.casadi_limits(twist, bound)
+                values.append(value)
+                lower.append(low)
+                upper.append(high)
+        return values, lower, upper
 
     def module_velocity_gram(self) -> FloatArray:
         """``sum_i G_i^T G_i`` over steered modules' ground-velocity maps ``G_i`` [m^2/s^2 per

@@ -28,6 +28,7 @@ import numpy as np
 
 from mpc.arrays import FloatArray, IntArray
 from mpc.model.tracking import TrackingModel
+from mpc.robots.limits import StageLimits
 from mpc.solvers.qp_structure import QpStructure
 
 
@@ -79,6 +80,17 @@ class Condenser:
                                "state coupling")
         if structure.constraints[3 * (self.horizon + 1):, x].nnz:
             raise RuntimeError("condensing needs inequality rows free of the states")
+
+    def fill_limit_rows(self, limits: StageLimits) -> None:
+        """Write the stage limit rows' coefficients into :attr:`constraints` (their first
+        N m rows): stage ``k``'s rows on ``u_k`` and on ``u_{k-1}``."""
+        n, m = limits.horizon, limits.rows
+        rows = (m * np.arange(n)[:, None, None] + np.arange(m)[None, :, None]
+                + np.zeros(3, dtype=np.intp))  # (N, m, 3)
+        columns = 3 * np.arange(n)[:, None, None] + np.arange(3) + np.zeros((1, m, 1),
+                                                                             dtype=np.intp)
+        self.constraints[rows, columns] = limits.now
+        self.constraints[rows[1:], columns[:-1]] = limits.before[1:]
 
     def scatter(self, p_data: FloatArray) -> None:
         """Write the upper-triangle values of ``P`` into the dense symmetric ``P``."""

@@ -63,7 +63,8 @@ class DenseSolver:
                  time_limit: float = 0.0) -> None:
         self.model = model
         n = model.horizon
-        structure = assemble_qp(model, model.robot.qp_speed_rows(polygon_sides))
+        self.limits = model.robot.stage_limits(n, model.dt, polygon_sides)
+        structure = assemble_qp(model, self.limits)
         self.structure = structure
         self.condenser = Condenser(model, structure)
         self._p_data = structure.hessian.data.copy()
@@ -131,6 +132,11 @@ class DenseSolver:
         if tick.path is not None and self._guess_progress is not None:
             self._guess_progress[:] = tick.path.guess_progress
         gradient = condenser.gradient(self._q, guess, sensitivity, displacement)
+        rows_changed = not self.limits.constant
+        if rows_changed:
+            self.model.robot.update_stage_limits(self.limits, tick.guess_twists,
+                                                 tick.last_twist, tick.steer_angles)
+            condenser.fill_limit_rows(self.limits)
         fill_inequality_bounds(self.structure, tick, self._lower, self._upper)
         first = condenser.first_row
         at_guess = condenser.constraints @ guess[condenser.columns]
@@ -140,8 +146,13 @@ class DenseSolver:
             hessian = condenser.hessian(condenser.state_sensitivities(sensitivity, displacement))
             if self._solver is None:
                 self._setup(hessian, gradient, upper, lower)
+            elif rows_changed:
+                self._solver.update(H=hessian, A=condenser.constraints, f=gradient,
+                                    bupper=upper, blower=lower)
             else:
                 self._solver.update(H=hessian, f=gradient, bupper=upper, blower=lower)
+        elif rows_changed:
+            self._solver.update(A=condenser.constraints, f=gradient, bupper=upper, blower=lower)
         else:
             self._solver.update(f=gradient, bupper=upper, blower=lower)
         solver = self._solver

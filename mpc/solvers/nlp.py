@@ -18,6 +18,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from mpc.arrays import FloatArray
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.solvers.base import SolveResult
@@ -39,25 +40,20 @@ class NlpSolver:
                  tolerance: float = 1e-8) -> None:
         self.model = model
         z, p = model.symbols()
-        constraints, lower, upper = [model.shooting_gaps(z, p)], [], []
+        constraints: list[ca.SX] = [model.shooting_gaps(z, p)]
+        lower: list[FloatArray] = []
+        upper: list[FloatArray] = []
         gaps = 3 * (model.horizon + 1)
         lower.append(np.zeros(gaps))
         upper.append(np.zeros(gaps))
         variables, parameters = model.layouts
-        twists = variables.symbol(z, "twists")
-        last = parameters.symbol(p, "last_twist")
-        robot = model.robot
-        accel = robot.max_wheel_accel
-        for k in range(model.horizon):
-            for twist, bound in ((twists[:, k], robot.max_wheel_speed),
-                                 (twists[:, k] - (last if k == 0 else twists[:, k - 1]),
-                                  None if accel is None else accel * model.dt)):
-                if bound is None:
-                    continue
-                g, low, high = robot.casadi_limits(twist, bound)
-                constraints.append(g)
-                lower.append(low)
-                upper.append(high)
+        steer = (parameters.symbol(p, "steer_angles") if "steer_angles" in parameters.fields
+                 else None)
+        g, low, high = model.robot.nlp_stage_limits(
+            variables.symbol(z, "twists"), parameters.symbol(p, "last_twist"), steer, model.dt)
+        constraints += g
+        lower += low
+        upper += high
         if model.path:
             progress = variables.symbol(z, "progress")
             constraints.append(progress[1:] - progress[:-1])

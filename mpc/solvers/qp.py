@@ -20,7 +20,7 @@ from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.solvers.base import SolveResult
-from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds
+from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds, fill_limit_values
 
 _ACCEPTED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
 #: Out of work before converging: the iterate may still be a usable plan.
@@ -108,7 +108,8 @@ class QpSolver:
                  time_limit: float = 0.0, tolerance: float = 1e-4,
                  use_extension: bool = True) -> None:
         self.model = model
-        self.structure = structure = assemble_qp(model, model.robot.qp_speed_rows(polygon_sides))
+        self.limits = model.robot.stage_limits(model.horizon, model.dt, polygon_sides)
+        self.structure = structure = assemble_qp(model, self.limits)
         n = model.horizon
         self._p_data = structure.hessian.data.copy()
         self._q = np.zeros(model.layouts.variables.size)
@@ -154,6 +155,10 @@ class QpSolver:
         lower[:3] = tick.pose
         lower[3:gaps] = stages[:, :3].ravel()
         upper[:gaps] = lower[:gaps]
+        if not self.limits.constant:
+            self.model.robot.update_stage_limits(self.limits, tick.guess_twists,
+                                                 tick.last_twist, tick.steer_angles)
+            fill_limit_values(structure, self._a_data)
         fill_inequality_bounds(structure, tick, lower, upper)
         if tick is not self._bound_tick:  # read p in place from now on (no copy a tick)
             self._evaluate_cost = BufferedFunction(self.structure.cost_terms, [tick.parameters],

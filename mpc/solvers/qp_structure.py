@@ -2,7 +2,8 @@
 
     minimise    1/2 z' P(p) z + q(p)' z
     subject to  x_0 = x0,  x_{k+1} - A_k x_k - B_k u_k = c_k,
-                |C u_k| <= speed bounds,  |C (u_k - u_{k-1})| <= accel bounds,
+                lower_k <= now_k u_k + before_k u_{k-1} <= upper_k   (the robot's limit rows,
+                                                                      :mod:`mpc.robots.limits`)
 
 and, in path mode, ``lower_k <= s_k <= upper_k`` (filled each tick: ``s_0``
 fixed, a trust region around the sampled progress, never ahead of the
@@ -28,16 +29,17 @@ from numpy.typing import ArrayLike
 from mpc.arrays import FloatArray, IntArray
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
-from mpc.robots.base import SpeedRows
+from mpc.robots.limits import StageLimits
 
 
 @dataclass(frozen=True, eq=False)
-class AccelRows:
-    """The acceleration rows: ``start`` row, per-stage rows ``C`` (m, 3), bounds (m,)."""
+class LimitSlots:
+    """Where the stage limit rows sit: rows ``start .. start + N m``; ``slots`` (N, m, 6) the
+    positions in the CSC data of each row's coefficients on ``u_k`` then on ``u_{k-1}``
+    (-1 where stage 0 has no ``u_{-1}`` column: that part moves into the bounds)."""
 
     start: int
-    rows: FloatArray
-    bound: FloatArray
+    slots: IntArray
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,9 +61,9 @@ class QpStructure:
         lower, upper: bounds with the per-tick entries still to fill.
         dynamics_slots: (N, 18) positions in ``constraints.data`` of
             ``-vec A_k, -vec B_k`` (column-major, as CasADi's linearisation gives them).
-        accel: the acceleration rows, or None without acceleration limits.
+        limits: the robot's stage rows as set up (a robot may refill them each tick).
+        limit_slots: where they sit in ``constraints``.
         progress: path mode's progress rows, or None in time mode.
-        limit_rows: speed rows per stage.
         dual_shift: index map moving each per-stage block of the multipliers one stage
             earlier (the last stage repeated), for the warm start.
     """
@@ -72,9 +74,9 @@ class QpStructure:
     lower: FloatArray
     upper: FloatArray
     dynamics_slots: IntArray
-    accel: AccelRows | None
+    limits: StageLimits
+    limit_slots: LimitSlots
     progress: ProgressRows | None
-    limit_rows: int
     dual_shift: IntArray
 
 
@@ -128,13 +130,11 @@ def cost_terms(model: TrackingModel) -> tuple[ca.Function, sp.csc_matrix]:
     return function, pattern
 
 
-def assemble_qp(model: TrackingModel, speed: SpeedRows) -> QpStructure:
-    """The QP of ``model`` with the wheel speed limits ``speed`` (module docstring)."""
+def assemble_qp(model: TrackingModel, limits: StageLimits) -> QpStructure:
+    """The QP of ``model`` with the robot's stage limit rows ``limits`` (module docstring)."""
     n = model.horizon
     variables = model.layouts.variables
     poses, twists = variables["poses"], variables["twists"]
-    robot = model.robot
-    n_limit = speed.rows.shape[0]
     pattern = _Pattern()
     pattern.add(np.arange(3), np.arange(3), 1.0)  # x_0 = x0
     stage = np.arange(n)[:, None, None]
@@ -145,31 +145,22 @@ def assemble_qp(model: TrackingModel, speed: SpeedRows) -> QpStructure:
     ids_a = pattern.add(dyn_rows, poses.start + 3 * stage + c3, 0.0)
     ids_b = pattern.add(dyn_rows, twists.start + 3 * stage + c3, 0.0)
     ids_a, ids_b = (ids.transpose(0, 2, 1).reshape(n, 9) for ids in (ids_a, ids_b))
-
-    speed_bound = robot.max_wheel_speed[speed.wheel] * speed.scale
     m_rows = 3 * (n + 1)
-    lower = [np.zeros(m_rows), -np.tile(speed_bound, n)]
-    upper = [np.zeros(m_rows), np.tile(speed_bound, n)]
-    for k in range(n):
-        rows = m_rows + n_limit * k + np.arange(n_limit)
-        pattern.add(rows[:, None], twists.start + 3 * k + np.arange(3)[None, :], speed.rows)
-    m_rows += n * n_limit
-    accel: AccelRows | None = None
-    if robot.max_wheel_accel is not None:
-        bound = robot.max_wheel_accel[speed.wheel] * model.dt * speed.scale
-        accel = AccelRows(m_rows, speed.rows, bound)
-        for k in range(n):
-            cols = twists.start + 3 * k + np.arange(3)
-            rows = m_rows + n_limit * k + np.arange(n_limit)
-            pattern.add(rows[:, None], cols[None, :], speed.rows)
-            if k > 0:
-                pattern.add(rows[:, None], cols[None, :] - 3, -speed.rows)
-        lower.append(-np.tile(bound, n))
-        upper.append(np.tile(bound, n))
-        m_rows += n * n_limit
-    blocks = [(0, 3, 1), (3, 3, n), (3 * (n + 1), n_limit, n)]
-    if accel is not None:
-        blocks.append((accel.start, n_limit, n))
+    lower: list[FloatArray] = [np.zeros(m_rows)]
+    upper: list[FloatArray] = [np.zeros(m_rows)]
+    m = limits.rows
+    rows = m_rows + m * stage[:, :, 0] + np.arange(m)  # (N, m)
+    now_ids = pattern.add(rows[:, :, None], twists.start + 3 * stage + np.arange(3), limits.now)
+    before_ids = np.full((n, m, 3), -1, dtype=np.intp)
+    if n > 1:
+        before_ids[1:] = pattern.add(rows[1:, :, None],
+                                     twists.start + 3 * stage[:-1] + np.arange(3),
+                                     limits.before[1:])
+    lower.append(limits.lower.ravel())
+    upper.append(limits.upper.ravel())
+    limit_start = m_rows
+    m_rows += n * m
+    blocks = [(0, 3, 1), (3, 3, n), (limit_start, m, n)]
     progress: ProgressRows | None = None
     if model.path:
         progress = ProgressRows(m_rows, n + 1)
@@ -183,12 +174,15 @@ def assemble_qp(model: TrackingModel, speed: SpeedRows) -> QpStructure:
         blocks += [(m_rows, 1, n + 1), (m_rows + n + 1, 1, n)]
         m_rows += 2 * n + 1
     matrix, position = pattern.to_csc((m_rows, variables.size))
+    slots = np.concatenate((position[now_ids],
+                            np.where(before_ids >= 0, position[np.maximum(before_ids, 0)], -1)),
+                           axis=2)
     function, hessian = cost_terms(model)
     return QpStructure(
         cost_terms=function, hessian=hessian, constraints=matrix,
         lower=np.concatenate(lower), upper=np.concatenate(upper),
         dynamics_slots=np.concatenate((position[ids_a], position[ids_b]), axis=1),
-        accel=accel, progress=progress, limit_rows=n_limit,
+        limits=limits, limit_slots=LimitSlots(limit_start, slots), progress=progress,
         dual_shift=stage_shift(blocks, m_rows))
 
 
@@ -205,15 +199,24 @@ def stage_shift(blocks: list[tuple[int, int, int]], size: int) -> IntArray:
 
 def fill_inequality_bounds(structure: QpStructure, tick: TickInput, lower: FloatArray,
                            upper: FloatArray) -> None:
-    """Write this tick's bounds of the rows on the inputs and the progress: the first
-    acceleration rows are against the last command, the progress rows from the tick."""
-    accel = structure.accel
-    if accel is not None:
-        base = accel.rows @ tick.last_twist
-        stop = accel.start + structure.limit_rows
-        lower[accel.start:stop] = base - accel.bound
-        upper[accel.start:stop] = base + accel.bound
+    """Write this tick's bounds of the rows on the inputs and the progress: the limit rows'
+    (stage 0's part on the last command moved into its bounds), the progress rows'."""
+    limits, start = structure.limits, structure.limit_slots.start
+    stop = start + limits.lower.size
+    lower[start:stop] = limits.lower.ravel()
+    upper[start:stop] = limits.upper.ravel()
+    shift = limits.before[0] @ tick.last_twist
+    m = limits.rows
+    lower[start:start + m] -= shift
+    upper[start:start + m] -= shift
     rows, path = structure.progress, tick.path
     if rows is not None and path is not None:
         lower[rows.start:rows.start + rows.stages] = path.lower
         upper[rows.start:rows.start + rows.stages] = path.upper
+
+
+def fill_limit_values(structure: QpStructure, data: FloatArray) -> None:
+    """Write the limit rows' coefficients into the constraint matrix's CSC ``data``."""
+    limits, slots = structure.limits, structure.limit_slots.slots
+    data[slots[:, :, :3]] = limits.now
+    data[slots[1:, :, 3:]] = limits.before[1:]

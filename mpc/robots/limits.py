@@ -1,0 +1,83 @@
+"""Wheel limits as linear rows on each stage of a plan: what the QP paths constrain.
+
+For stage ``k`` of a plan of twists ``u_0 .. u_{N-1}`` (``u_{-1}``: the last command)::
+
+    lower[k] <= now[k] @ u_k + before[k] @ u_{k-1} <= upper[k]        (m rows a stage)
+
+A robot whose rows never change (Swedish wheels, balls: speed rows ``C`` and
+acceleration rows ``C (u_k - u_{k-1})``) fills them once. A robot whose exact
+limits are not linear (a swerve module's speed disk, its steering rate)
+refills them every tick, linearised around the plan the solver starts from;
+the solvers take them as they are.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from mpc.arrays import FloatArray, IntArray
+
+
+class SpeedRows(NamedTuple):
+    """Wheel speed limits as linear rows: ``|rows @ xi| <= scale * max_wheel_speed[wheel]``.
+
+    ``rows`` (m, 3) [rad/s per twist unit], ``wheel`` (m,) the wheel each row
+    belongs to, ``scale`` <= 1 (1 where the rows are exact, the inscribed
+    polygon's apothem for a disk).
+    """
+
+    rows: FloatArray
+    wheel: IntArray
+    scale: float
+
+
+@dataclass(eq=False)
+class StageLimits:
+    """The rows and bounds of every stage (see the module docstring).
+
+    Attributes:
+        now: coefficients on ``u_k`` (N, m, 3) [rad/s per twist unit].
+        before: coefficients on ``u_{k-1}`` (N, m, 3).
+        lower, upper: bounds (N, m) [rad/s]; +-inf where a row is off this tick.
+        constant: the values never change after set-up.
+    """
+
+    now: FloatArray
+    before: FloatArray
+    lower: FloatArray
+    upper: FloatArray
+    constant: bool
+
+    @property
+    def rows(self) -> int:
+        """Rows a stage (m)."""
+        return int(self.now.shape[1])
+
+    @property
+    def horizon(self) -> int:
+        return int(self.now.shape[0])
+
+
+def linear_stage_limits(speed: SpeedRows, max_speed: FloatArray, max_accel: FloatArray | None,
+                        horizon: int, dt: float) -> StageLimits:
+    """Constant rows from linear speed rows ``|C u| <= scale * max_speed[wheel]`` and, with
+    acceleration limits, ``|C (u_k - u_{k-1})| <= scale * max_accel[wheel] * dt``."""
+    rows = speed.rows
+    speed_bound = speed.scale * max_speed[speed.wheel]
+    now, before = [rows], [np.zeros_like(rows)]
+    bounds = [speed_bound]
+    if max_accel is not None:
+        now.append(rows)
+        before.append(-rows)
+        bounds.append(speed.scale * max_accel[speed.wheel] * dt)
+    stage_now = np.concatenate(now)
+    stage_before = np.concatenate(before)
+    bound = np.concatenate(bounds)
+    return StageLimits(
+        now=np.broadcast_to(stage_now, (horizon, *stage_now.shape)).copy(),
+        before=np.broadcast_to(stage_before, (horizon, *stage_before.shape)).copy(),
+        lower=np.tile(-bound, (horizon, 1)), upper=np.tile(bound, (horizon, 1)),
+        constant=True)
