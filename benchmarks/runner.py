@@ -130,6 +130,12 @@ def run_all(
     return runs
 
 
+def _violations(metrics: dict[str, Any]) -> int:
+    """Ticks over a speed, acceleration or steering-rate limit, all kinds together."""
+    return int(sum(metrics.get(key, 0) for key in
+                   ("limit_violations", "accel_violations", "steer_violations")))
+
+
 def run_pace(run: dict[str, Any]) -> float | None:
     """A run's steady lap time over the fastest lap it could keep (1 = as fast as the
     wheels and the reference's own timing allow); None without a lap or a yardstick."""
@@ -188,7 +194,8 @@ CSV_METRICS = ("rms_position_error", "max_position_error", "rms_cross_track_erro
                "max_cross_track_error", "rms_heading_error", "max_heading_error",
                "max_wheel_speed_ratio", "limit_violations", "accel_violations", "control_effort",
                "tick_time_p50", "tick_time_p95", "tick_time_p99", "tick_time_max",
-               "solve_time_p50", "solve_time_p99", "deadline_misses", "failures", "lap_time",
+               "solve_time_p50", "solve_time_p99", "deadline_misses", "failures",
+               "steer_violations", "lap_time",
                "max_lag", "mean_lag")
 
 
@@ -230,7 +237,7 @@ def summary_table(runs: list[dict[str, Any]]) -> str:
             f"{run['controller']:{width}s} {m['rms_position_error'] * 1e3:9.3g} "
             f"{m['max_cross_track_error'] * 1e3:9.3g} {math.degrees(m['rms_heading_error']):8.3g} "
             f"{'-' if pace is None else f'{pace:.3f}':>10s} {m['max_lag']:8.3f} "
-            f"{m['max_wheel_speed_ratio']:6.3f} {m['limit_violations'] + m['accel_violations']:4d} "
+            f"{m['max_wheel_speed_ratio']:6.3f} {_violations(m):4d} "
             f"{m['failures']:4d} {m['tick_time_p50'] * 1e3:9.3f} {m['tick_time_p99'] * 1e3:9.3f}"
         )
     return "\n".join(lines)

@@ -226,26 +226,37 @@ def test_swerve_modules_flip_instead_of_turning_half_a_turn(
         controller, lambda call: forward if call < 10 else -forward))
     commands = [controller.step(np.zeros(3), k * DT) for k in range(25)]
     ahead, reversed_ = commands[9], commands[-1]
-    np.testing.assert_allclose(ahead.twist, forward)  # reached through the accel ramp
+    np.testing.assert_allclose(ahead.twist, forward, atol=1e-12)  # through the accel ramp
     np.testing.assert_allclose(steer_of(ahead), 0.0, atol=1e-12)
     assert np.all(ahead.wheel_speeds > 0)
-    np.testing.assert_allclose(reversed_.twist, -forward)
+    np.testing.assert_allclose(reversed_.twist, -forward, atol=1e-12)
     np.testing.assert_allclose(steer_of(reversed_), 0.0, atol=1e-12)
     np.testing.assert_allclose(reversed_.wheel_speeds, -0.5 / robot.wheel_radius)
     for command in commands:  # no tick ever asks for a half turn
         np.testing.assert_allclose(steer_of(command), 0.0, atol=1e-12)
 
 
-def test_swerve_module_at_exactly_90_degrees_does_not_flip(
-    monkeypatch: pytest.MonkeyPatch,
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_swerve_modules_turn_at_their_rate_before_driving(
+    side: float, monkeypatch: pytest.MonkeyPatch,
 ) -> None:
+    """Modules at 0 rad asked to drive exactly sideways (+-90 deg: no flip): the robot waits
+    while the modules turn towards +-90 deg at 12 rad/s (0.6 rad a tick), then drives,
+    and no command ever turns a module faster than that."""
     robot = swerve_preset()
     controller = Controller(robot, TRAJECTORY, horizon=5)
     monkeypatch.setattr(controller.solver, "solve", scripted_solver(
-        controller, lambda call: np.array([0.0, 0.1, 0.0])))
-    command = controller.step(np.zeros(3), 0.0)  # modules at 0 rad, asked to go to +90 deg
-    np.testing.assert_allclose(steer_of(command), math.pi / 2, atol=1e-12)
-    assert np.all(command.wheel_speeds > 0)
+        controller, lambda call: np.array([0.0, 0.1 * side, 0.0])))
+    commands = [controller.step(np.zeros(3), k * DT) for k in range(5)]
+    angles = [steer_of(c) for c in commands]
+    np.testing.assert_allclose(angles[0], 0.6 * side, atol=1e-12)
+    np.testing.assert_allclose(angles[1], 1.2 * side, atol=1e-12)
+    np.testing.assert_allclose(commands[0].twist, 0.0, atol=1e-12)  # waiting, wheels still
+    np.testing.assert_array_equal(commands[0].wheel_speeds, 0.0)
+    np.testing.assert_allclose(angles[3], math.pi / 2 * side, atol=1e-9)
+    assert np.all(commands[4].wheel_speeds > 0)  # driving along the turned modules
+    turns = np.abs(np.diff(np.vstack([np.zeros(4), angles]), axis=0))
+    assert turns.max() <= robot.max_steer_rate * DT * (1 + 1e-9)
 
 
 # Reset, new trajectories -------------------------------------------------------------

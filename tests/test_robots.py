@@ -312,18 +312,21 @@ def test_polygon_rows_for_swedish_wheels_are_the_jacobian(robot_name: str) -> No
 
 
 @pytest.mark.parametrize("sides", [4, 8, 16, 64])
-def test_swerve_polygon_is_the_inscribed_regular_polygon(sides: int) -> None:
+def test_swerve_polygon_lies_midway_between_inscribed_and_circumscribed(sides: int) -> None:
     """For each module, twists mapping to the polygon's vertices and edge points satisfy
-    every row bound (the adjacent rows tightly), lie inside the speed disk, and points
-    just outside the polygon violate a row."""
+    every row bound (the adjacent rows tightly), lie between R (1 + c) / 2 (the edges'
+    middles) and R (1 + c) / (2 c) (the vertices), c = cos(pi / sides), and points just
+    outside the polygon violate a row."""
     robot = preset("swerve")
     rows, wheel, factor = robot.qp_speed_rows(sides)
-    assert factor == pytest.approx(math.cos(math.pi / sides))
+    c = math.cos(math.pi / sides)
+    assert factor == pytest.approx((1.0 + c) / 2.0)  # the apothem, as a fraction of R
     assert rows.shape == (robot.n_wheels * sides // 2, 3)
     bound = robot.max_wheel_speed[wheel] * factor
     limit = robot.max_wheel_speed[0]
+    corner = limit * factor / c  # the vertices' distance
     vertex_angles = 2 * math.pi * (np.arange(sides) + 0.5) / sides
-    vertices = limit * np.stack([np.cos(vertex_angles), np.sin(vertex_angles)], axis=1)
+    vertices = corner * np.stack([np.cos(vertex_angles), np.sin(vertex_angles)], axis=1)
     for module in range(robot.n_wheels):
         inverse = np.linalg.pinv(robot.wheel_blocks[module])  # (3, 2): W_i @ inverse = I
         mine = wheel == module
@@ -336,7 +339,8 @@ def test_swerve_polygon_is_the_inscribed_regular_polygon(sides: int) -> None:
                 values = np.abs(rows[mine] @ twist)
                 assert np.all(values <= bound[mine] * (1 + 1e-12))
                 assert values.max() == pytest.approx(bound[mine][0], rel=1e-12)  # on an edge
-                assert np.linalg.norm(point) <= limit * (1 + 1e-12)  # inside the disk
+                radius = np.linalg.norm(point) / limit
+                assert (1.0 + c) / 2.0 * (1 - 1e-12) <= radius <= (1.0 + c) / (2.0 * c) + 1e-12
                 outside = inverse @ (point * (1 + 1e-6))
                 assert np.any(np.abs(rows[mine] @ outside) > bound[mine])
 

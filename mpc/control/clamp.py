@@ -18,7 +18,8 @@ _SPEED_SLACK = 1e-12
 
 
 def clamp_command(
-    robot: Robot, target: FloatArray, last: FloatArray, dt: float
+    robot: Robot, target: FloatArray, last: FloatArray, dt: float,
+    steer_angles: FloatArray | None = None,
 ) -> tuple[FloatArray, bool]:
     """Bring ``target`` within every wheel limit, moving it as little as the rules allow.
 
@@ -28,6 +29,11 @@ def clamp_command(
     2. Acceleration: step from ``last`` towards that twist only as far as
        every wheel's acceleration limit allows. Both ends lie in the convex
        speed-limit set, so the whole step does too.
+
+    3. Steering (steered wheels, given their present ``steer_angles``): step from
+       ``last`` only as far as no wheel turns faster than its steering rate
+       (:meth:`~mpc.robots.Robot.steering_fraction`); a wheel that must turn
+       before it can drive waits at rest while it turns.
 
     Returns the clamped twist and whether it differs from ``target``. If
     ``last`` itself breaks a speed limit (the limits were just derated),
@@ -48,4 +54,8 @@ def clamp_command(
         fraction = (accel * dt / np.maximum(robot.wheel_magnitudes(safe - last), 1e-300)).min()
         if fraction < 1.0:
             safe = last + fraction * (1.0 - _SPEED_SLACK) * (safe - last)
+    if steer_angles is not None:
+        fraction = robot.steering_fraction(last, safe, steer_angles, dt)
+        if fraction < 1.0:
+            safe = last + fraction * (safe - last)
     return safe, bool(safe is not target and not np.array_equal(safe, target))

@@ -177,6 +177,8 @@ class Controller:
         reference_time = self._timing.fill(float(t), t_plan, float(x0[2]))
         tick.pose[:] = x0
         tick.last_twist[:] = self._last
+        if tick.steer_angles is not None and self._steer is not None:
+            tick.steer_angles[:] = self._steer
         self._warm.fill(x0)
         result = self.solver.solve(tick)
         while result.success and self._timing.refine(result.progress, float(x0[2])):
@@ -195,10 +197,12 @@ class Controller:
             self._timing.solved(None)
             status, target = self._fallback.failed(tick.twists_ref[0])
             plan = tick.poses_ref.copy()
-        twist, clamped = clamp_command(self.robot, target, self._last, self.dt)
+        twist, clamped = clamp_command(self.robot, target, self._last, self.dt, self._steer)
+        speeds, self._steer = self.robot.wheel_commands(twist, self._steer, target, self.dt)
+        if self._steer is not None:  # steered wheels at rest: the twist the wheels will drive
+            twist = self.robot.forward_kinematics(speeds, self._steer)
         self._last = twist
         self._delay.sent(twist)
-        speeds, self._steer = self.robot.wheel_commands(twist, self._steer)
         return Command(
             wheel_speeds=speeds, twist=twist, steer_angles=self._steer,
             predicted_poses=plan, status=status, solver_status=result.status,

@@ -195,10 +195,22 @@ class Robot(abc.ABC):
         """
 
     # ------------------------------------------------------------ commands
-    def wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None) -> WheelCommands:
-        """What to send for one (3,) twist, given the present steer angles (steered wheels)."""
+    def wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None,
+                       aim: FloatArray | None = None, dt: float | None = None) -> WheelCommands:
+        """What to send for one (3,) twist, given the present steer angles (steered wheels).
+
+        ``aim`` (a twist) and ``dt`` [s]: steered wheels the twist leaves at rest turn
+        towards their direction in ``aim``, as far as their steering rate allows in ``dt``
+        (they get ready for a motion the clamp held back)."""
         velocities = self.wheel_blocks @ twist  # (n, d)
         return self.commands_from_velocities(velocities, steer_angles)
+
+    def steering_fraction(self, last: FloatArray, target: FloatArray,
+                          steer_angles: FloatArray | None, dt: float) -> float:
+        """The largest fraction of the step from ``last`` towards ``target`` (twists) that
+        turns no steered wheel faster than its steering rate from ``steer_angles``.
+        Default (no steered wheels): 1."""
+        return 1.0
 
     @abc.abstractmethod
     def commands_from_velocities(self, velocities: FloatArray,

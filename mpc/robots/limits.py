@@ -13,7 +13,7 @@ the solvers take them as they are.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
@@ -43,6 +43,10 @@ class StageLimits:
         before: coefficients on ``u_{k-1}`` (N, m, 3).
         lower, upper: bounds (N, m) [rad/s]; +-inf where a row is off this tick.
         constant: the values never change after set-up.
+        dt: the plan's tick [s].
+        changed: whether the last refill changed any row (the solvers skip the update
+            when not).
+        memory: whatever the robot keeps between refills.
     """
 
     now: FloatArray
@@ -50,6 +54,9 @@ class StageLimits:
     lower: FloatArray
     upper: FloatArray
     constant: bool
+    dt: float
+    changed: bool = True
+    memory: dict[str, FloatArray] = field(default_factory=dict)
 
     @property
     def rows(self) -> int:
@@ -80,4 +87,4 @@ def linear_stage_limits(speed: SpeedRows, max_speed: FloatArray, max_accel: Floa
         now=np.broadcast_to(stage_now, (horizon, *stage_now.shape)).copy(),
         before=np.broadcast_to(stage_before, (horizon, *stage_before.shape)).copy(),
         lower=np.tile(-bound, (horizon, 1)), upper=np.tile(bound, (horizon, 1)),
-        constant=True)
+        constant=True, dt=dt)

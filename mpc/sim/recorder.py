@@ -81,4 +81,7 @@ class Recorder:
             solve_time=np.array([c.solve_time for c in commands]),
             iterations=np.array([float(c.iterations) for c in commands]),
             dt=self.dt, trajectory=self.trajectory, wheel_blocks=robot.wheel_blocks,
-            wheel_velocity_command=velocities)
+            wheel_velocity_command=velocities,
+            steer_command=(None if robot.max_steer_rates is None
+                           else np.array([c.steer_angles for c in commands])),
+            steer_rate_limit=robot.max_steer_rates)

@@ -45,6 +45,8 @@ class SimResult:
         wheel_velocity_command: the wheel velocity vectors the commands asked for
             (K, n, d) [rad/s] (what the acceleration limits bound); None: measured from
             the commanded twists instead.
+        steer_command: commanded steer angles (K, n) [rad] of steered wheels, else None.
+        steer_rate_limit: their steering rate limits (n,) [rad/s], else None.
     """
 
     time: FloatArray
@@ -65,6 +67,8 @@ class SimResult:
     wheel_blocks: FloatArray = field(repr=False)
     lag: FloatArray | None = None
     wheel_velocity_command: FloatArray | None = None
+    steer_command: FloatArray | None = None
+    steer_rate_limit: FloatArray | None = None
 
     @property
     def reference_time(self) -> FloatArray:
@@ -128,8 +132,10 @@ class SimResult:
         dt); ``failures`` (ticks not solved) and ``failures_by_status``;
         ``max_lag`` and ``mean_lag`` [s] (how far the tracked reference time trailed
         the clock); ``lap_time`` [s] (the last complete lap after ``skip``, None if
-        there is none). Errors and the peak wheel ratio cover the ticks after
-        ``skip``; violations count every tick.
+        there is none); ``steer_violations`` (ticks on which a steered wheel's commanded
+        angle turned faster than its limit, modulo a half turn: the flip rule). Errors
+        and the peak wheel ratio cover the ticks after ``skip``; violations count every
+        tick.
         """
         if not is_finite_number(skip) or skip < 0:
             raise SimulationError(f"skip must be a finite number of seconds >= 0, got {skip!r}")
@@ -159,6 +165,7 @@ class SimResult:
             "max_wheel_speed_ratio": float(ratio[keep].max()),
             "limit_violations": int(violations.sum()),
             "accel_violations": self._accel_violations(),
+            "steer_violations": self._steer_violations(),
             "control_effort": _rms(np.where(np.isfinite(ratio), ratio, 0.0)),
             "tick_time_p50": float(np.percentile(ticks, 50)),
             "tick_time_p95": float(np.percentile(ticks, 95)),
@@ -188,6 +195,16 @@ class SimResult:
             change = np.linalg.norm(np.einsum("ndj,kj->knd", self.wheel_blocks, steps), axis=-1)
         bound = self.wheel_accel_limit * self.dt
         return int((change > bound * (1 + LIMIT_RTOL) + 1e-12).any(axis=1).sum())
+
+    def _steer_violations(self) -> int:
+        """Ticks whose commanded steer angles turned faster than the steering rate allows
+        (from rest at angle 0 on the first tick)."""
+        if self.steer_command is None or self.steer_rate_limit is None:
+            return 0
+        angles = np.vstack([np.zeros((1, self.steer_command.shape[1])), self.steer_command])
+        turn = np.abs(np.mod(np.diff(angles, axis=0) + math.pi / 2, math.pi) - math.pi / 2)
+        bound = self.steer_rate_limit * self.dt
+        return int((turn > bound * (1 + LIMIT_RTOL) + 1e-12).any(axis=1).sum())
 
     @property
     def duration(self) -> float:

@@ -132,11 +132,13 @@ class DenseSolver:
         if tick.path is not None and self._guess_progress is not None:
             self._guess_progress[:] = tick.path.guess_progress
         gradient = condenser.gradient(self._q, guess, sensitivity, displacement)
-        rows_changed = not self.limits.constant
-        if rows_changed:
+        rows_changed = False
+        if not self.limits.constant:
             self.model.robot.update_stage_limits(self.limits, tick.guess_twists,
                                                  tick.last_twist, tick.steer_angles)
-            condenser.fill_limit_rows(self.limits)
+            rows_changed = self.limits.changed
+            if rows_changed:
+                condenser.fill_limit_rows(self.limits)
         fill_inequality_bounds(self.structure, tick, self._lower, self._upper)
         first = condenser.first_row
         at_guess = condenser.constraints @ guess[condenser.columns]

@@ -158,7 +158,8 @@ class QpSolver:
         if not self.limits.constant:
             self.model.robot.update_stage_limits(self.limits, tick.guess_twists,
                                                  tick.last_twist, tick.steer_angles)
-            fill_limit_values(structure, self._a_data)
+            if self.limits.changed:
+                fill_limit_values(structure, self._a_data)
         fill_inequality_bounds(structure, tick, lower, upper)
         if tick is not self._bound_tick:  # read p in place from now on (no copy a tick)
             self._evaluate_cost = BufferedFunction(self.structure.cost_terms, [tick.parameters],
