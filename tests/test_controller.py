@@ -6,6 +6,7 @@ Closed-loop tracking (acceptance) is in test_acceptance.py.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -14,6 +15,7 @@ import pytest
 from closed_loop import DT, Loop, check_command, off_start, too_fast_circle
 
 from mpc import Command, Controller, ControllerError, Status
+from mpc.profiling import TickProfile
 from mpc.robots import SwerveRobot, preset
 from mpc.sim import simulate
 from mpc.solvers import SolveResult
@@ -306,3 +308,43 @@ def test_time_scaling_is_deprecated_for_path_mode() -> None:
     assert controller.mode == "path"
     with pytest.warns(DeprecationWarning):
         assert Controller(preset("mecanum"), TRAJECTORY, time_scaling=False).mode == "time"
+
+
+# Profiling -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("solver", ["daqp", "osqp", "ipopt"])
+def test_profile_marks_every_phase_of_every_tick(solver: str) -> None:
+    """With a TickProfile set, each tick records the controller's phases and the solver's
+    own; the phases add up to the tick's wall time; without one nothing is recorded."""
+    robot, trajectory = preset("mecanum"), Circle(1.0, 12.0, heading=0.0)
+    controller = Controller(robot, trajectory, horizon=10, solver=solver)
+    loop = Loop(controller, trajectory.sample(0.0).pose)
+    for _ in range(3):
+        loop.step()
+    profile = TickProfile()
+    controller.profile = profile
+    assert controller.solver.profile is profile
+    ticks = 5
+    began = time.perf_counter()
+    for _ in range(ticks):
+        loop.step()
+    elapsed = time.perf_counter() - began
+    phases = profile.samples
+    for phase in ("check and predict", "reference", "warm start", "solve (rest)",
+                  "clamp and commands"):
+        assert len(phases[phase]) == ticks
+    if solver == "daqp":
+        for phase in ("solve: model", "solve: condense", "solve: daqp", "solve: result"):
+            assert len(phases[phase]) == ticks
+    recorded = sum(sum(values) for values in phases.values())
+    assert 0.0 < recorded <= elapsed
+    assert "sum of medians" in profile.table()
+    controller.profile = None
+    assert controller.solver.profile is None
+    for _ in range(2):
+        loop.step()
+    assert all(len(values) == ticks or name == "solve: hessian"
+               for name, values in phases.items())
+    with pytest.raises(ControllerError, match="TickProfile"):
+        controller.profile = "yes"  # type: ignore[assignment]

@@ -24,7 +24,8 @@ def as_times(t: npt.ArrayLike) -> FloatArray:
         raise TrajectoryError(
             f"t must be a finite number or an array of finite numbers [s], got {shown(t)}"
         ) from error
-    if not np.isfinite(times).all():
+    # A finite sum means every entry is finite (a huge sum that overflows is checked again).
+    if not math.isfinite(float(times.sum())) and not np.isfinite(times).all():
         if times.ndim == 0:
             raise TrajectoryError(
                 f"t must be a finite number or an array of finite numbers [s], got {shown(t)}"

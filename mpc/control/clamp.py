@@ -44,16 +44,18 @@ def clamp_command(
         safe = robot.rest_projector @ safe
     limit = robot.max_wheel_speed
     speed = robot.wheel_magnitudes(safe)
-    over = speed > limit + _SPEED_SLACK
-    if over.any():
+    if (speed - limit).max() > _SPEED_SLACK:
+        over = speed > limit + _SPEED_SLACK
         # The smallest limit / speed over the wheels; a failed wheel (limit 0) stops the robot.
         safe = safe * (limit[over] / speed[over]).min() * (1.0 - _SPEED_SLACK)
     accel = robot.max_wheel_accel
-    if accel is not None and not (robot.wheel_magnitudes(last)
-                                  > limit * (1 + 1e-9) + _SPEED_SLACK).any():
-        fraction = (accel * dt / np.maximum(robot.wheel_magnitudes(safe - last), 1e-300)).min()
-        if fraction < 1.0:
-            safe = last + fraction * (1.0 - _SPEED_SLACK) * (safe - last)
+    if accel is not None:
+        step = safe - last
+        # Wheels' acceleration per tick as a fraction of their limit; the largest decides.
+        ratio = float((robot.wheel_magnitudes(step) / (accel * dt)).max())
+        if ratio > 1.0 and not (robot.wheel_magnitudes(last) - limit * (1 + 1e-9)
+                                ).max() > _SPEED_SLACK:
+            safe = last + (1.0 - _SPEED_SLACK) / ratio * step
     if steer_angles is not None:
         fraction = robot.steering_fraction(last, safe, steer_angles, dt)
         if fraction < 1.0:

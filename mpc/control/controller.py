@@ -20,6 +20,7 @@ from mpc.errors import ControllerError
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.model.weights import Weights, make_weights
+from mpc.profiling import TickProfile
 from mpc.robots.base import Robot
 from mpc.solvers import DenseSolver, NlpSolver, QpSolver, TrackingSolver
 from mpc.validation import (
@@ -122,12 +123,25 @@ class Controller:
         self.model = TrackingModel(robot, self.horizon, self.dt, self.weights,
                                    path=self.mode == "path", max_progress_rate=rate)
         self.solver = _make_solver(self.model, solver, polygon_sides, max_iter, time_limit)
+        self._profile: TickProfile | None = None
         self._tick = TickInput(self.model.layouts)
         self._warm = WarmStart(self._tick)
         self._fallback = FallbackPolicy(robot, self.horizon)
         self._delay = DelayCompensator(self.delay_ticks, self.dt)
         self._set_reference(trajectory)
         self.reset()
+
+    @property
+    def profile(self) -> TickProfile | None:
+        """A :class:`~mpc.profiling.TickProfile` that ``step`` (and the solver) mark, or None."""
+        return self._profile
+
+    @profile.setter
+    def profile(self, profile: TickProfile | None) -> None:
+        if profile is not None and not isinstance(profile, TickProfile):
+            raise ControllerError(f"profile must be a TickProfile or None, got {profile!r}")
+        self._profile = profile
+        self.solver.profile = profile
 
     def _set_reference(self, trajectory: Trajectory) -> None:
         self._window = ReferenceWindow(trajectory, self.model, self._tick)
@@ -169,23 +183,34 @@ class Controller:
             t: the current time on the trajectory's clock [s].
         """
         start = time.perf_counter()
+        profile = self._profile
+        if profile is not None:
+            profile.start()
         x0 = self._delay.predict(_check_pose(pose))
         if not is_finite_number(t):
             raise ControllerError(f"t must be a finite time in seconds, got {t!r}")
         tick = self._tick
         t_plan = float(t) + self.delay_ticks * self.dt
+        if profile is not None:
+            profile.mark("check and predict")
         reference_time = self._timing.fill(float(t), t_plan, float(x0[2]))
         tick.pose[:] = x0
         tick.last_twist[:] = self._last
         if tick.steer_angles is not None and self._steer is not None:
             tick.steer_angles[:] = self._steer
+        if profile is not None:
+            profile.mark("reference")
         self._warm.fill(x0)
+        if profile is not None:
+            profile.mark("warm start")
         result = self.solver.solve(tick)
         while result.success and self._timing.refine(result.progress, float(x0[2])):
             self._warm.store(result.poses, result.twists)  # solve again from this plan
             self._warm.fill(x0, shift=False)
             self.solver.reset()
             result = self.solver.solve(tick)
+        if profile is not None:
+            profile.mark("solve (rest)")
         if result.success:
             status, target, plan = Status.SOLVED, result.twists[0], result.poses
             self._fallback.succeeded(result.twists)
@@ -203,6 +228,8 @@ class Controller:
             twist = self.robot.forward_kinematics(speeds, self._steer)
         self._last = twist
         self._delay.sent(twist)
+        if profile is not None:
+            profile.mark("clamp and commands")
         return Command(
             wheel_speeds=speeds, twist=twist, steer_angles=self._steer,
             predicted_poses=plan, status=status, solver_status=result.status,

@@ -7,6 +7,7 @@ from typing import Protocol
 
 from mpc.arrays import FloatArray
 from mpc.model.layout import TickInput
+from mpc.profiling import TickProfile
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,6 +43,7 @@ class TrackingSolver(Protocol):
     so a test can hold one against the other."""
 
     name: str
+    profile: TickProfile | None  # marks the solver's own phases when set
 
     def reset(self) -> None:
         """Forget any warm start."""

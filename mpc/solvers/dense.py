@@ -16,6 +16,7 @@ factorisations after the first tick.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import daqp
 import numpy as np
@@ -24,6 +25,7 @@ from mpc.arrays import FloatArray
 from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
+from mpc.profiling import TickProfile
 from mpc.solvers.base import SolveResult
 from mpc.solvers.condensed import Condenser
 from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds
@@ -72,12 +74,12 @@ class DenseSolver:
         self._cost_for: TickInput | None = None
         self._evaluate_cost: BufferedFunction | None = None
         self._rollout = np.zeros((n + 1, 3))
+        self._displacement = np.zeros((n, 2))  # the rollout's planar steps
         self._sensitivity_vec = np.zeros((n, 9))
         self._roll_for: TickInput | None = None
         self._roll: BufferedFunction | None = None
         self._lower, self._upper = structure.lower.copy(), structure.upper.copy()
-        self._cached_p: FloatArray | None = None
-        self._cached_b: FloatArray | None = None
+        self._cache: _HessianCache | None = None  # what the factorised Hessian was built from
         self._scattered = np.full_like(self._p_data, np.nan)
         self._p_stale = False  # the scattered cost terms differ from the cached Hessian's
         self._isotropic = False  # whether the cost weighs positions alike in every direction
@@ -91,11 +93,12 @@ class DenseSolver:
         self._settings = {"iter_limit": int(max_iter), "time_limit": float(time_limit)}
         self._solver: daqp.Model | None = None
         self.factorisations = 0  # Hessian rebuilds so far (for benchmarks)
+        self.profile: TickProfile | None = None  # phase stopwatch, set by the controller
 
     def reset(self) -> None:
         """Forget the active set and the cached factorisation."""
         self._solver = None
-        self._cached_p = self._cached_b = None
+        self._cache = None
 
     def _bind(self, tick: TickInput) -> tuple[BufferedFunction, BufferedFunction]:
         """CasADi buffers that read the tick's vectors in place."""
@@ -113,66 +116,100 @@ class DenseSolver:
 
     def solve(self, tick: TickInput) -> SolveResult:
         """Solve one tick around the guess twists (and progress) in ``tick``."""
+        profile = self.profile
+        sensitivity, displacement, rebuild = self._linearise(tick)
+        if profile is not None:
+            profile.mark("solve: model")
+        gradient = self.condenser.gradient(self._q, self._guess, sensitivity, displacement)
+        rows_changed = self._refill_rows(tick)
+        lower, upper = self._step_bounds(tick)
+        if profile is not None:
+            profile.mark("solve: condense")
+        hessian = None
+        if self._solver is None or rebuild:
+            hessian = self.condenser.hessian(
+                self.condenser.state_sensitivities(sensitivity, displacement))
+            if profile is not None:
+                profile.mark("solve: hessian")
+        solver = self._update(hessian, gradient, lower, upper, rows_changed)
+        step, _, flag, info = solver.solve()
+        if profile is not None:
+            profile.mark("solve: daqp")
+        result = self._result(tick, np.asarray(step, dtype=float), int(flag), info,
+                              sensitivity, displacement)
+        if profile is not None:
+            profile.mark("solve: result")
+        return result
+
+    def _linearise(self, tick: TickInput) -> tuple[FloatArray, FloatArray, bool]:
+        """Evaluate the cost terms and roll the guess out: the sensitivities ``B_k``, the
+        rollout's planar steps, and whether the Hessian must be rebuilt. Leaves the guess
+        ``zbar`` in ``self._guess``."""
         evaluate_cost, roll = self._bind(tick)
         evaluate_cost()
         roll()
-        condenser = self.condenser
         sensitivity = self._sensitivities()
         p_changed = not np.array_equal(self._p_data, self._scattered)
         if p_changed:
-            condenser.scatter(self._p_data)
+            self.condenser.scatter(self._p_data)
             self._scattered[:] = self._p_data
-        if p_changed:
-            self._isotropic = condenser.isotropic()
-        displacement = np.diff(self._rollout[:, :2], axis=0)
+            self._isotropic = self.condenser.isotropic()
+        displacement = np.subtract(self._rollout[1:, :2], self._rollout[:-1, :2],
+                                   out=self._displacement)
         rebuild = self._needs_rebuild(sensitivity, displacement, p_changed)
-        guess = self._guess
         self._guess_poses[:] = self._rollout
         self._guess_twists[:] = tick.guess_twists
         if tick.path is not None and self._guess_progress is not None:
             self._guess_progress[:] = tick.path.guess_progress
-        gradient = condenser.gradient(self._q, guess, sensitivity, displacement)
-        rows_changed = False
-        if not self.limits.constant:
-            self.model.robot.update_stage_limits(self.limits, tick.guess_twists,
-                                                 tick.last_twist, tick.steer_angles)
-            rows_changed = self.limits.changed
-            if rows_changed:
-                condenser.fill_limit_rows(self.limits)
+        return sensitivity, displacement, rebuild
+
+    def _refill_rows(self, tick: TickInput) -> bool:
+        """Refill the limit rows of robots whose limits move (swerve); whether they did."""
+        if self.limits.constant:
+            return False
+        self.model.robot.update_stage_limits(self.limits, tick.guess_twists,
+                                             tick.last_twist, tick.steer_angles)
+        if self.limits.changed:
+            self.condenser.fill_limit_rows(self.limits)
+        return self.limits.changed
+
+    def _step_bounds(self, tick: TickInput) -> tuple[FloatArray, FloatArray]:
+        """The condensed rows' bounds on the step from the guess."""
         fill_inequality_bounds(self.structure, tick, self._lower, self._upper)
+        condenser = self.condenser
         first = condenser.first_row
-        at_guess = condenser.constraints @ guess[condenser.columns]
-        lower = self._lower[first:] - at_guess
-        upper = self._upper[first:] - at_guess
-        if self._solver is None or rebuild:
-            hessian = condenser.hessian(condenser.state_sensitivities(sensitivity, displacement))
-            if self._solver is None:
-                self._setup(hessian, gradient, upper, lower)
-            elif rows_changed:
-                self._solver.update(H=hessian, A=condenser.constraints, f=gradient,
-                                    bupper=upper, blower=lower)
-            else:
-                self._solver.update(H=hessian, f=gradient, bupper=upper, blower=lower)
-        elif rows_changed:
-            self._solver.update(A=condenser.constraints, f=gradient, bupper=upper, blower=lower)
-        else:
-            self._solver.update(f=gradient, bupper=upper, blower=lower)
-        solver = self._solver
-        if solver is None:  # pragma: no cover - _setup always sets it
-            raise RuntimeError("daqp was not set up")
-        step, _, flag, info = solver.solve()
-        step = np.asarray(step, dtype=float)
-        success = flag > 0 and math.isfinite(float(step.sum()))
+        at_guess = condenser.constraints @ self._guess[condenser.columns]
+        return self._lower[first:] - at_guess, self._upper[first:] - at_guess
+
+    def _update(self, hessian: FloatArray | None, gradient: FloatArray, lower: FloatArray,
+                upper: FloatArray, rows_changed: bool) -> daqp.Model:
+        """Hand daqp what changed (a new Hessian refactorises; the rest is cheap)."""
+        if self._solver is None:
+            if hessian is None:  # pragma: no cover - solve builds one before the first setup
+                raise RuntimeError("daqp needs a Hessian to set up")
+            return self._setup(hessian, gradient, upper, lower)
+        update: dict[str, FloatArray] = {"f": gradient, "bupper": upper, "blower": lower}
+        if hessian is not None:
+            update["H"] = hessian
+        if rows_changed:
+            update["A"] = self.condenser.constraints
+        self._solver.update(**update)
+        return self._solver
+
+    def _result(self, tick: TickInput, step: FloatArray, flag: int, info: dict[str, float],
+                sensitivity: FloatArray, displacement: FloatArray) -> SolveResult:
+        """The plan the step gives (poses to first order through the sensitivities)."""
+        condenser = self.condenser
         n3 = condenser.n_inputs
-        twists = tick.guess_twists + step[:n3].reshape(-1, 3)
-        poses = condenser.poses(self._rollout, sensitivity, step[:n3].reshape(-1, 3),
-                                displacement)
+        input_step = step[:n3].reshape(-1, 3)
         progress = None
         if tick.path is not None:
             progress = tick.path.guess_progress + step[n3:]
         return SolveResult(
-            success=success, status=_STATUS.get(int(flag), f"daqp exit flag {flag}"),
-            poses=poses, twists=twists, progress=progress,
+            success=flag > 0 and math.isfinite(float(step.sum())),
+            status=_STATUS.get(flag, f"daqp exit flag {flag}"),
+            poses=condenser.poses(self._rollout, sensitivity, input_step, displacement),
+            twists=tick.guess_twists + input_step, progress=progress,
             solve_time=float(info["solve_time"]) + float(info["setup_time"]),
             iterations=int(info["iterations"]))
 
@@ -180,25 +217,27 @@ class DenseSolver:
                        p_changed: bool) -> bool:
         """Whether the Hessian must be rebuilt: the cost terms, a sensitivity or a step of
         the rollout (times ``dt``, as it enters ``S``) moved by more than the tolerances
-        since the last build (then remember these)."""
-        lever = displacement * self.model.dt
-        if self._isotropic:  # the Hessian does not see a rotation of the whole plan
-            sensitivity, lever = _unrotated(sensitivity, lever)
-        together = np.concatenate((sensitivity.ravel(), lever.ravel()))
-        if self._cached_b is not None and self._cached_p is not None:
-            p_moved = (np.abs(self._p_data - self._cached_p).max()
+        since the last build (then remember these). Where the cost weighs positions alike
+        in every direction, a rotation of the whole plan does not count."""
+        cache = self._cache
+        if cache is not None:
+            p_moved = (float(np.abs(self._p_data - cache.p_data).max())
                        if p_changed or self._p_stale else 0.0)
             self._p_stale = self._p_stale or p_changed
-            if p_moved <= self._p_tolerance and (
-                    np.abs(together - self._cached_b).max() <= self._tolerance):
-                return False
-        self._cached_p, self._cached_b = self._p_data.copy(), together
+            if p_moved <= self._p_tolerance:
+                if cache.close(sensitivity, displacement, self.model.dt, self._tolerance):
+                    return False
+                if self._isotropic and cache.close(
+                        *_unrotated(sensitivity, displacement), self.model.dt, self._tolerance,
+                        turned=True):
+                    return False
+        self._cache = _HessianCache.of(self._p_data, sensitivity, displacement)
         self._p_stale = False
         self.factorisations += 1
         return True
 
     def _setup(self, hessian: FloatArray, gradient: FloatArray, upper: FloatArray,
-               lower: FloatArray) -> None:
+               lower: FloatArray) -> daqp.Model:
         sense = np.zeros(upper.size, dtype=np.intc)
         # Rows whose bounds meet (the fixed s_0; a failed wheel's speed) are equalities.
         sense[lower == upper] = _EQUALITY
@@ -208,6 +247,33 @@ class DenseSolver:
         settings.update(self._settings)
         solver.settings = settings
         self._solver = solver
+        return solver
+
+
+@dataclass(frozen=True, eq=False)
+class _HessianCache:
+    """The cost terms, sensitivities and rollout steps a Hessian was built from (as they
+    are and turned to stage 0's body frame)."""
+
+    p_data: FloatArray
+    sensitivity: FloatArray
+    displacement: FloatArray
+    turned_sensitivity: FloatArray
+    turned_displacement: FloatArray
+
+    @classmethod
+    def of(cls, p_data: FloatArray, sensitivity: FloatArray,
+           displacement: FloatArray) -> _HessianCache:
+        turned = _unrotated(sensitivity, displacement)
+        return cls(p_data.copy(), sensitivity.copy(), displacement.copy(), *turned)
+
+    def close(self, sensitivity: FloatArray, displacement: FloatArray, dt: float,
+              tolerance: float, turned: bool = False) -> bool:
+        """Whether both are within ``tolerance`` of the cached ones (steps times ``dt``)."""
+        b = self.turned_sensitivity if turned else self.sensitivity
+        d = self.turned_displacement if turned else self.displacement
+        return bool(np.abs(sensitivity - b).max() <= tolerance
+                    and np.abs(displacement - d).max() * dt <= tolerance)
 
 
 def _unrotated(sensitivity: FloatArray,

@@ -21,6 +21,7 @@ import numpy as np
 from mpc.arrays import FloatArray
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
+from mpc.profiling import TickProfile
 from mpc.solvers.base import SolveResult
 
 
@@ -35,6 +36,7 @@ class NlpSolver:
     """
 
     name = "ipopt"
+    profile: TickProfile | None = None
 
     def __init__(self, model: TrackingModel, max_iter: int = 100, time_limit: float = 0.0,
                  tolerance: float = 1e-8) -> None:

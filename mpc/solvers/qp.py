@@ -19,6 +19,7 @@ from mpc.arrays import FloatArray
 from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
+from mpc.profiling import TickProfile
 from mpc.solvers.base import SolveResult
 from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds, fill_limit_values
 
@@ -103,6 +104,7 @@ class QpSolver:
     """
 
     name = "osqp"
+    profile: TickProfile | None = None
 
     def __init__(self, model: TrackingModel, polygon_sides: int = 16, max_iter: int = 500,
                  time_limit: float = 0.0, tolerance: float = 1e-4,
