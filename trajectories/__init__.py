@@ -14,6 +14,14 @@ profile (fixed, tangent, spinning, or a function of time)::
 """
 
 from .base import Trajectory, TrajectorySample, body_twist
+from .choreo import (
+    CHOREO_TO_OURS,
+    ChoreoConfig,
+    ChoreoEvent,
+    ChoreoTrajectory,
+    choreo_robot,
+    read_choreo,
+)
 from .errors import TrajectoryError
 from .feasibility import FeasibilityReport, WheelLimitedRobot, feasibility
 from .heading import (
@@ -28,10 +36,15 @@ from .heading import (
 )
 from .path import PathDerivatives, TimedPath
 from .retiming import PhaseGrid, RetimedTrajectory, RetimingInfo, RetimingRobot, time_optimal
+from .sampled import SampledTrajectory
 from .shapes import Circle, FigureEight
 from .waypoints import Waypoints, read_waypoint_csv
 
 __all__ = [
+    "CHOREO_TO_OURS",
+    "ChoreoConfig",
+    "ChoreoEvent",
+    "ChoreoTrajectory",
     "Circle",
     "FeasibilityReport",
     "FigureEight",
@@ -45,6 +58,7 @@ __all__ = [
     "RetimedTrajectory",
     "RetimingInfo",
     "RetimingRobot",
+    "SampledTrajectory",
     "SpinHeading",
     "TangentHeading",
     "TimedPath",
@@ -54,8 +68,10 @@ __all__ = [
     "Waypoints",
     "WheelLimitedRobot",
     "body_twist",
+    "choreo_robot",
     "feasibility",
     "make_heading",
+    "read_choreo",
     "read_waypoint_csv",
     "time_optimal",
 ]
