@@ -251,8 +251,8 @@ class _File:
             where = f"trajectory.samples[{k}]"
             table[k] = [self.number(sample, key, where) for key in _SAMPLE_FIELDS]
             if k and table[k, 0] <= table[k - 1, 0]:
-                raise self.error(f"{where}.t", f"expected a time after {table[k - 1, 0]!r} "
-                                 f"(samples[{k - 1}].t), got {table[k, 0]!r}")
+                raise self.error(f"{where}.t", f"expected a time after {float(table[k - 1, 0])!r} "
+                                 f"(samples[{k - 1}].t), got {float(table[k, 0])!r}")
             if forces is not None:
                 for column, key in enumerate(("fx", "fy")):
                     forces[k, :, column] = self.four(sample, key, where)
