@@ -237,8 +237,8 @@ def _open(file: Path) -> Iterator[Any]:
 
     if not file.exists():
         raise TrajectoryError(f"ROS bag {str(file)!r} does not exist")
-    reader = AnyReader([file], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
     try:
+        reader = AnyReader([file], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except (AnyReaderError, OSError, ValueError, KeyError) as error:
         raise TrajectoryError(f"ROS bag {str(file)!r}: not a readable ROS 1 or ROS 2 bag "
