@@ -87,6 +87,22 @@ def poses_from_path(message: Any) -> FloatArray:
     return poses
 
 
+def pose_from_message(message: Any) -> FloatArray:
+    """``(x, y, yaw)`` [m, m, rad] of a ``Pose``, ``PoseStamped``, ``PoseWithCovariance``
+    or ``nav_msgs/Odometry`` (in its ``header.frame_id``)."""
+    pose = message
+    while not hasattr(pose, "position"):
+        pose = pose.pose
+    return np.array([pose.position.x, pose.position.y, yaw_from_quaternion(pose.orientation)],
+                    dtype=float)
+
+
+def twist_from_message(message: Any) -> FloatArray:
+    """Body twist ``(vx, vy, omega)`` [m/s, m/s, rad/s] of a ``Twist`` or ``TwistStamped``."""
+    twist = getattr(message, "twist", message)
+    return np.array([twist.linear.x, twist.linear.y, twist.angular.z], dtype=float)
+
+
 def path_reference(poses: npt.ArrayLike, *, robot: RetimingRobot | None = None,
                    speed: float | None = None, heading: HeadingSpec | None = None,
                    max_speed: float | None = None, turn_length: float = TURN_LENGTH,
@@ -148,12 +164,10 @@ def odometry_reference(messages: Sequence[Any], *, use_twist: bool = True) -> Sa
         raise TrajectoryError(f"odometry message {k}: header.stamp {stamps[k] * 1e-9!r} s is "
                               f"not after message {k - 1}'s {stamps[k - 1] * 1e-9!r} s")
     times = (stamps - stamps[0]) * 1e-9
-    poses = np.array([(m.pose.pose.position.x, m.pose.pose.position.y,
-                       yaw_from_quaternion(m.pose.pose.orientation)) for m in messages])
+    poses = np.array([pose_from_message(m) for m in messages])
     poses[:, 2] = np.unwrap(poses[:, 2])
     if use_twist:
-        body = np.array([(m.twist.twist.linear.x, m.twist.twist.linear.y,
-                          m.twist.twist.angular.z) for m in messages])
+        body = np.array([twist_from_message(m.twist) for m in messages])
         c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
         velocities = np.stack([c * body[:, 0] - s * body[:, 1],
                                s * body[:, 0] + c * body[:, 1], body[:, 2]], axis=1)

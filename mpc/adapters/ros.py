@@ -2,33 +2,30 @@
 
 Needs ``rosbags`` (``pip install 'holonomic-mpc[ros]'``). Inputs are read by field name,
 so rclpy messages work as they are; outputs are ``rosbags`` message dataclasses with the
-same fields (copy one into an rclpy message with :func:`copy_message`).
+same fields (:func:`copy_message` copies one into an rclpy message).
 
-- Poses: ``Odometry`` / ``PoseStamped`` -> ``(x, y, yaw)`` (quaternion to yaw, z up).
-- Twists: ``Twist`` / ``TwistStamped`` in and out; commands are body twists, frame
+- Poses: ``Odometry``, ``PoseStamped``, ``Pose`` -> ``(x, y, yaw)`` (quaternion to yaw).
+  Twists: ``Twist`` / ``TwistStamped`` in and out; commands are body twists in
   ``base_link`` (REP-105), stamped with the pose's stamp.
 - **Time base.** ROS stamps are seconds since the Unix epoch (~1.7e9); the controller's
-  ``t`` is seconds since the reference's start. ``controller.step(pose, 1.7e9)`` on a
+  ``t`` is seconds since the reference's start: ``controller.step(pose, 1.7e9)`` on a
   periodic reference (a circle) silently tracks whatever phase 1.7e9 s falls on, and on
-  a finite one the end pose. :class:`ReferenceClock` converts: reference time =
-  ``reference_start + (stamp - start stamp)``, in integer nanoseconds, the start being
-  the first stamp it sees unless set.
+  a finite one its end. :class:`ReferenceClock` converts (integer nanoseconds, starting
+  at the first stamp it sees unless told).
 - **Wheel order.** ros2_controllers' ``mecanum_drive_controller`` orders its wheels FL,
-  FR, RR, RL; ours are FL, FR, RL, RR (same kinematics otherwise, see README
-  "Conventions"): :func:`to_ros2_mecanum` / :func:`from_ros2_mecanum`.
-  ``JointGroupVelocityController`` takes a ``Float64MultiArray`` [rad/s] in its
-  ``joints`` order: :func:`joint_group_command`.
-- :class:`Nav2Controller` has the shape of a nav2 controller plugin: ``set_plan(path)``
-  (timed by the time-optimal retimer, or a constant speed), then
-  ``compute_velocity_commands(pose, twist) -> TwistStamped`` every cycle, and
-  ``set_speed_limit(limit, percentage)``.
+  FR, RR, RL, ours FL, FR, RL, RR (same kinematics otherwise): :func:`to_ros2_mecanum`,
+  :func:`from_ros2_mecanum`; :func:`joint_group_command` for a
+  ``JointGroupVelocityController`` ([rad/s] in its ``joints`` order).
+- :class:`Nav2Controller`, shaped like a nav2 controller plugin: ``set_plan(path)``
+  (timed by the time-optimal retimer or at a constant speed),
+  ``compute_velocity_commands(pose, twist) -> TwistStamped``, ``set_speed_limit``.
 
-A node (not run here; rclpy messages in, rosbags dataclasses out)::
+A node (not run here)::
 
     import rclpy
     from geometry_msgs.msg import TwistStamped
     from nav_msgs.msg import Odometry, Path
-    from mpc.adapters.ros import Nav2Controller, copy_message, pose_stamped_from_odometry
+    from mpc.adapters.ros import Nav2Controller, copy_message
     from mpc.robots import preset
 
     rclpy.init()
@@ -37,10 +34,9 @@ A node (not run here; rclpy messages in, rosbags dataclasses out)::
     publisher = node.create_publisher(TwistStamped, "cmd_vel", 10)
     node.create_subscription(Path, "plan", follower.set_plan, 1)
 
-    def on_odometry(odometry: Odometry) -> None:   # pose and plan in the same frame
+    def on_odometry(odometry: Odometry) -> None:  # in the plan's frame
         if follower.has_plan:
-            command = follower.compute_velocity_commands(
-                pose_stamped_from_odometry(odometry), odometry.twist.twist)
+            command = follower.compute_velocity_commands(odometry, odometry.twist.twist)
             publisher.publish(copy_message(command, TwistStamped()))
 
     node.create_subscription(Odometry, "odom", on_odometry, 10)
@@ -50,7 +46,7 @@ A node (not run here; rclpy messages in, rosbags dataclasses out)::
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -61,53 +57,30 @@ from mpc.control import Command, Controller
 from mpc.errors import ControllerError
 from mpc.robots import Robot
 from mpc.validation import finite, non_negative, positive
-from trajectories import HeadingSpec, Trajectory
+from trajectories import FunctionHeading, HeadingSpec, Trajectory
+from trajectories.path import PathDerivatives
 from trajectories.rosbag import (
     path_reference,
+    pose_from_message,
     poses_from_path,
     quaternion_from_yaw,
     require_rosbags,
     stamp_nanoseconds,
+    twist_from_message,
     yaw_from_quaternion,
 )
 
 require_rosbags()
 from rosbags.typesys.stores import ros2_humble as _types  # noqa: E402
 
-__all__ = [
-    "ROS2_MECANUM_ORDER", "Nav2Controller", "ReferenceClock", "copy_message",
-    "from_ros2_mecanum", "joint_group_command", "pose_from_odometry",
-    "pose_from_pose_stamped", "pose_stamped_from_odometry", "quaternion_from_yaw",
-    "stamp_nanoseconds", "time_message", "to_ros2_mecanum", "twist_from_message",
-    "twist_message", "twist_stamped", "yaw_from_quaternion",
-]
+__all__ = ["ROS2_MECANUM_ORDER", "Nav2Controller", "ReferenceClock", "copy_message",
+           "from_ros2_mecanum", "joint_group_command", "pose_from_message",
+           "quaternion_from_yaw", "stamp_nanoseconds", "time_message", "to_ros2_mecanum",
+           "twist_from_message", "twist_message", "twist_stamped", "yaw_from_quaternion"]
 
 #: ros2_controllers' Mecanum wheel j is our wheel ``ROS2_MECANUM_ORDER[j]`` (FL, FR, RR, RL
 #: from ours FL, FR, RL, RR); the permutation is its own inverse.
 ROS2_MECANUM_ORDER = (0, 1, 3, 2)
-
-
-def pose_from_pose_stamped(message: Any) -> FloatArray:
-    """``(x, y, yaw)`` [m, m, rad] of a ``geometry_msgs/PoseStamped`` (or a ``Pose``)."""
-    pose = getattr(message, "pose", message)
-    return np.array([pose.position.x, pose.position.y, yaw_from_quaternion(pose.orientation)],
-                    dtype=float)
-
-
-def pose_from_odometry(message: Any) -> FloatArray:
-    """``(x, y, yaw)`` [m, m, rad] of a ``nav_msgs/Odometry`` in its ``header.frame_id``."""
-    return pose_from_pose_stamped(message.pose.pose)
-
-
-def pose_stamped_from_odometry(message: Any) -> Any:
-    """The ``PoseStamped`` (header and pose) of a ``nav_msgs/Odometry``."""
-    return _types.geometry_msgs__msg__PoseStamped(header=message.header, pose=message.pose.pose)
-
-
-def twist_from_message(message: Any) -> FloatArray:
-    """Body twist ``(vx, vy, omega)`` [m/s, m/s, rad/s] of a ``Twist`` or ``TwistStamped``."""
-    twist = getattr(message, "twist", message)
-    return np.array([twist.linear.x, twist.linear.y, twist.angular.z], dtype=float)
 
 
 def time_message(nanoseconds: int) -> Any:
@@ -195,11 +168,50 @@ class ReferenceClock:
         return self._start is not None
 
     def __call__(self, stamp: Any) -> float:
-        """The reference time [s] at ``stamp``."""
-        now = stamp_nanoseconds(stamp)
+        """The reference time [s] at ``stamp`` (the first stamp starts an unstarted clock)."""
         if self._start is None:
-            self._start = now
-        return self.reference_start + (now - self._start) * 1e-9
+            self._start = stamp_nanoseconds(stamp)
+        return self.at(stamp)
+
+    def at(self, stamp: Any) -> float:
+        """The reference time [s] at ``stamp`` of a started clock."""
+        if self._start is None:
+            raise ControllerError("the clock has not started: no stamp seen yet")
+        return self.reference_start + (stamp_nanoseconds(stamp) - self._start) * 1e-9
+
+
+class _Slowed(Trajectory):
+    """``source`` played ``rate`` times as fast from time ``start`` on, where it is at its
+    own time ``pivot``: source time = pivot + rate (t - start); velocities scale by rate,
+    accelerations by rate^2, jerks by rate^3 (a speed limit on a planned reference)."""
+
+    def __init__(self, source: Trajectory, rate: float, start: float, pivot: float) -> None:
+        self.source, self.rate, self.start, self.pivot = source, rate, start, pivot
+        super().__init__(FunctionHeading(*(self._heading_derivative(k) for k in range(3))))
+
+    def source_time(self, t: FloatArray) -> FloatArray:
+        return self.pivot + self.rate * (t - self.start)
+
+    def _heading_derivative(self, order: int) -> Callable[[FloatArray], FloatArray]:
+        def derivative(t: FloatArray) -> FloatArray:
+            sample = self.source.sample(self.source_time(t))
+            field = (sample.pose, sample.velocity, sample.acceleration)[order]
+            return self.rate**order * field[..., 2]
+        return derivative
+
+    @property
+    def start_time(self) -> float:
+        return self.start + (self.source.start_time - self.pivot) / self.rate
+
+    @property
+    def end_time(self) -> float | None:
+        end = self.source.end_time
+        return None if end is None else self.start + (end - self.pivot) / self.rate
+
+    def _path(self, t: FloatArray) -> PathDerivatives:
+        p, r = self.source.path(self.source_time(t)), self.rate
+        return PathDerivatives(p.position, r * p.velocity, r * r * p.acceleration,
+                               r**3 * p.jerk)
 
 
 class Nav2Controller:
@@ -230,9 +242,10 @@ class Nav2Controller:
         self.clock = ReferenceClock()
         self.controller: Controller | None = None
         self.speed_limit: float | None = None  # [m/s] from set_speed_limit
-        self._plan = np.zeros((0, 3))
         self._frame = ""
-        self._pose: FloatArray | None = None
+        self._plan: Trajectory | None = None  # as timed by set_plan
+        self._peak_speed = 0.0  # [m/s] its peak path speed
+        self._now: float | None = None  # [s] reference time of the last command
         self._velocity_pending = True
         self.last_command: Command | None = None
 
@@ -249,12 +262,9 @@ class Nav2Controller:
         return self.controller.trajectory
 
     def set_plan(self, path: Any) -> None:
-        """Follow a ``nav_msgs/Path`` from the next :meth:`compute_velocity_commands` on."""
+        """Follow a ``nav_msgs/Path`` from the next :meth:`compute_velocity_commands` on,
+        timed within ``max_speed`` and the present speed limit."""
         poses = poses_from_path(path)
-        self._frame = str(path.header.frame_id)
-        self._follow(poses)
-
-    def _follow(self, poses: FloatArray) -> None:
         cap = min((c for c in (self.max_speed, self.speed_limit) if c is not None),
                   default=None)
         if self.speed is None:
@@ -268,7 +278,11 @@ class Nav2Controller:
                                          dt=self.dt, **self._options)
         else:
             self.controller.trajectory = reference
-        self._plan = poses
+        self._plan, self._now = reference, None
+        end = reference.end_time or reference.start_time
+        velocity = reference.sample(np.linspace(reference.start_time, end, 2001)).velocity
+        self._peak_speed = float(np.hypot(velocity[:, 0], velocity[:, 1]).max())
+        self._frame = str(path.header.frame_id)
         self.clock.restart()
         self._velocity_pending = True
 
@@ -276,7 +290,7 @@ class Nav2Controller:
         """The ``TwistStamped`` to send now, in ``base_frame``, stamped with the pose's stamp.
 
         Args:
-            pose: the robot's ``PoseStamped`` in the plan's frame.
+            pose: the robot's ``PoseStamped`` (or ``Odometry``) in the plan's frame.
             velocity: its present ``Twist`` (body frame), or None; used once after each new
                 plan so that the acceleration limits count from the actual motion.
         """
@@ -286,30 +300,35 @@ class Nav2Controller:
         if frame and self._frame and frame != self._frame:
             raise ControllerError(f"the pose is in frame {frame!r} but the plan in "
                                   f"{self._frame!r}: transform one into the other first")
-        self._pose = pose_from_pose_stamped(pose)
         if self._velocity_pending and velocity is not None:
             self.controller.reset(last_twist=twist_from_message(velocity))
         self._velocity_pending = False
-        self.last_command = self.controller.step(self._pose, self.clock(pose.header.stamp))
+        self._now = self.clock(pose.header.stamp)
+        self.last_command = self.controller.step(pose_from_message(pose), self._now)
         return twist_stamped(self.last_command.twist, pose.header.stamp, self.base_frame)
 
     def set_speed_limit(self, speed_limit: float, percentage: bool) -> None:
         """nav2's speed limit: ``speed_limit`` [m/s], or [%] of ``max_speed`` if
-        ``percentage``; 0 removes it. The rest of the plan, from the robot's last pose on,
-        is timed again at once (from rest: the robot slows down briefly)."""
+        ``percentage``; 0 removes it. The present plan keeps its path and its place and
+        is played slower from now on, by ``limit / its peak path speed`` (speeds scale by
+        that, accelerations by its square: still within the wheel limits). Later plans are
+        timed within the limit."""
         limit = non_negative("speed_limit", speed_limit, ControllerError)
         if percentage and limit > 0.0:
             if self.max_speed is None:
                 raise ControllerError("a percentage speed limit needs max_speed= [m/s]")
             limit = self.max_speed * limit / 100.0
         self.speed_limit = limit if limit > 0.0 else None
-        if self.controller is not None and self._pose is not None:
-            nearest = int(np.argmin(np.hypot(*(self._plan[:, :2] - self._pose[:2]).T)))
-            rest = self._plan[nearest + 1:]
-            if len(rest):
-                self._follow(np.vstack([self._pose, rest]))
+        if self.controller is None or self._plan is None:
+            return
+        rate = 1.0 if limit == 0.0 or self._peak_speed <= limit else limit / self._peak_speed
+        now = self._now if self._now is not None else self._plan.start_time
+        current = self.controller.trajectory
+        pivot = float(current.source_time(np.array(now))) if isinstance(current, _Slowed) \
+            else now
+        self.controller.trajectory = _Slowed(self._plan, rate, now, pivot)
 
     def is_finished(self, stamp: Any) -> bool:
         """Whether the reference time at ``stamp`` has reached the plan's end."""
         end = self.trajectory.end_time
-        return end is not None and self.clock.started and self.clock(stamp) >= end
+        return end is not None and self.clock.started and self.clock.at(stamp) >= end
