@@ -156,7 +156,8 @@ def drive(follower: Nav2Controller, start: np.ndarray, ticks: int,
     for k in range(first_tick, first_tick + ticks):
         pose = plant.pose
         stamp = EPOCH + k * 50_000_000
-        out = follower.compute_velocity_commands(pose_stamped(*pose, stamp), None)
+        x, y, theta = (float(v) for v in pose)
+        out = follower.compute_velocity_commands(pose_stamped(x, y, theta, stamp), None)
         assert out.header.frame_id == "base_link" and out.header.stamp.nanosec == stamp % 10**9
         assert follower.last_command is not None
         np.testing.assert_array_equal(twist_from_message(out), follower.last_command.twist)
@@ -201,6 +202,7 @@ def test_speed_limit_slows_the_plan_where_it_is() -> None:
     np.testing.assert_allclose(slowed.sample(now).velocity[:2],
                                plan.sample(now).velocity[:2] * 0.4 / peak, rtol=1e-3)
     assert path_speeds(slowed, now).max() <= 0.4 * (1 + 1e-3)
+    assert slowed.end_time is not None
     np.testing.assert_allclose(slowed.sample(slowed.end_time).pose, s_poses()[-1], atol=1e-12)
     _, errors, poses = drive(follower, plant.pose, 60, first_tick=20)
     speeds = np.hypot(*np.diff(poses[:, :2], axis=0).T) / DT
