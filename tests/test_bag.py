@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -271,3 +272,13 @@ def test_writing_refuses_bad_arguments(tmp_path: Path, run: SimResult) -> None:
     write_bag(run, tmp_path / "named", wheel_names=names)
     ((_, message), *_) = read_all(tmp_path / "named")["/mpc/wheel_limit"]
     assert tuple(message.name) == names
+
+
+def test_without_rosbags_the_error_names_the_extra(tmp_path: Path, run: SimResult,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "rosbags", None)  # as if not installed
+    with pytest.raises(ImportError, match=r"pip install 'holonomic-mpc\[ros\]'"):
+        read_bag_reference(tmp_path / "any", speed=1.0)
+    with pytest.raises(ImportError, match=r"pip install 'holonomic-mpc\[ros\]'"):
+        write_bag(run, tmp_path / "bag")
+    assert not (tmp_path / "bag").exists()
