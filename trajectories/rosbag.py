@@ -56,7 +56,7 @@ def require_rosbags() -> None:
         import rosbags  # noqa: F401
     except ImportError as error:
         raise ImportError(f"ROS 2 bags and messages need the rosbags package: {ROS_EXTRA} "
-                          "(or pip install 'rosbags>=0.10.11')") from error
+                          "(or pip install 'rosbags>=0.11')") from error
 
 
 def yaw_from_quaternion(q: Any) -> float:
