@@ -318,3 +318,13 @@ def test_heading_override_and_repr(tmp_path: Path) -> None:
     trajectory = read_choreo(polynomial_file(tmp_path), heading=0.0)
     assert np.all(trajectory.sample(np.linspace(0, DURATION, 7)).pose[:, 2] == 0.0)
     assert "61 samples" in repr(trajectory) and math.isclose(trajectory.duration or 0, 3.0)
+
+
+def test_modules_at_one_point_are_refused_naming_the_config(tmp_path: Path) -> None:
+    content = document(samples(circle_axes(), np.linspace(0.0, 0.5, 11)))
+    for side in ("frontLeft", "backLeft"):
+        content["trajectory"]["config"][side] = {"x": 0.0, "y": 0.0}
+    path = write(tmp_path, content)
+    with pytest.raises(TrajectoryError, match=r"^choreo file '.*': trajectory\.config: robot "
+                                              "'generated' is not holonomic"):
+        read_choreo(path)

@@ -47,6 +47,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from mpc.errors import MpcError
+
 from ._validation import FloatArray
 from .errors import TrajectoryError
 from .heading import HeadingSpec
@@ -141,6 +143,8 @@ class ChoreoTrajectory(SampledTrajectory):
                  module_forces: FloatArray | None = None,
                  heading: HeadingSpec | None = None) -> None:
         self.name, self.config, self.robot, self.events = name, config, robot, events
+        if module_forces is not None:
+            module_forces.flags.writeable = False
         self.module_forces = module_forces
         super().__init__(times, poses, velocities, accelerations, heading)
 
@@ -161,7 +165,7 @@ def read_choreo(path: str | os.PathLike[str], *, max_steer_rate: float = DEFAULT
     if isinstance(version, bool) or version != CHOREO_VERSION:
         raise file.error("version", f"expected {CHOREO_VERSION} (Choreo .traj schema "
                                     f"{CHOREO_VERSION}), got {_json(version)}")
-    name = document.get("name", file.path.stem)
+    name = document.get("name") or file.path.stem
     if not isinstance(name, str):
         raise file.error("name", f"expected a string, got {_json(name)}")
     body = file.get(document, "trajectory", "")
@@ -171,8 +175,11 @@ def read_choreo(path: str | os.PathLike[str], *, max_steer_rate: float = DEFAULT
                          "(differential and other drives are not read)")
     config = file.config(file.get(body, "config", "trajectory"))
     table, forces = file.samples(file.get(body, "samples", "trajectory"))
-    robot = choreo_robot(config, max_steer_rate=max_steer_rate,
-                         max_wheel_accel=max_wheel_accel, name=name or "choreo")
+    try:
+        robot = choreo_robot(config, max_steer_rate=max_steer_rate,
+                             max_wheel_accel=max_wheel_accel, name=name)
+    except MpcError as error:  # e.g. modules on one line: not a usable swerve base
+        raise file.error("trajectory.config", str(error)) from None
     return ChoreoTrajectory(table[:, 0], table[:, 1:4], table[:, 4:7], table[:, 7:10],
                             name=name, config=config, robot=robot,
                             events=file.events(document.get("events", [])),
