@@ -21,6 +21,7 @@ from trajectories import (
     CHOREO_TO_OURS,
     ChoreoConfig,
     ChoreoEvent,
+    SampledTrajectory,
     TrajectoryError,
     choreo_robot,
     feasibility,
@@ -328,3 +329,23 @@ def test_modules_at_one_point_are_refused_naming_the_config(tmp_path: Path) -> N
     with pytest.raises(TrajectoryError, match=r"^choreo file '.*': trajectory\.config: robot "
                                               "'generated' is not holonomic"):
         read_choreo(path)
+
+
+def test_sampled_trajectory_without_accelerations_is_cubic_hermite() -> None:
+    cubic = Polynomial([0.5, -1.0, 2.0, -0.7])  # reproduced exactly from values and slopes
+    times = np.array([0.0, 0.4, 1.1, 2.0])
+    values = np.stack([cubic(times), 2 * cubic(times), 0.1 * cubic(times)], axis=1)
+    slopes = np.stack([cubic.deriv()(times), 2 * cubic.deriv()(times),
+                       0.1 * cubic.deriv()(times)], axis=1)
+    trajectory = SampledTrajectory(times, values, slopes)
+    t = np.random.default_rng(8).uniform(0.0, 2.0, 50)
+    np.testing.assert_allclose(trajectory.sample(t).pose[:, 1], 2 * cubic(t), atol=1e-12)
+    np.testing.assert_allclose(trajectory.sample(t).acceleration[:, 0], cubic.deriv(2)(t),
+                               atol=1e-10)
+    assert trajectory.accelerations is None
+    with pytest.raises(TrajectoryError, match="strictly increasing"):
+        SampledTrajectory([0.0, 0.0], values[:2], slopes[:2])
+    with pytest.raises(TrajectoryError, match=r"velocities must have shape \(4, 3\)"):
+        SampledTrajectory(times, values, slopes[:3])
+    with pytest.raises(TrajectoryError, match="poses must be finite"):
+        SampledTrajectory(times, np.full((4, 3), np.nan), slopes)
