@@ -24,7 +24,12 @@ from mpc.robots import preset  # noqa: E402
 from mpc.sim import SimResult, simulate  # noqa: E402
 from mpc.sim.bag import FOUR_WHEEL_NAMES, TOPICS, body_twists, write_bag  # noqa: E402
 from trajectories import Circle, feasibility  # noqa: E402
-from trajectories.rosbag import bag_topics, path_reference, read_bag_reference  # noqa: E402
+from trajectories.rosbag import (  # noqa: E402
+    bag_topics,
+    odometry_reference,
+    path_reference,
+    read_bag_reference,
+)
 
 STORE = get_typestore(Stores.ROS2_HUMBLE)
 EPOCH = 1_700_000_000_123_456_789  # [ns] a ROS-like epoch stamp
@@ -282,3 +287,33 @@ def test_without_rosbags_the_error_names_the_extra(tmp_path: Path, run: SimResul
     with pytest.raises(ImportError, match=r"pip install 'holonomic-mpc\[ros\]'"):
         write_bag(run, tmp_path / "bag")
     assert not (tmp_path / "bag").exists()
+
+
+def test_odometry_needs_increasing_stamps() -> None:
+    def odometry(sec: int, nanosec: int, x: float) -> Any:
+        return types.nav_msgs__msg__Odometry(
+            header=types.std_msgs__msg__Header(
+                stamp=types.builtin_interfaces__msg__Time(sec=sec, nanosec=nanosec),
+                frame_id="odom"),
+            child_frame_id="base_link",
+            pose=types.geometry_msgs__msg__PoseWithCovariance(
+                pose=types.geometry_msgs__msg__Pose(
+                    position=types.geometry_msgs__msg__Point(x=x, y=0.0, z=0.0),
+                    orientation=types.geometry_msgs__msg__Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
+                covariance=np.zeros(36)),
+            twist=types.geometry_msgs__msg__TwistWithCovariance(
+                twist=types.geometry_msgs__msg__Twist(
+                    linear=types.geometry_msgs__msg__Vector3(x=0.1, y=0.0, z=0.0),
+                    angular=types.geometry_msgs__msg__Vector3(x=0.0, y=0.0, z=0.0)),
+                covariance=np.zeros(36)))
+
+    messages = [odometry(1_700_000_000, 0, 0.0), odometry(1_700_000_001, 0, 0.1),
+                odometry(1_700_000_001, 0, 0.1)]
+    with pytest.raises(TrajectoryError, match="odometry message 2: header.stamp "
+                                              "1700000001000000000 ns is not after message 1's"):
+        odometry_reference(messages)
+    with pytest.raises(TrajectoryError, match="at least 2 messages, got 1"):
+        odometry_reference(messages[:1])
+    reference = odometry_reference(messages[:2])
+    assert reference.end_time == 1.0
+    np.testing.assert_allclose(reference.sample(0.5).pose, [0.05, 0.0, 0.0], atol=1e-15)

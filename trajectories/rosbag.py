@@ -161,8 +161,8 @@ def odometry_reference(messages: Sequence[Any], *, use_twist: bool = True) -> Sa
     bad = np.flatnonzero(np.diff(stamps) <= 0)
     if bad.size:
         k = int(bad[0]) + 1
-        raise TrajectoryError(f"odometry message {k}: header.stamp {stamps[k] * 1e-9!r} s is "
-                              f"not after message {k - 1}'s {stamps[k - 1] * 1e-9!r} s")
+        raise TrajectoryError(f"odometry message {k}: header.stamp {int(stamps[k])} ns is not "
+                              f"after message {k - 1}'s {int(stamps[k - 1])} ns")
     times = (stamps - stamps[0]) * 1e-9
     poses = np.array([pose_from_message(m) for m in messages])
     poses[:, 2] = np.unwrap(poses[:, 2])
