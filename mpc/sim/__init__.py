@@ -6,9 +6,12 @@
 - :mod:`.recorder`: :class:`Recorder`, the same record from a loop of your own;
 - :mod:`.result`: :class:`SimResult` and its metrics;
 - :mod:`.baselines`: feedforward + P controllers with per-wheel clipping or desaturation;
-- :mod:`.setpoint`: feedforward + P through a swerve setpoint generator (Team 254 style).
+- :mod:`.setpoint`: feedforward + P through a swerve setpoint generator (Team 254 style);
+- :mod:`.bag`: :func:`write_bag`, a run as a ROS 2 bag (MCAP) for Foxglove or RViz (the
+  ``ros`` extra, imported only when called).
 """
 
+from mpc.sim.bag import write_bag
 from mpc.sim.baselines import SATURATIONS, FeedforwardPController
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.sim.recorder import Recorder
@@ -30,4 +33,5 @@ __all__ = [
     "TrackingController",
     "generate_setpoint",
     "simulate",
+    "write_bag",
 ]
