@@ -31,11 +31,14 @@ def failed_result(horizon: int) -> SolveResult:
 
 
 def test_fallback_sequence_through_a_failure_streak(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Ticks 1..N-1 of a streak replay the last plan, N..2N-1 the reference feedforward,
-    from 2N a stop ramp within the acceleration limits; then recovery."""
+    """While the last plan lasts, a streak replays it (the stage each tick falls in), then
+    as many ticks of the reference feedforward, then a stop ramp within the acceleration
+    limits; then recovery. Plan: one 0.05 s stage, then 9 of 0.1 s: it lasts 19 ticks,
+    and tick j of the streak (at j * 0.05 s) falls in stage (j + 1) // 2."""
     horizon = 10
     robot, trajectory = preset("mecanum"), Circle(1.0, 12.0, heading=0.0)
-    controller = Controller(robot, trajectory, horizon=horizon)
+    controller = Controller(robot, trajectory, horizon=horizon, dt=DT, stage_dt=2 * DT)
+    lasts = 19
     loop = Loop(controller, trajectory.sample(0.0).pose)
     solve = controller.solver.solve
     plans: list[SolveResult] = []
@@ -52,15 +55,15 @@ def test_fallback_sequence_through_a_failure_streak(monkeypatch: pytest.MonkeyPa
 
     monkeypatch.setattr(controller.solver, "solve", lambda *a, **k: failed_result(horizon))
     stopping: list[np.ndarray] = []
-    for failures in range(1, 2 * horizon + 12):
+    for failures in range(1, 2 * lasts + 12):
         t = loop.tick * DT
         command = loop.step()
         assert command.consecutive_failures == failures
         assert command.solver_status == "injected failure"
-        if failures < horizon:
+        if failures < lasts:
             assert command.status is Status.PREVIOUS_PLAN
-            np.testing.assert_allclose(command.twist, plan[failures], atol=1e-9)
-        elif failures < 2 * horizon:
+            np.testing.assert_allclose(command.twist, plan[(failures + 1) // 2], atol=1e-9)
+        elif failures < 2 * lasts:
             assert command.status is Status.FEEDFORWARD
             # The reference's own twist over this tick (the robot is on the reference).
             np.testing.assert_allclose(command.twist, trajectory.body_twist(t + DT / 2),

@@ -54,8 +54,9 @@ def integral_function(dt: float) -> ca.Function:
     return ca.Function("integral", [pose, twist], [twist_integral(pose, twist, dt)])
 
 
-def make_model(robot_name: str = "mecanum", weights: Weights | None = None) -> TrackingModel:
-    return TrackingModel(preset(robot_name), HORIZON, DT, weights or Weights())
+def make_model(robot_name: str = "mecanum", weights: Weights | None = None,
+               tick: float | None = None) -> TrackingModel:
+    return TrackingModel(preset(robot_name), HORIZON, DT, weights or Weights(), tick=tick)
 
 
 def evaluate(function: ca.Function, *args: ArrayLike) -> np.ndarray:
@@ -226,7 +227,7 @@ def hand_cost(model: TrackingModel, z: np.ndarray, p: np.ndarray, exact: bool = 
         poses_ref += parameters.view(p, "path_rates") * shift[:, None]
         if exact:
             poses_ref += 0.5 * parameters.view(p, "path_curvatures") * shift[:, None] ** 2
-        rates = np.diff(progress) / model.dt
+        rates = np.diff(progress) / model.durations
         twists_ref = parameters.view(p, "feedforward_rates") * rates[:, None]
         contour = w.contour
         extra = (w.progress * float(np.sum((model.max_progress_rate - rates) ** 2))
@@ -241,12 +242,19 @@ def hand_cost(model: TrackingModel, z: np.ndarray, p: np.ndarray, exact: bool = 
         return float(error @ (diagonal * error) - relief * along**2 + contour * across**2)
 
     positions = robot.wheel_positions if robot.steered else None
+    # The reference's own change of twist between stage midpoints; into stage 0, from the
+    # previous tick (midpoint h_0 before stage 0's), extrapolated from stages 0 and 1.
+    h = model.durations
+    reference_change = np.zeros((n, 3))
+    reference_change[1:] = np.diff(twists_ref, axis=0)
+    if n > 1:
+        reference_change[0] = (twists_ref[1] - twists_ref[0]) * h[0] / (0.5 * (h[0] + h[1]))
     total = 0.0
     for k in range(n):
         if k > 0:
             total += pose_term(k, w.pose)
         deviation = twists[k] - twists_ref[k]
-        change = twists[k] - (last if k == 0 else twists[k - 1])
+        change = twists[k] - (last if k == 0 else twists[k - 1]) - reference_change[k]
         total += deviation @ (w.twist * deviation) + change @ (w.rate * change)
         if positions is not None:  # swerve: change of every module's ground velocity
             vx = change[0] - change[2] * positions[:, 1]
@@ -260,10 +268,12 @@ CUSTOM_WEIGHTS = Weights(pose=np.array([150.0, 90.0, 30.0]), twist=np.array([2.0
                          along_track=0.3, module_rate=2.5)
 
 
+@pytest.mark.parametrize("tick", [None, 0.4 * DT], ids=["uniform", "short first stage"])
 @pytest.mark.parametrize("robot_name", ["mecanum", "swerve"])
 @pytest.mark.parametrize("weights", [Weights(), CUSTOM_WEIGHTS], ids=["default", "custom"])
-def test_cost_matches_hand_written_cost(robot_name: str, weights: Weights) -> None:
-    model = make_model(robot_name, weights)
+def test_cost_matches_hand_written_cost(robot_name: str, weights: Weights,
+                                        tick: float | None) -> None:
+    model = make_model(robot_name, weights, tick)
     z, p = model.symbols()
     cost = ca.Function("cost", [z, p], [model.cost(z, p)])
     rng = np.random.default_rng(7)
@@ -351,13 +361,14 @@ def test_numpy_integral_matches_the_casadi_dynamics(rotation: float) -> None:
                                    rtol=0, atol=1e-14)
 
 
+@pytest.mark.parametrize("tick", [None, 0.5 * DT], ids=["uniform", "short first stage"])
 @pytest.mark.parametrize("exact", [False, True])
-def test_path_mode_cost_matches_hand_written_cost(exact: bool) -> None:
+def test_path_mode_cost_matches_hand_written_cost(exact: bool, tick: float | None) -> None:
     """Contouring geometry: the error against the reference expanded at the planned
     progress, the across-path weight, the progress terms (CUSTOM weights, path mode)."""
     weights = make_weights({"pose": [150.0, 90.0, 30.0], "contour": 700.0, "progress": 0.3,
                             "progress_reward": 0.7, "progress_rate": 0.05})
-    model = TrackingModel(preset("mecanum"), HORIZON, DT, weights, path=True)
+    model = TrackingModel(preset("mecanum"), HORIZON, DT, weights, path=True, tick=tick)
     z, p = model.symbols()
     cost = ca.Function("cost", [z, p], [model.cost(z, p, exact=exact)])
     rng = np.random.default_rng(17)

@@ -64,7 +64,9 @@ def test_omni4_with_a_dead_wheel_tracks_a_slow_circle(solver: str) -> None:
     metrics = result.metrics(skip=5.0)
     assert np.abs(result.wheel_command[:, 0]).max() < 1e-9
     assert metrics["limit_violations"] == 0
-    assert metrics["rms_position_error"] < 1e-3  # measured 0.36 mm (both solvers)
+    # Measured 4.8-4.9 mm with the default 0.1 s stages (0.36 mm with 0.05 s stages: the
+    # heading profile this robot needs to move is shaped finer).
+    assert metrics["rms_position_error"] < 7e-3
 
 
 def test_solver_starved_of_iterations_falls_back_safely() -> None:
@@ -96,16 +98,17 @@ def test_recovers_when_the_solver_does(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(control.solver, "solve", flaky)
     pose = trajectory.sample(0.0).pose
     statuses = []
-    for k in range(120):
-        broken["on"] = 30 <= k < 90
+    # The 1.95 s plan lasts 39 ticks, the feedforward as many: stopping from tick 30 + 78.
+    for k in range(180):
+        broken["on"] = 30 <= k < 140
         command = control.step(pose, k * control.dt)
         statuses.append(command.status)
         assert np.all(np.isfinite(command.wheel_speeds))
         assert robot.is_feasible(command.twist, rtol=1e-6)
         pose = control.model.dynamics(pose, command.twist).full().ravel()
     assert statuses[31] is Status.PREVIOUS_PLAN
-    assert Status.FEEDFORWARD in statuses[30:90] and Status.STOPPING in statuses[30:90]
-    assert all(s is Status.SOLVED for s in statuses[95:])
+    assert Status.FEEDFORWARD in statuses[30:140] and Status.STOPPING in statuses[30:140]
+    assert all(s is Status.SOLVED for s in statuses[145:])
 
 
 @pytest.mark.parametrize("solver", ["osqp", "ipopt"])

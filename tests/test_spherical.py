@@ -8,13 +8,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from closed_loop import SETTLE, assert_within_limits, inside_limits, off_start, too_fast_circle
+from closed_loop import assert_within_limits, too_fast_circle
 
 from mpc import Controller
 from mpc.errors import RobotError
 from mpc.robots import PRESETS, SphericalRobot, from_dict, load, preset, robot_types, spherical
 from mpc.sim import simulate
-from trajectories import feasibility
 
 #: Ball A at (0.2, 0.1) m with r = 0.05 m, ball B at (-0.1, 0.3) m with r = 0.04 m.
 TWO_BALLS = spherical(positions=[[0.2, 0.1], [-0.1, 0.3]], wheel_radius=[0.05, 0.04],
@@ -211,19 +210,6 @@ def test_bad_arguments_are_refused(kwargs: dict[str, object], match: str) -> Non
 def test_twist_refuses_bad_spin_rates(spin_rates: object) -> None:
     with pytest.raises(RobotError, match="spin_rates"):
         TWO_BALLS.twist(spin_rates)  # type: ignore[arg-type]
-
-
-@pytest.mark.parametrize("trajectory_name", inside_limits().keys())
-@pytest.mark.parametrize("solver", ["osqp", "ipopt"])
-def test_tracks_inside_the_limits(solver: str, trajectory_name: str) -> None:
-    robot, trajectory = preset("ball3"), inside_limits()[trajectory_name]
-    assert feasibility(trajectory, robot).peak_ratio < 1.0
-    result = simulate(Controller(robot, trajectory, solver=solver), 7.0,
-                      initial_pose=off_start(trajectory))
-    metrics = result.metrics(skip=SETTLE)
-    assert metrics["rms_position_error"] < RMS_TOLERANCE
-    assert metrics["failures"] == 0
-    assert_within_limits(result)
 
 
 def test_beyond_the_limits_every_actuator_stays_within_its_limit() -> None:

@@ -47,8 +47,9 @@ DEFAULT_POLYGON_SIDES = 16
 class Controller:
     """Model-predictive tracking of a reference trajectory within wheel limits.
 
-    Each :meth:`step` plans ``horizon`` ticks of ``dt`` seconds from the
-    measured pose and returns the first twist as wheel commands. The command
+    Each :meth:`step` plans ``horizon`` stages from the measured pose (the first
+    one control tick of ``dt`` seconds, the others ``stage_dt``) and returns the
+    first twist as wheel commands for the next tick. The command
     never exceeds a wheel's speed or acceleration limit: the solver plans
     within them and a final clamp (:func:`~mpc.control.clamp.clamp_command`)
     removes solver tolerance. If the solver fails, the command comes from
@@ -71,8 +72,15 @@ class Controller:
     Args:
         robot: the drive layout and its wheel limits.
         trajectory: the reference to track.
-        horizon: control intervals in the plan, >= 1.
-        dt: control interval [s], > 0; also the tick of :meth:`step`.
+        horizon: stages in the plan, >= 1.
+        dt: control interval [s], > 0: the tick of :meth:`step`.
+        stage_dt: duration of the plan's stages after the first [s], >= ``dt``; the first
+            stage is one tick (the command sent). Longer stages look further ahead for the
+            same work a tick. Default: ``2 dt`` in time mode (the defaults plan 1.95 s
+            ahead: beyond the wheel limits that foresight keeps the robot much closer to a
+            reference it cannot follow), ``dt`` in path mode (the progress keeps the
+            reference within reach, and finer stages follow the path's bends closer);
+            measured in the README, "When the reference is too fast".
         solver: ``"daqp"`` (the fast path: real-time iteration on the condensed QP,
             :mod:`mpc.solvers.dense`), ``"osqp"`` (real-time iteration on the sparse QP)
             or ``"ipopt"`` (the exact NLP).
@@ -99,6 +107,7 @@ class Controller:
         solver: str = "daqp",
         weights: Weights | Mapping[str, ArrayLike] | None = None,
         *,
+        stage_dt: float | None = None,
         polygon_sides: int | None = None,
         max_iter: int | None = None,
         time_limit: float = 0.0,
@@ -115,18 +124,20 @@ class Controller:
         self.dt = positive("dt [s]", dt, ControllerError)
         self.delay_ticks = integer_at_least("delay_ticks", delay_ticks, 0, ControllerError)
         self.mode = _check_mode(mode, time_scaling)
+        self.stage_dt = _check_stage_dt(stage_dt, self.dt, self.mode)
         rate = positive("max_progress_rate", max_progress_rate, ControllerError)
         if rate < 1.0:
             raise ControllerError(f"max_progress_rate must be >= 1 (the reference's own pace), "
                                   f"got {max_progress_rate!r}")
         self.weights = make_weights(weights)
-        self.model = TrackingModel(robot, self.horizon, self.dt, self.weights,
-                                   path=self.mode == "path", max_progress_rate=rate)
+        self.model = TrackingModel(robot, self.horizon, self.stage_dt, self.weights,
+                                   path=self.mode == "path", max_progress_rate=rate,
+                                   tick=self.dt)
         self.solver = _make_solver(self.model, solver, polygon_sides, max_iter, time_limit)
         self._profile: TickProfile | None = None
         self._tick = TickInput(self.model.layouts)
-        self._warm = WarmStart(self._tick)
-        self._fallback = FallbackPolicy(robot, self.horizon)
+        self._warm = WarmStart(self._tick, self.model.offsets, self.dt)
+        self._fallback = FallbackPolicy(robot, self.model.offsets, self.dt)
         self._delay = DelayCompensator(self.delay_ticks, self.dt)
         self._set_reference(trajectory)
         self.reset()
@@ -250,6 +261,17 @@ def _check_mode(mode: object, time_scaling: object) -> str:
     if mode not in MODES:
         raise ControllerError(f"unknown mode {mode!r}; expected one of {list(MODES)}")
     return str(mode)
+
+
+def _check_stage_dt(stage_dt: object, dt: float, mode: str) -> float:
+    """``stage_dt`` [s] (if None: ``2 dt`` in time mode, ``dt`` in path mode), >= ``dt``."""
+    if stage_dt is None:
+        return 2.0 * dt if mode == "time" else dt
+    stage = positive("stage_dt [s]", stage_dt, ControllerError)
+    if stage < dt:
+        raise ControllerError(f"stage_dt must be >= dt = {dt!r} s (a stage is at least one "
+                              f"tick), got {stage_dt!r}")
+    return stage
 
 
 def _check_trajectory(trajectory: object) -> None:

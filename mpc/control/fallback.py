@@ -1,7 +1,7 @@
 """What to command when the solver fails: the fallback policy, in order.
 
-1. the shifted previous plan, while it lasts (``horizon`` ticks);
-2. the reference feedforward scaled into the wheel limits (another ``horizon`` ticks);
+1. the previous plan, read at the time since it was made, while it lasts;
+2. the reference feedforward scaled into the wheel limits (as many ticks again);
 3. a stop ramp (zero twist; the clamp keeps the deceleration within the limits).
 
 The state is one count of failures in a row and the last successful plan.
@@ -21,12 +21,17 @@ class FallbackPolicy:
 
     Args:
         robot: for scaling the feedforward into the wheel limits.
-        horizon: ticks each of the first two fallbacks lasts.
+        offsets: each stage's start from the plan's start (N+1,) [s] (the last: its end).
+        tick: the control tick [s].
     """
 
-    def __init__(self, robot: Robot, horizon: int) -> None:
+    def __init__(self, robot: Robot, offsets: FloatArray, tick: float) -> None:
         self.robot = robot
-        self.horizon = horizon
+        # The stage each tick of a failure streak falls in, while the plan lasts; the
+        # first two fallbacks last that many ticks each.
+        times = tick * np.arange(int(np.ceil(offsets[-1] / tick - 1e-9)))
+        self._stages = np.searchsorted(offsets, times + 1e-9 * tick, side="right") - 1
+        self.horizon = int(self._stages.size)
         self.failures = 0
         self._plan: FloatArray | None = None
 
@@ -44,7 +49,7 @@ class FallbackPolicy:
         """One more failure: the fallback status and twist (3,) for this tick."""
         self.failures += 1
         if self._plan is not None and self.failures < self.horizon:
-            return Status.PREVIOUS_PLAN, self._plan[self.failures]
+            return Status.PREVIOUS_PLAN, self._plan[self._stages[self.failures]]
         if self.failures < 2 * self.horizon:
             return Status.FEEDFORWARD, self.robot.desaturate(feedforward)
         return Status.STOPPING, np.zeros(3)

@@ -10,11 +10,12 @@ the feedforward stays on it.
 Two timing laws use it (both with one ``reset``):
 
 - :class:`TimeIndexed` (``mode="time"``): stage ``k`` is the reference at
-  ``t + k dt`` (plus the known delay): strict time tracking.
+  ``t + offsets_k`` (plus the known delay; ``offsets`` the model's stage starts):
+  strict time tracking.
 - :class:`PathProgress` (``mode="path"``): the progress ``s_k`` along the
   reference (in seconds of the reference's own time) is planned with the
   motion. It never runs ahead of the reference's own timing
-  (``s_k <= t + k dt``), never backwards, and at most ``max_progress_rate``
+  (``s_k <= t + offsets_k``), never backwards, and at most ``max_progress_rate``
   times as fast as the reference (catching up). Where the reference is
   feasible the plan keeps ``s_k = t + k dt`` (time tracking); where it is
   not, the robot drives the path as fast as its wheels allow.
@@ -49,7 +50,7 @@ class ReferenceWindow:
     def __init__(self, trajectory: Trajectory, model: TrackingModel, tick: TickInput) -> None:
         self.trajectory = trajectory
         self.tick = tick
-        self.offsets = model.dt * np.arange(model.horizon + 1)
+        self.offsets = model.offsets
         self._velocities = np.zeros((model.horizon + 1, 3))
         self._evaluate = BufferedFunction(model.reference_terms,
                                           [tick.poses_ref, self._velocities],
@@ -104,7 +105,8 @@ class PathProgress:
 
     Args:
         window: the reference window.
-        model: a path-mode model (its horizon, ``dt`` and ``max_progress_rate``).
+        model: a path-mode model (its horizon, stage ``dt``, control ``tick`` and
+            ``max_progress_rate``).
     """
 
     def __init__(self, window: ReferenceWindow, model: TrackingModel) -> None:
@@ -112,12 +114,14 @@ class PathProgress:
         if path is None:
             raise RuntimeError("PathProgress needs a path-mode TickInput")
         self.window, self.path = window, path
-        self.dt, self.max_rate = model.dt, model.max_progress_rate
+        self.durations, self.max_rate = model.durations, model.max_progress_rate
+        self.tick = float(model.durations[0])
         self.offsets = window.offsets
         self.reset()
 
     def reset(self) -> None:
         self._plan: FloatArray | None = None  # last planned progress s_0 .. s_N
+        self._elapsed: float | None = None  # since the last plan [s], None after a jump
         self._previous_t: float | None = None
         self._rounds = 0  # refinements left this tick
         self._settled = False  # whether _plan came from a successful solve
@@ -167,7 +171,7 @@ class PathProgress:
         """Stage k's feedforward per unit progress rate: the sampled feedforward divided by
         the guess's rate (exact on the discrete model), or where the guess stands still,
         the reference's body twist per unit progress at the stage's start."""
-        rates = np.diff(guess) / self.dt
+        rates = np.diff(guess) / self.durations
         moving = rates > 1e-9
         out = self.path.feedforward_rates
         np.divide(self.window.tick.twists_ref, rates[:, None], out=out, where=moving[:, None])
@@ -184,18 +188,25 @@ class PathProgress:
         jump in ``t`` (backwards, or more than two ticks)."""
         elapsed = None if self._previous_t is None else t - self._previous_t
         self._previous_t = t
-        if self._plan is None or elapsed is None or not 0.0 < elapsed <= 2.0 * self.dt:
+        self._elapsed = elapsed
+        if self._plan is None or elapsed is None or not 0.0 < elapsed <= 2.0 * self.tick:
+            self._elapsed = None
             return t_plan
         return min(float(np.interp(elapsed, self.offsets, self._plan)), t_plan)
 
     def _guess(self, start: float, t_plan: float) -> FloatArray:
         """Stage times to sample at: the last plan shifted to ``start`` (or on time), kept
         non-decreasing, within the rate limit and never ahead of ``t_plan + k dt``."""
-        if self._plan is None:
-            steps = np.full(self.offsets.size - 1, self.dt)
-        else:
-            steps = np.diff(self._plan)
-            steps[:-1] = steps[1:]  # shifted one stage, the last step repeated
-        np.clip(steps, 0.0, self.max_rate * self.dt, out=steps)
+        if self._plan is None or self._elapsed is None:
+            steps = self.durations.copy()
+        else:  # the plan read on from now, its last rate held past its end
+            offsets, plan = self.offsets, self._plan
+            times = self._elapsed + offsets
+            moved = np.interp(times, offsets, plan)
+            beyond = times > offsets[-1]
+            last_rate = (plan[-1] - plan[-2]) / self.durations[-1]
+            moved[beyond] = plan[-1] + last_rate * (times[beyond] - offsets[-1])
+            steps = np.diff(moved)
+        np.clip(steps, 0.0, self.max_rate * self.durations, out=steps)
         guess = start + np.concatenate(([0.0], np.cumsum(steps)))
         return np.minimum(guess, t_plan + self.offsets)

@@ -24,8 +24,9 @@ from mpc.arrays import FloatArray
 SMALL_ROTATION = 1e-3
 
 
-def twist_integral(pose: ca.SX, twist: ca.SX, dt: float) -> ca.SX:
-    """Pose after driving a constant body twist for ``dt`` seconds (CasADi)."""
+def twist_integral(pose: ca.SX, twist: ca.SX, dt: float | ca.SX) -> ca.SX:
+    """Pose after driving a constant body twist for ``dt`` seconds (CasADi; ``dt`` may be
+    symbolic)."""
     angle = twist[2] * dt
     small = ca.fabs(angle) < SMALL_ROTATION
     safe = ca.if_else(small, 1.0, angle)  # never divide by ~0, even in the unused branch

@@ -1,7 +1,10 @@
 """The tracking problem in CasADi: one model, used by both solvers.
 
 - State ``x = (px, py, theta)`` (world pose), input ``u = (vx, vy, omega)``
-  (body twist, held constant over a tick of ``dt`` seconds).
+  (body twist, held constant over a stage). Stage 0 lasts one control tick,
+  the others ``dt`` seconds (:attr:`TrackingModel.durations`): longer stages
+  look further ahead for the same work a tick, and the first twist, the one
+  sent, still covers exactly the next tick.
 - Dynamics: the exact SE(2) integral of a constant body twist (:mod:`.se2`).
 - Cost (:class:`~mpc.model.weights.Weights`) over the decision vector ``z``
   and the parameter vector ``p`` of :func:`~mpc.model.layout.tracking_layouts`.
@@ -36,22 +39,29 @@ class TrackingModel:
     Args:
         robot: the drive layout (its wheel maps give the limits).
         horizon: number of control intervals ``N`` >= 1.
-        dt: control interval [s].
+        dt: duration of stages 1 .. N-1 of the plan [s].
         weights: cost weights.
         path: path mode: the progress ``s_k`` along the reference is a decision
             variable (see :mod:`mpc.model.layout`), the pose error is measured against
             the reference at ``s_k``, expanded around the sampled ``sbar_k``.
-        max_progress_rate: path mode, the progress rate ``(s_{k+1} - s_k) / dt`` lies in
+        max_progress_rate: path mode, the progress rate ``(s_{k+1} - s_k) / h_k`` lies in
             ``[0, max_progress_rate]``: never backwards, catching up at most this fast.
+        tick: the control interval [s], <= ``dt`` (default ``dt``): the duration of
+            stage 0, and the time from the last command to the plan's first twist.
 
     Attributes:
+        durations: ``h_k``, each stage's duration (N,) [s]: ``(tick, dt, ..., dt)``.
+        offsets: each stage's start from the plan's start (N+1,) [s] (the last: the end).
+        change_times: the time from ``u_{k-1}`` to ``u_k`` (N,) [s], what an acceleration
+            limit allows a change over: ``(tick, h_0, ..., h_{N-2})``.
         layouts: the named layouts of ``z`` and ``p``.
-        dynamics: ``x_next = dynamics(x, u)``.
-        linearization: mapped over the N stages, ``(x_k, u_k) -> (c_k, vec A_k, vec B_k)``
+        flow: ``x_next = flow(x, u, h)``, the pose after ``h`` seconds.
+        dynamics: ``x_next = dynamics(x, u)``, one stage of ``dt``.
+        linearization: over the N stages, ``(x_k, u_k) -> (c_k, vec A_k, vec B_k)``
             (21 rows a stage, vec column-major) with ``x+ ~ A x + B u + c``.
         reference_terms: ``(poses (3 x N+1), velocities (3 x N+1)) -> (feedforward (3 x N),
             directions (2 x N+1))``: the SE(2) logarithm between consecutive reference
-            poses over ``dt`` (so a robot on the reference stays on it under the discrete
+            poses over ``h_k`` (so a robot on the reference stays on it under the discrete
             model) and the unit directions of travel, fading to 0 when the reference stops.
         rollout: ``(x0 (3), u (3 x N)) -> (x (3 x N+1), vec B_k (9 x N))``: the poses the
             twists drive the model through from ``x0``, and ``B_k = df/du`` along them.
@@ -64,40 +74,64 @@ class TrackingModel:
     weights: Weights
     path: bool = False
     max_progress_rate: float = 2.0
+    tick: float | None = None
     layouts: TrackingLayouts = field(init=False)
     dynamics: ca.Function = field(init=False)
     linearization: ca.Function = field(init=False)
     rollout: ca.Function = field(init=False)
     reference_terms: ca.Function = field(init=False)
     rate_matrix: FloatArray = field(init=False)
+    durations: FloatArray = field(init=False)
+    offsets: FloatArray = field(init=False)
+    change_times: FloatArray = field(init=False)
+    flow: ca.Function = field(init=False)
 
     def __post_init__(self) -> None:
+        n = self.horizon
+        tick = self.dt if self.tick is None else self.tick
+        if not 0.0 < tick <= self.dt:
+            raise ValueError(f"tick must be in (0, dt = {self.dt}], got {tick}")
+        self.tick = tick
+        self.durations = np.full(n, self.dt)
+        self.durations[0] = tick
+        if tick == self.dt:
+            self.offsets = self.dt * np.arange(n + 1.0)  # k dt exactly, as sampled elsewhere
+        else:
+            self.offsets = np.concatenate(([0.0], tick + self.dt * np.arange(n)))
+        self.change_times = np.concatenate(([tick], self.durations[:-1]))
+        for array in (self.durations, self.offsets, self.change_times):
+            array.setflags(write=False)
         steered = self.robot.n_wheels if self.robot.steered else 0
-        self.layouts = tracking_layouts(self.horizon, self.path, steered)
-        pose, twist = ca.SX.sym("x", 3), ca.SX.sym("u", 3)
-        following = twist_integral(pose, twist, self.dt)
-        self.dynamics = ca.Function("dynamics", [pose, twist], [following], ["x", "u"], ["x_next"])
+        self.layouts = tracking_layouts(n, self.path, steered)
+        pose, twist, h = ca.SX.sym("x", 3), ca.SX.sym("u", 3), ca.SX.sym("h")
+        following = twist_integral(pose, twist, h)
+        self.flow = ca.Function("flow", [pose, twist, h], [following], ["x", "u", "h"],
+                                ["x_next"])
+        self.dynamics = ca.Function("dynamics", [pose, twist], [self.flow(pose, twist, self.dt)],
+                                    ["x", "u"], ["x_next"])
         wrt_pose = ca.jacobian(following, pose)
         wrt_twist = ca.jacobian(following, twist)
         offset = following - wrt_pose @ pose - wrt_twist @ twist
         stage = ca.Function(
-            "stage_linearization", [pose, twist],
+            "stage_linearization", [pose, twist, h],
             [ca.densify(ca.vertcat(offset, ca.vec(wrt_pose), ca.vec(wrt_twist)))])
-        self.linearization = stage.map(self.horizon)
-        sensitivity = ca.Function("input_sensitivity", [pose, twist],
-                                  [ca.densify(ca.vec(wrt_twist))]).map(self.horizon)
-        start, inputs = ca.SX.sym("x0", 3), ca.SX.sym("u", 3, self.horizon)
-        poses = ca.horzcat(start, self.dynamics.mapaccum(self.horizon)(start, inputs))
+        hs = ca.DM(self.durations).T
+        poses, inputs = ca.SX.sym("x", 3, n), ca.SX.sym("u", 3, n)
+        self.linearization = ca.Function("linearization", [poses, inputs],
+                                         [stage.map(n)(poses, inputs, hs)])
+        sensitivity = ca.Function("input_sensitivity", [pose, twist, h],
+                                  [ca.densify(ca.vec(wrt_twist))]).map(n)
+        start = ca.SX.sym("x0", 3)
+        poses = ca.horzcat(start, self.flow.mapaccum(n)(start, inputs, hs))
         self.rollout = ca.Function("rollout", [start, inputs],
-                                   [poses, sensitivity(poses[:, :-1], inputs)],
+                                   [poses, sensitivity(poses[:, :-1], inputs, hs)],
                                    ["x0", "u"], ["x", "B"])
-        n = self.horizon
         poses, velocities = ca.SX.sym("poses", 3, n + 1), ca.SX.sym("velocities", 3, n + 1)
         planar = velocities[:2, :]
         scale = ca.sqrt(ca.sum1(planar**2) + DIRECTION_SPEED**2)
         self.reference_terms = ca.Function(
             "reference_terms", [poses, velocities],
-            [ca.densify(twist_logarithm(poses[:, :-1], poses[:, 1:], self.dt)),
+            [ca.densify(twist_logarithm(poses[:, :-1], poses[:, 1:], 1.0) / ca.repmat(hs, 3, 1)),
              ca.densify(planar / ca.repmat(scale, 2, 1))],
             ["poses", "velocities"], ["feedforward", "directions"])
         gram = self.robot.module_velocity_gram()
@@ -132,7 +166,7 @@ class TrackingModel:
         if not self.path:
             return ca.SX(0)
         progress = self.layouts.variables.symbol(z, "progress")
-        rates = (progress[1:] - progress[:-1]) / self.dt
+        rates = (progress[1:] - progress[:-1]) / ca.DM(self.durations)
         # Pull every stage's rate towards the fastest allowed: a push that does not fade
         # along the horizon, with curvature (unlike a linear reward, which leaves the QP
         # flat along the path and slow for a first-order solver).
@@ -169,20 +203,34 @@ class TrackingModel:
         total = ca.SX(0)
         if self.path:  # the feedforward at the planned progress rate, not the sampled one
             progress = variables.symbol(z, "progress")
-            rates = ca.repmat(((progress[1:] - progress[:-1]) / self.dt).T, 3, 1)
+            rates = ca.repmat(((progress[1:] - progress[:-1]) / ca.DM(self.durations)).T, 3, 1)
             twists_ref = parameters.symbol(p, "feedforward_rates") * rates
         for k in range(self.horizon):
             if k > 0:
                 total += pose_cost(k, weights.pose)
             deviation = twists[:, k] - twists_ref[:, k]
-            change = twists[:, k] - (last if k == 0 else twists[:, k - 1])
+            change = (twists[:, k] - (last if k == 0 else twists[:, k - 1])
+                      - self._reference_change(twists_ref, k))
             total += ca.bilin(r, deviation, deviation) + ca.bilin(s, change, change)
         return total + pose_cost(self.horizon, weights.terminal) + self.progress_cost(z, p)
+
+    def _reference_change(self, twists_ref: ca.SX, k: int) -> ca.SX:
+        """The reference's own change of twist into stage ``k`` (what the rate terms do not
+        penalise: a robot on the reference pays nothing for following its turns). For
+        ``k = 0`` the change from the previous tick, extrapolated from stages 0 and 1."""
+        if k > 0:
+            return twists_ref[:, k] - twists_ref[:, k - 1]
+        if self.horizon < 2:
+            return ca.SX.zeros(3)
+        middles = self.offsets[:-1] + 0.5 * self.durations
+        slope = float(self.durations[0] / (middles[1] - middles[0]))
+        return slope * (twists_ref[:, 1] - twists_ref[:, 0])
 
     def shooting_gaps(self, z: ca.SX, p: ca.SX) -> ca.SX:
         """``(x_0 - x0, x_{k+1} - f(x_k, u_k))`` stacked: zero on a consistent plan."""
         variables, parameters = self.layouts
         poses, twists = variables.symbol(z, "poses"), variables.symbol(z, "twists")
-        following = self.dynamics.map(self.horizon)(poses[:, :-1], twists)
+        following = self.flow.map(self.horizon)(poses[:, :-1], twists,
+                                                ca.DM(self.durations).T)
         return ca.vertcat(poses[:, 0] - parameters.symbol(p, "x0"),
                           ca.vec(poses[:, 1:] - following))

@@ -43,10 +43,12 @@ class Weights:
     """Diagonal weights of the cost (a scalar applies to all three axes).
 
     ``J = sum_k |x_k - xref_k|^2_pose - (1 - along_track) min(pose_x, pose_y) (t_k . e_k)^2
-    + |u_k - uref_k|^2_twist + |u_k - u_{k-1}|^2_rate
-    + module_rate * sum_i |v_i,k - v_i,k-1|^2 + (the same pose terms at N with terminal)``
-
-    where ``e_k`` is the position error and ``t_k`` the reference's unit
+    + |u_k - uref_k|^2_twist + |du_k|^2_rate
+    + module_rate * sum_i |G_i du_k|^2 + (the same pose terms at N with terminal)``
+    with ``du_k = (u_k - u_{k-1}) - (uref_k - uref_{k-1})``, the change of twist beyond
+    the reference's own (so a robot on the reference pays no rate cost for following its
+    turns; into stage 0 the reference's change is extrapolated from stages 0 and 1) and
+    ``G_i`` swerve module ``i``'s ground-velocity map, where ``e_k`` is the position error and ``t_k`` the reference's unit
     direction of travel. With ``along_track < 1`` falling behind the
     reference costs less than leaving its path.
 
@@ -61,13 +63,14 @@ class Weights:
     Attributes:
         pose: on (x, y, theta) error [1/m^2, 1/m^2, 1/rad^2].
         twist: on the deviation from the feedforward twist [s^2/m^2, s^2/m^2, s^2/rad^2].
-        rate: on the change of twist between ticks (same units as ``twist``).
+        rate: on the change of twist between stages beyond the reference's own change
+            (same units as ``twist``).
         terminal: on the pose error at the end of the horizon.
         along_track: factor in [0, 1] on the position weight along the
             reference's direction of travel (1 = isotropic).
         module_rate: swerve only, on the change of each module's ground
-            velocity between ticks [s^2/m^2]; it keeps steering motions
-            smooth enough for a rate-limited steering motor.
+            velocity between stages beyond the reference's own [s^2/m^2]; it keeps
+            steering motions smooth enough for a rate-limited steering motor.
         progress: path mode, pull of every stage's progress rate towards the fastest
             allowed [1]: keeps the robot driving at the pace its wheels allow along the
             whole horizon.

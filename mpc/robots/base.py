@@ -239,12 +239,12 @@ class Robot(abc.ABC):
         """``(g, lower, upper)`` with ``lower <= g <= upper`` iff ``||W_i twist|| <= bounds[i]``
         for every wheel, exactly (the NLP's constraint)."""
 
-    def stage_limits(self, horizon: int, dt: float, polygon_sides: int) -> StageLimits:
-        """The QP's limit rows for a plan of ``horizon`` stages of ``dt`` seconds (see
-        :mod:`mpc.robots.limits`). Default: the constant rows of :meth:`qp_speed_rows` on
-        every twist and every change of twist."""
+    def stage_limits(self, change_times: FloatArray, polygon_sides: int) -> StageLimits:
+        """The QP's limit rows for a plan whose twist ``u_k`` follows ``u_{k-1}`` by
+        ``change_times[k]`` [s] (N,) (see :mod:`mpc.robots.limits`). Default: the constant
+        rows of :meth:`qp_speed_rows` on every twist and every change of twist."""
         return linear_stage_limits(self.qp_speed_rows(polygon_sides), self.max_wheel_speed,
-                                   self.max_wheel_accel, horizon, dt)
+                                   self.max_wheel_accel, change_times)
 
     def update_stage_limits(self, limits: StageLimits, guess: FloatArray, last: FloatArray,
                             steer_angles: FloatArray | None) -> None:
@@ -253,10 +253,12 @@ class Robot(abc.ABC):
         return None
 
     def nlp_stage_limits(self, twists: ca.SX, last: ca.SX, steer_angles: ca.SX | None,
-                         dt: float) -> tuple[list[ca.SX], list[FloatArray], list[FloatArray]]:
+                         change_times: FloatArray
+                         ) -> tuple[list[ca.SX], list[FloatArray], list[FloatArray]]:
         """The NLP's exact limits on every stage's twist (``twists`` 3 x N, ``last`` 3,
-        ``steer_angles`` the present ones for steered wheels): lists of ``(g, lower,
-        upper)``. Default: :meth:`casadi_limits` on every twist and every change."""
+        ``steer_angles`` the present ones for steered wheels, ``u_k`` following ``u_{k-1}``
+        by ``change_times[k]`` [s]): lists of ``(g, lower, upper)``. Default:
+        :meth:`casadi_limits` on every twist and every change."""
         accel = self.max_wheel_accel
         values: list[ca.SX] = []
         lower: list[FloatArray] = []
@@ -265,7 +267,7 @@ class Robot(abc.ABC):
             change = twists[:, k] - (last if k == 0 else twists[:, k - 1])
             pairs = [(twists[:, k], self.max_wheel_speed)]
             if accel is not None:
-                pairs.append((change, accel * dt))
+                pairs.append((change, accel * float(change_times[k])))
             for twist, bound in pairs:
                 value, low, high = self.casadi_limits(twist, bound)
                 values.append(value)

@@ -4,6 +4,10 @@ For stage ``k`` of a plan of twists ``u_0 .. u_{N-1}`` (``u_{-1}``: the last com
 
     lower[k] <= now[k] @ u_k + before[k] @ u_{k-1} <= upper[k]        (m rows a stage)
 
+An acceleration limit bounds the change ``u_k - u_{k-1}`` over ``change_times[k]``, the
+time between the two twists' starts (one control tick for ``k = 0``, see
+:attr:`mpc.model.tracking.TrackingModel.change_times`).
+
 A robot whose rows never change (Swedish wheels, balls: speed rows ``C`` and
 acceleration rows ``C (u_k - u_{k-1})``) fills them once. A robot whose exact
 limits are not linear (a swerve module's speed disk, its steering rate)
@@ -43,7 +47,7 @@ class StageLimits:
         before: coefficients on ``u_{k-1}`` (N, m, 3).
         lower, upper: bounds (N, m) [rad/s]; +-inf where a row is off this tick.
         constant: the values never change after set-up.
-        dt: the plan's tick [s].
+        change_times: time from ``u_{k-1}`` to ``u_k`` (N,) [s].
         changed: whether the last refill changed any row (the solvers skip the update
             when not).
         memory: whatever the robot keeps between refills.
@@ -54,7 +58,7 @@ class StageLimits:
     lower: FloatArray
     upper: FloatArray
     constant: bool
-    dt: float
+    change_times: FloatArray
     changed: bool = True
     memory: dict[str, FloatArray] = field(default_factory=dict)
 
@@ -69,9 +73,10 @@ class StageLimits:
 
 
 def linear_stage_limits(speed: SpeedRows, max_speed: FloatArray, max_accel: FloatArray | None,
-                        horizon: int, dt: float) -> StageLimits:
+                        change_times: FloatArray) -> StageLimits:
     """Constant rows from linear speed rows ``|C u| <= scale * max_speed[wheel]`` and, with
-    acceleration limits, ``|C (u_k - u_{k-1})| <= scale * max_accel[wheel] * dt``."""
+    acceleration limits, ``|C (u_k - u_{k-1})| <= scale * max_accel[wheel] * change_times[k]``."""
+    horizon = len(change_times)
     rows = speed.rows
     speed_bound = speed.scale * max_speed[speed.wheel]
     now, before = [rows], [np.zeros_like(rows)]
@@ -79,12 +84,13 @@ def linear_stage_limits(speed: SpeedRows, max_speed: FloatArray, max_accel: Floa
     if max_accel is not None:
         now.append(rows)
         before.append(-rows)
-        bounds.append(speed.scale * max_accel[speed.wheel] * dt)
+        bounds.append(speed.scale * max_accel[speed.wheel])  # per second: times below
     stage_now = np.concatenate(now)
     stage_before = np.concatenate(before)
-    bound = np.concatenate(bounds)
+    bound = np.tile(np.concatenate(bounds), (horizon, 1))
+    bound[:, speed_bound.size:] *= np.asarray(change_times, dtype=float)[:, None]
     return StageLimits(
         now=np.broadcast_to(stage_now, (horizon, *stage_now.shape)).copy(),
         before=np.broadcast_to(stage_before, (horizon, *stage_before.shape)).copy(),
-        lower=np.tile(-bound, (horizon, 1)), upper=np.tile(bound, (horizon, 1)),
-        constant=True, dt=dt)
+        lower=-bound, upper=bound, constant=True,
+        change_times=np.array(change_times, dtype=float))

@@ -257,8 +257,9 @@ class SwerveRobot(Robot):
         return WheelCommands(speeds, np.where(waiting, stepped, angles))
 
     def nlp_stage_limits(self, twists: ca.SX, last: ca.SX, steer_angles: ca.SX | None,
-                         dt: float) -> tuple[list[ca.SX], list[FloatArray], list[FloatArray]]:
-        return nlp_stage_limits(self, twists, last, steer_angles, dt)
+                         change_times: FloatArray
+                         ) -> tuple[list[ca.SX], list[FloatArray], list[FloatArray]]:
+        return nlp_stage_limits(self, twists, last, steer_angles, change_times)
 
     def module_velocity_gram(self) -> FloatArray:
         ground = self.ground_maps()

@@ -31,11 +31,12 @@ if TYPE_CHECKING:
 
 
 def nlp_stage_limits(robot: SwerveRobot, twists: ca.SX, last: ca.SX, steer_angles: ca.SX | None,
-                     dt: float) -> tuple[list[ca.SX], list[FloatArray], list[FloatArray]]:
-    """The exact limits for the NLP (squared forms; see the module docstring)."""
+                     change_times: FloatArray
+                     ) -> tuple[list[ca.SX], list[FloatArray], list[FloatArray]]:
+    """The exact limits for the NLP (squared forms; see the module docstring), ``u_k``
+    following ``u_{k-1}`` by ``change_times[k]`` [s] (the ``dt`` of the module docstring)."""
     blocks = [ca.DM(block) for block in robot.wheel_blocks]
     speed, accel = robot.max_wheel_speed, robot.max_wheel_accel
-    sine2 = math.sin(min(robot.max_steer_rate * dt, math.pi / 2)) ** 2
     values: list[ca.SX] = []
     lower: list[FloatArray] = []
     upper: list[FloatArray] = []
@@ -50,9 +51,11 @@ def nlp_stage_limits(robot: SwerveRobot, twists: ca.SX, last: ca.SX, steer_angle
             v = block @ twists[:, k]
             w = block @ (last if k == 0 else twists[:, k - 1])
             add(ca.sumsqr(v), float(speed[i]) ** 2)
+            dt = float(change_times[k])
             if accel is not None:
                 add(ca.sumsqr(v - w), float(accel[i] * dt) ** 2)
             if k > 0:
+                sine2 = math.sin(min(robot.max_steer_rate * dt, math.pi / 2)) ** 2
                 cross = v[0] * w[1] - v[1] * w[0]
                 add(cross**2 - sine2 * ca.sumsqr(v) * ca.sumsqr(w), 0.0)
     return values, lower, upper

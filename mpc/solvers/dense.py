@@ -65,7 +65,7 @@ class DenseSolver:
                  time_limit: float = 0.0) -> None:
         self.model = model
         n = model.horizon
-        self.limits = model.robot.stage_limits(n, model.dt, polygon_sides)
+        self.limits = model.robot.stage_limits(model.change_times, polygon_sides)
         structure = assemble_qp(model, self.limits)
         self.structure = structure
         self.condenser = Condenser(model, structure)

@@ -52,7 +52,8 @@ class NlpSolver:
         steer = (parameters.symbol(p, "steer_angles") if "steer_angles" in parameters.fields
                  else None)
         g, low, high = model.robot.nlp_stage_limits(
-            variables.symbol(z, "twists"), parameters.symbol(p, "last_twist"), steer, model.dt)
+            variables.symbol(z, "twists"), parameters.symbol(p, "last_twist"), steer,
+            model.change_times)
         constraints += g
         lower += low
         upper += high
@@ -60,7 +61,7 @@ class NlpSolver:
             progress = variables.symbol(z, "progress")
             constraints.append(progress[1:] - progress[:-1])
             lower.append(np.zeros(model.horizon))
-            upper.append(np.full(model.horizon, model.max_progress_rate * model.dt))
+            upper.append(model.max_progress_rate * model.durations)
         problem = {"x": z, "p": p, "f": model.cost(z, p, exact=True),
                    "g": ca.vertcat(*constraints)}
         options: dict[str, Any] = {

@@ -107,10 +107,10 @@ class QpSolver:
     profile: TickProfile | None = None
 
     def __init__(self, model: TrackingModel, polygon_sides: int = 16, max_iter: int = 500,
-                 time_limit: float = 0.0, tolerance: float = 1e-4,
+                 time_limit: float = 0.0, tolerance: float = 1e-5,
                  use_extension: bool = True) -> None:
         self.model = model
-        self.limits = model.robot.stage_limits(model.horizon, model.dt, polygon_sides)
+        self.limits = model.robot.stage_limits(model.change_times, polygon_sides)
         self.structure = structure = assemble_qp(model, self.limits)
         n = model.horizon
         self._p_data = structure.hessian.data.copy()

@@ -7,7 +7,7 @@
 
 and, in path mode, ``lower_k <= s_k <= upper_k`` (filled each tick: ``s_0``
 fixed, a trust region around the sampled progress, never ahead of the
-reference's own timing) and ``0 <= s_{k+1} - s_k <= max_progress_rate dt``,
+reference's own timing) and ``0 <= s_{k+1} - s_k <= max_progress_rate h_k``,
 with ``z`` laid out as in :mod:`mpc.model.layout`. ``P`` and ``q`` are the
 CasADi cost's Hessian (upper triangle; CasADi's CCS order is OSQP's CSC
 order) and its gradient at ``z = 0`` (the cost is quadratic in ``z``),
@@ -170,7 +170,7 @@ def assemble_qp(model: TrackingModel, limits: StageLimits) -> QpStructure:
         pattern.add(rate_rows, column[1:], 1.0)
         pattern.add(rate_rows, column[:-1], -1.0)
         lower += [np.zeros(n + 1), np.zeros(n)]
-        upper += [np.zeros(n + 1), np.full(n, model.max_progress_rate * model.dt)]
+        upper += [np.zeros(n + 1), model.max_progress_rate * model.durations]
         blocks += [(m_rows, 1, n + 1), (m_rows + n + 1, 1, n)]
         m_rows += 2 * n + 1
     matrix, position = pattern.to_csc((m_rows, variables.size))
