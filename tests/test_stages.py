@@ -13,8 +13,8 @@ import pytest
 from closed_loop import DT, Loop, too_fast_circle
 
 from mpc import Controller, ControllerError
-from mpc.control.warm_start import shift_maps
 from mpc.model import TickInput, TrackingModel, Weights
+from mpc.model.grid import shift_maps
 from mpc.model.se2 import integrate
 from mpc.robots import preset
 from mpc.solvers import SolveResult

@@ -48,9 +48,9 @@ class Weights:
     with ``du_k = (u_k - u_{k-1}) - (uref_k - uref_{k-1})``, the change of twist beyond
     the reference's own (so a robot on the reference pays no rate cost for following its
     turns; into stage 0 the reference's change is extrapolated from stages 0 and 1) and
-    ``G_i`` swerve module ``i``'s ground-velocity map, where ``e_k`` is the position error and ``t_k`` the reference's unit
-    direction of travel. With ``along_track < 1`` falling behind the
-    reference costs less than leaving its path.
+    ``G_i`` swerve module ``i``'s ground-velocity map, where ``e_k`` is the position
+    error and ``t_k`` the reference's unit direction of travel. With ``along_track < 1``
+    falling behind the reference costs less than leaving its path.
 
     Path mode (``Controller(mode="path")``) measures the pose error against the
     reference at the planned progress ``s_k`` instead of at ``t + k dt`` and adds
