@@ -54,13 +54,13 @@ def test_a_feasible_reference_is_tracked_in_time_as_in_time_mode(
         solver: str, trajectory_name: str) -> None:
     """On a feasible reference, with the robot already moving with it: the progress stays
     on the clock (no lag: the pull on progress holds it at its bound) and the tracking is
-    that of time mode (both to micrometres; the commands differ by at most 2 mm/s, as
-    path mode weighs the error across the path more)."""
+    that of time mode on the same stages (both to micrometres; the commands differ by at
+    most 2 mm/s, as path mode weighs the error across the path more)."""
     robot, trajectory = preset("mecanum"), inside_limits()[trajectory_name]
     moving = trajectory.body_twist(0.5 * DT)
     commands = {}
     for mode in ("time", "path"):
-        controller = Controller(robot, trajectory, solver=solver, mode=mode)
+        controller = Controller(robot, trajectory, solver=solver, mode=mode, stage_dt=DT)
         controller.reset(last_twist=moving)
         loop = Loop(controller, trajectory.sample(0.0).pose)
         loop.last = moving
