@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from mpc.arrays import FloatArray
 
@@ -72,22 +73,65 @@ def turns(robot: SwerveRobot, velocities: FloatArray, steer_angles: FloatArray) 
 
 def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
                       steer_angles: FloatArray, dt: float) -> float:
-    """The largest ``f`` in [0, 1] such that ``last + f (target - last)`` turns no module
-    by more than ``max_steer_rate dt`` from its present angle (bisection; 1 if the
-    target itself does not)."""
+    """The largest ``f`` in [0, 1] such that every point of ``last + g (target - last)``,
+    ``0 <= g <= f``, turns no module by more than ``max_steer_rate dt`` from its present
+    angle (1 if the whole step does; 0 if ``last`` itself does not).
+
+    Closed form: along the step a module's velocity ``a + g b`` is a line, so with ``u``
+    its present direction the bound ``|u x v| <= tan(reach) |u . v|`` (a double cone: the
+    flip rule) changes sign only where ``u x v = +-tan(reach) u . v`` (linear in ``g``) or
+    where the module's speed crosses the stopped threshold (a module at rest turns by 0):
+    the answer is one of those roots, checked at all of them and between them at once.
+    """
     reach = robot.max_steer_rate * dt * (1.0 - 1e-9)
     blocks = robot.wheel_blocks
+    start = blocks @ last  # (n, 2)
+    change = blocks @ (target - last)
 
-    def fits(fraction: float) -> bool:
-        velocities = blocks @ (last + fraction * (target - last))
-        return bool(np.all(turns(robot, velocities, steer_angles) <= reach))
+    def fits(fractions: FloatArray) -> npt.NDArray[np.bool_]:
+        velocities = start[None] + fractions[:, None, None] * change[None]  # (K, n, 2)
+        angle = np.arctan2(velocities[..., 1], velocities[..., 0])
+        turn = np.abs(np.mod(angle - steer_angles + math.pi / 2, math.pi) - math.pi / 2)
+        moving = np.hypot(velocities[..., 0], velocities[..., 1]) * robot.wheel_radius > 1e-6
+        return np.all(~moving | (turn <= reach), axis=1)
 
-    if fits(1.0):
+    ends = fits(np.array([0.0, 1.0]))
+    if ends[1]:
         return 1.0
-    low, high = 0.0, 1.0
-    if not fits(low):  # the last command itself is out of line (e.g. after a reset)
+    if not ends[0]:  # the last command itself is out of line (e.g. after a reset)
         return 0.0
-    for _ in range(30):
-        middle = 0.5 * (low + high)
-        low, high = (middle, high) if fits(middle) else (low, middle)
-    return low
+    # The roots a hair inside the limits, so that rounding cannot push them out.
+    roots = _turn_roots(start, change, steer_angles, reach * (1.0 - 1e-7),
+                        1e-6 / robot.wheel_radius * (1.0 - 1e-6))
+    points = np.unique(np.concatenate(([0.0, 1.0], roots[(roots > 0.0) & (roots < 1.0)])))
+    middles = 0.5 * (points[:-1] + points[1:])
+    order = np.empty(2 * points.size - 1)
+    order[0::2], order[1::2] = points, middles
+    good = fits(order)
+    first_bad = int(np.argmin(good))  # good[0] holds: 0 fits
+    return float(order[first_bad - 1])
+
+
+def _turn_roots(start: FloatArray, change: FloatArray, steer_angles: FloatArray, reach: float,
+                stopped: float) -> FloatArray:
+    """Fractions ``g`` where a module's velocity ``start + g change`` (n, 2) meets the edge
+    of its steering cone (half-angle ``reach`` about its angle, both ways) or the stopped
+    speed ``stopped`` [rad/s]."""
+    u = np.stack((np.cos(steer_angles), np.sin(steer_angles)), axis=1)
+    c0 = u[:, 0] * start[:, 1] - u[:, 1] * start[:, 0]
+    c1 = u[:, 0] * change[:, 1] - u[:, 1] * change[:, 0]
+    d0 = np.einsum("nd,nd->n", u, start)
+    d1 = np.einsum("nd,nd->n", u, change)
+    slope = math.tan(reach)
+    roots = []
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for sign in (1.0, -1.0):  # c0 + c1 g = sign * slope * (d0 + d1 g)
+            roots.append((sign * slope * d0 - c0) / (c1 - sign * slope * d1))
+        # |start + g change|^2 = stopped^2
+        a = np.einsum("nd,nd->n", change, change)
+        b = 2.0 * np.einsum("nd,nd->n", start, change)
+        c = np.einsum("nd,nd->n", start, start) - stopped**2
+        root = np.sqrt(b * b - 4.0 * a * c)
+        roots += [(-b - root) / (2.0 * a), (-b + root) / (2.0 * a)]
+    found = np.concatenate(roots)
+    return found[np.isfinite(found)]

@@ -1,0 +1,77 @@
+"""Swerve steering rate in the final clamp: the closed-form steering fraction against a brute
+force search, and commands that never turn a module faster than its steering motor."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mpc.control.clamp import clamp_command
+from mpc.robots import SwerveRobot, preset
+from mpc.robots.swerve_limits import steering_fraction, turns
+
+DT = 0.05
+
+
+def swerve_robot() -> SwerveRobot:
+    robot = preset("swerve")
+    assert isinstance(robot, SwerveRobot)
+    return robot
+
+
+def brute_force(robot: SwerveRobot, last: np.ndarray, target: np.ndarray,
+                angles: np.ndarray) -> float:
+    """1 if the target fits, else the end of the first run of fitting points from 0 on a
+    grid of 20001 fractions (only the command sent must fit, not the way to it)."""
+    reach = robot.max_steer_rate * DT
+    if np.all(turns(robot, robot.wheel_blocks @ target, angles) <= reach):
+        return 1.0
+    grid = np.linspace(0.0, 1.0, 20001)
+    for k, fraction in enumerate(grid):
+        velocities = robot.wheel_blocks @ (last + fraction * (target - last))
+        if np.any(turns(robot, velocities, angles) > reach):
+            return float(grid[k - 1]) if k else 0.0
+    return 1.0
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_fraction_is_where_the_first_module_reaches_its_steering_limit(seed: int) -> None:
+    robot = swerve_robot()
+    rng = np.random.default_rng(seed)
+    last = rng.uniform(-1.5, 1.5, 3) * [1.0, 1.0, 2.0]
+    target = rng.uniform(-1.5, 1.5, 3) * [1.0, 1.0, 2.0]
+    if seed % 4 == 0:
+        last[:] = 0.0  # from rest: every module may point anywhere
+    velocities = robot.wheel_blocks @ last
+    angles = np.arctan2(velocities[:, 1], velocities[:, 0]) + rng.uniform(-0.2, 0.2, 4)
+    fraction = steering_fraction(robot, last, target, angles, DT)
+    expected = brute_force(robot, last, target, angles)
+    assert 0.0 <= fraction <= 1.0
+    assert fraction == pytest.approx(expected, abs=1e-4)
+    # and it is safe: the module turns at that fraction are within one tick's steering
+    reach = robot.max_steer_rate * DT
+    chosen = robot.wheel_blocks @ (last + fraction * (target - last))
+    assert np.all(turns(robot, chosen, angles) <= reach * (1 + 1e-9))
+
+
+def test_clamped_commands_never_turn_a_module_too_fast() -> None:
+    """Random targets fed tick after tick: every command's modules turn at most
+    max_steer_rate * dt from the angles they were commanded before (flip rule)."""
+    robot = swerve_robot()
+    rng = np.random.default_rng(3)
+    last = np.zeros(3)
+    angles = robot.initial_steer_angles()
+    assert angles is not None
+    reach = robot.max_steer_rate * DT
+    for _ in range(300):
+        target = rng.uniform(-2.0, 2.0, 3) * [1.0, 1.0, 3.0]
+        twist, _ = clamp_command(robot, target, last, DT, angles)
+        speeds, new_angles = robot.wheel_commands(twist, angles, target, DT)
+        assert new_angles is not None
+        turn = np.abs(np.mod(new_angles - angles + math.pi / 2, math.pi) - math.pi / 2)
+        assert np.all(turn <= reach * (1 + 1e-6))
+        assert np.all(np.abs(speeds) <= robot.max_wheel_speed * (1 + 1e-9))
+        last = robot.forward_kinematics(speeds, new_angles)
+        angles = new_angles
