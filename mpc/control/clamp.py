@@ -12,6 +12,7 @@ import numpy as np
 
 from mpc.arrays import FloatArray
 from mpc.robots.base import Robot
+from mpc.robots.motor_limits import motor_step_fraction
 
 #: Relative slack under which a wheel counts as within its limit (rounding).
 _SPEED_SLACK = 1e-12
@@ -30,14 +31,18 @@ def clamp_command(
        every wheel's acceleration limit allows. Both ends lie in the convex
        speed-limit set, so the whole step does too.
 
-    3. Steering (steered wheels, given their present ``steer_angles``): step from
+    3. Motors (robots with dynamics): step from ``last`` only as far as every wheel stays
+       within its battery voltage and current limit and every contact within traction,
+       the wheels turning at ``last``'s speeds now
+       (:func:`~mpc.robots.motor_limits.motor_step_fraction`).
+    4. Steering (steered wheels, given their present ``steer_angles``): step from
        ``last`` only as far as no wheel turns faster than its steering rate
        (:meth:`~mpc.robots.Robot.steering_fraction`); a wheel that must turn
        before it can drive waits at rest while it turns.
 
     Returns the clamped twist and whether it differs from ``target``. If
     ``last`` itself breaks a speed limit (the limits were just derated),
-    acceleration cannot be honoured as well; the speed limits win.
+    acceleration and motor limits cannot be honoured as well; the speed limits win.
     """
     safe = target
     if robot.rest_projector is not None:
@@ -56,6 +61,11 @@ def clamp_command(
         if ratio > 1.0 and not (robot.wheel_magnitudes(last) - limit * (1 + 1e-9)
                                 ).max() > _SPEED_SLACK:
             safe = last + (1.0 - _SPEED_SLACK) / ratio * step
+    if robot.dynamics is not None and not (robot.wheel_magnitudes(last) - limit * (1 + 1e-9)
+                                           ).max() > _SPEED_SLACK:
+        fraction = motor_step_fraction(robot, last, safe, dt, steer_angles)
+        if fraction < 1.0:
+            safe = last + fraction * (safe - last)
     if steer_angles is not None:
         fraction = robot.steering_fraction(last, safe, steer_angles, dt)
         if fraction < 1.0:

@@ -46,6 +46,12 @@ class Command:
             (plus the known delay) in time mode, the progress along the path in path mode.
         lag: how far ``reference_time`` trails ``t`` plus the known delay [s] (0 in time
             mode; in path mode, > 0 while the robot is behind the reference's timing).
+        wheel_forces: robots with dynamics, the first step's planned drive force of each
+            wheel at the floor [N] (n,), signed like ``wheel_speeds``; else None.
+        motor_torques: the torque of each of a wheel's motors at its shaft [N m] (n,)
+            (wheel inertia included); else None.
+        motor_currents: the current of each of a wheel's motors [A] (n,), what a
+            torque-current mode takes; else None.
     """
 
     wheel_speeds: FloatArray
@@ -61,3 +67,6 @@ class Command:
     clamped: bool
     reference_time: float
     lag: float = 0.0
+    wheel_forces: FloatArray | None = None
+    motor_torques: FloatArray | None = None
+    motor_currents: FloatArray | None = None

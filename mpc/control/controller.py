@@ -22,6 +22,7 @@ from mpc.model.tracking import TrackingModel
 from mpc.model.weights import Weights, make_weights
 from mpc.profiling import TickProfile
 from mpc.robots.base import Robot
+from mpc.robots.motor_limits import first_step_feedforward
 from mpc.solvers import DenseSolver, NlpSolver, QpSolver, TrackingSolver
 from mpc.validation import (
     flag,
@@ -237,6 +238,7 @@ class Controller:
         speeds, self._steer = self.robot.wheel_commands(twist, self._steer, target, self.dt)
         if self._steer is not None:  # steered wheels at rest: the twist the wheels will drive
             twist = self.robot.forward_kinematics(speeds, self._steer)
+        feedforward = first_step_feedforward(self.robot, self._last, twist, self.dt, self._steer)
         self._last = twist
         self._delay.sent(twist)
         if profile is not None:
@@ -246,7 +248,17 @@ class Controller:
             predicted_poses=plan, status=status, solver_status=result.status,
             solve_time=result.solve_time, tick_time=time.perf_counter() - start,
             iterations=result.iterations, consecutive_failures=self._fallback.failures,
-            clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time)
+            clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time,
+            **_feedforward(feedforward))
+
+
+def _feedforward(values: tuple[FloatArray, FloatArray, FloatArray] | None
+                 ) -> dict[str, FloatArray]:
+    """``Command``'s motor feedforward fields (none without dynamics)."""
+    if values is None:
+        return {}
+    forces, torques, currents = values
+    return {"wheel_forces": forces, "motor_torques": torques, "motor_currents": currents}
 
 
 def _check_mode(mode: object, time_scaling: object) -> str:

@@ -7,11 +7,14 @@ orders: Mecanum FL, FR, RL, RR; omni counter-clockwise from
 balls ball by ball, the actuator about +x then the one about +y. A new
 wheel type is a :class:`Robot` subclass plus a factory passed to
 :func:`register`. Motors: :class:`DCMotor` (WPILib's DC motor model and
-presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel).
+presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel); :class:`RobotDynamics`
+(mass, motors, battery, traction) through :meth:`Robot.with_dynamics` adds motor-aware
+limits (:mod:`mpc.robots.motor_limits`); :func:`motor_preset` ships them per layout.
 """
 
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
-from mpc.robots.files import PRESETS, from_dict, load, preset
+from mpc.robots.dynamics import RobotDynamics, choreo_dynamics, dynamics
+from mpc.robots.files import PRESETS, from_dict, load, motor_preset, preset
 from mpc.robots.mobility import (
     Mobility,
     WheelSpec,
@@ -32,6 +35,7 @@ __all__ = [
     "PRESETS",
     "DCMotor",
     "Robot",
+    "RobotDynamics",
     "SpeedRows",
     "SphericalRobot",
     "SwedishRobot",
@@ -40,10 +44,13 @@ __all__ = [
     "SysIdMotor",
     "WheelCommands",
     "WheelSpec",
+    "choreo_dynamics",
+    "dynamics",
     "from_dict",
     "load",
     "mecanum",
     "mobility",
+    "motor_preset",
     "omni",
     "preset",
     "register",

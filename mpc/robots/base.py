@@ -24,8 +24,9 @@ factory registered with :func:`mpc.robots.register`.
 from __future__ import annotations
 
 import abc
+import dataclasses
 from dataclasses import dataclass, field
-from typing import ClassVar, NamedTuple
+from typing import TYPE_CHECKING, ClassVar, NamedTuple
 
 import casadi as ca
 import numpy as np
@@ -35,6 +36,9 @@ from mpc.arrays import BoolArray, FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.limits import SpeedRows, StageLimits, linear_stage_limits
 from mpc.validation import is_finite_number, is_integer
+
+if TYPE_CHECKING:
+    from mpc.robots.dynamics import RobotDynamics
 
 
 class WheelCommands(NamedTuple):
@@ -87,6 +91,9 @@ class Robot(abc.ABC):
 
     name: str = field(default="robot", kw_only=True)
     derating: tuple[float, ...] | None = field(default=None, kw_only=True)
+    #: Mass, motors, battery and traction (:mod:`mpc.robots.dynamics`): the solvers add
+    #: motor-aware limits (:mod:`mpc.robots.motor_limits`); None keeps the kinematic ones.
+    dynamics: RobotDynamics | None = field(default=None, kw_only=True)
 
     # Set by subclasses.
     wheel_blocks: FloatArray = field(init=False, repr=False)  # (n, d, 3) [rad/s per twist unit]
@@ -105,6 +112,7 @@ class Robot(abc.ABC):
         check_holonomic(flat, f"robot {self.name!r}")
         object.__setattr__(self, "_flat_pinv", readonly(np.linalg.pinv(flat)))
         if self.derating is None:
+            self._check_dynamics()
             return
         try:
             factors = np.asarray(self.derating, dtype=float)
@@ -123,6 +131,15 @@ class Robot(abc.ABC):
         if failed.size:
             projector = np.eye(3) - np.linalg.pinv(failed) @ failed
             object.__setattr__(self, "rest_projector", readonly(projector))
+        self._check_dynamics()
+
+    def _check_dynamics(self) -> None:
+        """With dynamics: the force map can be built (a supported wheel type whose wheels
+        carry the weight)."""
+        if self.dynamics is not None:
+            from mpc.robots.force_map import force_map
+
+            force_map(self)
 
     # ------------------------------------------------------------ description
     @property
@@ -343,3 +360,14 @@ class Robot(abc.ABC):
 
     @abc.abstractmethod
     def _with_derating(self, derating: tuple[float, ...]) -> Robot: ...
+
+    # ------------------------------------------------------------ dynamics
+    def with_dynamics(self, dynamics: RobotDynamics | None) -> Robot:
+        """A copy with ``dynamics`` (a :class:`~mpc.robots.dynamics.RobotDynamics`): the
+        solvers, the clamp and ``Command`` then respect and report the motors; None drops
+        them (kinematic limits only)."""
+        from mpc.robots.dynamics import RobotDynamics
+
+        if dynamics is not None and not isinstance(dynamics, RobotDynamics):
+            raise RobotError(f"dynamics must be a RobotDynamics or None, got {dynamics!r}")
+        return dataclasses.replace(self, dynamics=dynamics)

@@ -12,7 +12,8 @@ arguments of its factory::
     max_wheel_accel = 40.0      # [rad/s^2], optional
 
 ``type = "swedish"`` takes ``[[wheels]]`` tables with the fields of
-:class:`~mpc.robots.swedish.SwedishWheel`. Unknown keys are an error.
+:class:`~mpc.robots.swedish.SwedishWheel`. An optional ``[dynamics]`` table describes
+mass, motors, battery and traction (:mod:`mpc.robots.dynamics`). Unknown keys are an error.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from typing import Any
 
 from mpc.errors import RobotError
 from mpc.robots.base import Robot
+from mpc.robots.dynamics import dynamics_from_dict
 from mpc.robots.registry import robot_type
 
 if sys.version_info >= (3, 11):
@@ -41,7 +43,7 @@ def from_dict(description: Mapping[str, Any], source: str = "robot description")
     if not isinstance(description, Mapping):
         raise RobotError(f"{source}: expected a table of keys, got {type(description).__name__}")
     entry = robot_type(description.get("type"), source)
-    params = {k: v for k, v in description.items() if k != "type"}
+    params = {k: v for k, v in description.items() if k not in ("type", "dynamics")}
     unknown = sorted(set(params) - entry.keys - {"name"})
     if unknown:
         raise RobotError(
@@ -51,9 +53,14 @@ def from_dict(description: Mapping[str, Any], source: str = "robot description")
         raise RobotError(f"{source}: missing key(s) {missing} for type {entry.name!r}")
     params.setdefault("name", entry.name)
     try:
-        return entry.factory(**params)
+        robot = entry.factory(**params)
+        if "dynamics" in description:
+            robot = robot.with_dynamics(dynamics_from_dict(description["dynamics"], source))
+        return robot
     except RobotError as error:
-        raise RobotError(f"{source}: {error}") from None
+        message = str(error)
+        raise RobotError(message if message.startswith(source) else f"{source}: {message}"
+                         ) from None
 
 
 def load(path: str | Path) -> Robot:
@@ -80,3 +87,15 @@ def preset(name: str) -> Robot:
     folder = resources.files("mpc.robots").joinpath("presets")
     text = folder.joinpath(f"{name}.toml").read_text("utf-8")
     return from_dict(tomllib.loads(text), source=f"preset {name!r}")
+
+
+def motor_preset(name: str) -> Robot:
+    """A shipped robot with motors (``[dynamics]``) by layout name, one of :data:`PRESETS`:
+    the same wheel layout as :func:`preset`, with illustrative motors, mass and traction;
+    its speed limit is the motors' free speed and it has no acceleration limit (the
+    motor rows bound acceleration)."""
+    if name not in PRESETS:
+        raise RobotError(f"unknown robot preset {name!r}; expected one of {list(PRESETS)}")
+    folder = resources.files("mpc.robots").joinpath("presets")
+    text = folder.joinpath(f"{name}-motors.toml").read_text("utf-8")
+    return from_dict(tomllib.loads(text), source=f"motor preset {name!r}")

@@ -26,6 +26,7 @@ from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
+from mpc.robots.motor_limits import stage_limits, update_stage_limits
 from mpc.solvers.base import SolveResult
 from mpc.solvers.condensed import Condenser
 from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds
@@ -65,7 +66,7 @@ class DenseSolver:
                  time_limit: float = 0.0) -> None:
         self.model = model
         n = model.horizon
-        self.limits = model.robot.stage_limits(model.change_times, polygon_sides)
+        self.limits = stage_limits(model.robot, model.change_times, polygon_sides)
         structure = assemble_qp(model, self.limits)
         self.structure = structure
         self.condenser = Condenser(model, structure)
@@ -167,8 +168,8 @@ class DenseSolver:
         """Refill the limit rows of robots whose limits move (swerve); whether they did."""
         if self.limits.constant:
             return False
-        self.model.robot.update_stage_limits(self.limits, tick.guess_twists,
-                                             tick.last_twist, tick.steer_angles)
+        update_stage_limits(self.model.robot, self.limits, tick.guess_twists,
+                            tick.last_twist, tick.steer_angles)
         if self.limits.changed:
             self.condenser.fill_limit_rows(self.limits)
         return self.limits.changed

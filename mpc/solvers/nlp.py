@@ -22,6 +22,7 @@ from mpc.arrays import FloatArray
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
+from mpc.robots.motor_limits import nlp_stage_limits
 from mpc.solvers.base import SolveResult
 
 
@@ -51,8 +52,8 @@ class NlpSolver:
         variables, parameters = model.layouts
         steer = (parameters.symbol(p, "steer_angles") if "steer_angles" in parameters.fields
                  else None)
-        g, low, high = model.robot.nlp_stage_limits(
-            variables.symbol(z, "twists"), parameters.symbol(p, "last_twist"), steer,
+        g, low, high = nlp_stage_limits(
+            model.robot, variables.symbol(z, "twists"), parameters.symbol(p, "last_twist"), steer,
             model.change_times)
         constraints += g
         lower += low

@@ -20,6 +20,7 @@ from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
+from mpc.robots.motor_limits import stage_limits, update_stage_limits
 from mpc.solvers.base import SolveResult
 from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds, fill_limit_values
 
@@ -110,7 +111,7 @@ class QpSolver:
                  time_limit: float = 0.0, tolerance: float = 1e-5,
                  use_extension: bool = True) -> None:
         self.model = model
-        self.limits = model.robot.stage_limits(model.change_times, polygon_sides)
+        self.limits = stage_limits(model.robot, model.change_times, polygon_sides)
         self.structure = structure = assemble_qp(model, self.limits)
         n = model.horizon
         self._p_data = structure.hessian.data.copy()
@@ -158,8 +159,8 @@ class QpSolver:
         lower[3:gaps] = stages[:, :3].ravel()
         upper[:gaps] = lower[:gaps]
         if not self.limits.constant:
-            self.model.robot.update_stage_limits(self.limits, tick.guess_twists,
-                                                 tick.last_twist, tick.steer_angles)
+            update_stage_limits(self.model.robot, self.limits, tick.guess_twists,
+                                tick.last_twist, tick.steer_angles)
             if self.limits.changed:
                 fill_limit_values(structure, self._a_data)
         fill_inequality_bounds(structure, tick, lower, upper)

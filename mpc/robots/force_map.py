@@ -1,0 +1,275 @@
+"""The rigid-body map: chassis acceleration -> wheel torques -> contact forces, motor current.
+
+Body frame (REP-103), body twist ``u = (vx, vy, omega)``. Newton-Euler in the rotating
+body frame::
+
+    M (du/dt + coriolis(u)) = wrench,   M = diag(m, m, I_z),
+    coriolis(u) = (-omega vy, omega vx, 0)
+
+(the body-frame acceleration of the centre of mass, the body origin, is
+``du/dt + coriolis(u)``). Wheel ``i`` turns at ``W_i u`` (its velocity map, (d, 3)); by
+virtual work its effort ``tau_i`` [N m] (a torque about its axle; for a swerve module
+the torque *vector* along the module's ground velocity directions) pushes the body with
+the wrench ``W_i^T tau_i``, so::
+
+    wrench = sum_i W_i^T tau_i.
+
+A robot with more wheel rows than three is over-actuated: the efforts are the
+**minimum-norm** solution ``tau = pinv(W^T) wrench`` (no internal forces between wheels;
+with identical wheels and motors, the least total squared current: the least copper
+loss). A failed wheel (derated to 0) takes no share. The force the floor puts on wheel
+``i``'s contact is ``W_i[:, :2]^T tau_i`` [N] (a Swedish wheel pushes along its rollers'
+axis, ``|tau| / (r cos gamma)``; a swerve module along its torque vector, ``tau / r``;
+the two actuators of a ball add up at its one contact). The drive torque a motor gives
+is the effort along the wheel's rolling direction plus the wheel's own inertia
+``J dw/dt`` (``J``: :attr:`~mpc.robots.dynamics.RobotDynamics.wheel_inertia`); the
+contact force does not include it.
+
+Static normal loads: the weight ``m g`` shared so that the loads balance about the body
+origin, the minimum-norm split (equal for the symmetric presets); load transfer from
+acceleration (centre-of-mass height) is neglected.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import weakref
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from mpc.arrays import FloatArray, IntArray, readonly
+from mpc.errors import RobotError
+from mpc.robots.dynamics import GRAVITY, RobotDynamics
+
+if TYPE_CHECKING:
+    from mpc.robots.base import Robot
+
+#: Robot kinds whose wheels the force map understands.
+SUPPORTED_KINDS: tuple[str, ...] = ("swedish", "swerve", "spherical")
+
+#: [rad/s] below this wheel speed a steered wheel's drive direction is its steer angle.
+AT_REST = 1e-6
+
+
+def coriolis(twist: FloatArray) -> FloatArray:
+    """``(-omega vy, omega vx, 0)`` for twist(s) (..., 3) [m/s^2]."""
+    out = np.zeros(np.shape(twist))
+    out[..., 0] = -twist[..., 2] * twist[..., 1]
+    out[..., 1] = twist[..., 2] * twist[..., 0]
+    return out
+
+
+def wheel_radii(robot: Robot) -> FloatArray:
+    """Each wheel's radius [m] (n,): Swedish wheels, swerve modules, driven balls."""
+    n = robot.n_wheels
+    if robot.kind == "swedish":
+        return np.array([wheel.radius for wheel in robot.wheels])  # type: ignore[attr-defined]
+    if robot.kind == "swerve":
+        return np.full(n, float(robot.wheel_radius))  # type: ignore[attr-defined]
+    if robot.kind == "spherical":
+        radius: FloatArray = np.asarray(robot.wheel_radius, dtype=np.float64)  # type: ignore[attr-defined]
+        return np.repeat(radius, 2)
+    raise RobotError(f"motor dynamics support robot kinds {list(SUPPORTED_KINDS)}, "
+                     f"got kind {robot.kind!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class ForceMap:
+    """The rigid-body and motor constants of one robot with dynamics (module docstring).
+
+    Attributes:
+        mass_matrix: ``diag(m, m, I_z)`` (3, 3).
+        distribution: wheel efforts per body wrench, ``pinv(W^T)`` (n, d, 3) [N m per N].
+        effort_map: wheel efforts per body acceleration, ``distribution @ M`` (n, d, 3).
+        drive_map: the drive torque map ``effort_map + J W`` (n, d, 3): torque per
+            ``(u_k - u_{k-1}) / dt`` (the wheel's own inertia included).
+        contact_of: each wheel's contact (n,); wheels at one point share it (a ball).
+        contact_maps: contact force per body acceleration (c, 2, 3) [N per m/s^2].
+        contact_directions: (c, 2) the unit direction of a contact whose force has one
+            direction (a Swedish wheel's rollers), else zeros.
+        normal_loads: static normal load of each contact (c,) [N].
+        radii: wheel radii (n,) [m].
+        resistance, kv, kt: one wheel's gearbox at the wheel [ohm, rad/s/V, N m/A].
+        torque_limit: its largest torque at the wheel [N m] (current limit).
+        count: motors per wheel.
+    """
+
+    robot: Robot
+    dynamics: RobotDynamics
+    mass_matrix: FloatArray
+    distribution: FloatArray
+    effort_map: FloatArray
+    drive_map: FloatArray
+    contact_of: IntArray
+    contact_maps: FloatArray
+    contact_directions: FloatArray
+    normal_loads: FloatArray
+    radii: FloatArray
+    resistance: float
+    kv: float
+    kt: float
+    torque_limit: float
+    count: int
+
+    @property
+    def flat_blocks(self) -> FloatArray:
+        """``W`` stacked (n d, 3)."""
+        return self._flat["blocks"]
+
+    @property
+    def flat_effort(self) -> FloatArray:
+        """``effort_map`` stacked (n d, 3)."""
+        return self._flat["effort"]
+
+    @property
+    def flat_drive(self) -> FloatArray:
+        """``drive_map`` stacked (n d, 3)."""
+        return self._flat["drive"]
+
+    @property
+    def flat_contacts(self) -> FloatArray:
+        """``contact_maps`` stacked (2 c, 3)."""
+        return self._flat["contacts"]
+
+    @functools.cached_property
+    def _flat(self) -> dict[str, FloatArray]:
+        return {"blocks": readonly(self.robot.wheel_blocks.reshape(-1, 3)),
+                "effort": readonly(self.effort_map.reshape(-1, 3)),
+                "drive": readonly(self.drive_map.reshape(-1, 3)),
+                "contacts": readonly(self.contact_maps.reshape(-1, 3))}
+
+    @property
+    def steered(self) -> bool:
+        return bool(self.robot.steered)
+
+    @property
+    def n_contacts(self) -> int:
+        return int(self.normal_loads.size)
+
+    @property
+    def friction_limits(self) -> FloatArray | None:
+        """``mu N_c`` per contact [N], or None without a friction coefficient."""
+        mu = self.dynamics.friction
+        return None if mu is None else mu * self.normal_loads
+
+    # ------------------------------------------------------------ maps
+    def acceleration(self, last: FloatArray, twist: FloatArray, dt: float) -> FloatArray:
+        """Body-frame acceleration of the step ``last -> twist`` over ``dt`` [s]: the change
+        per second plus the Coriolis term at the step's middle (3,) [m/s^2, rad/s^2]."""
+        return (twist - last) / dt + coriolis(0.5 * (twist + last))
+
+    def efforts(self, acceleration: FloatArray) -> FloatArray:
+        """Minimum-norm wheel efforts (n, d) [N m] for a body acceleration (3,)."""
+        return self.effort_map @ acceleration
+
+    def contact_forces(self, acceleration: FloatArray) -> FloatArray:
+        """Floor-on-wheel contact forces (c, 2) [N] for a body acceleration (3,)."""
+        return self.contact_maps @ acceleration
+
+    def wrench(self, efforts: FloatArray) -> FloatArray:
+        """Body wrench ``sum_i W_i^T tau_i`` (Fx, Fy, Mz) [N, N, N m] of efforts (n, d)."""
+        return np.einsum("ndj,nd->j", self.robot.wheel_blocks, efforts)
+
+    def drive_directions(self, twist: FloatArray, steer_angles: FloatArray | None) -> FloatArray:
+        """Unit drive direction of each wheel (n, d): 1 for fixed wheels; for steered wheels
+        the direction of ``W_i twist``, or the steer angle's where the wheel is at rest."""
+        n, d = self.robot.n_wheels, self.robot.wheel_dim
+        if d == 1:
+            return np.ones((n, 1))
+        velocity = self.robot.wheel_blocks @ twist
+        speed = np.hypot(velocity[:, 0], velocity[:, 1])
+        angles = np.zeros(n) if steer_angles is None else steer_angles
+        rest = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        moving = speed > AT_REST
+        return np.where(moving[:, None], velocity / np.maximum(speed, AT_REST)[:, None], rest)
+
+    def drive_torques(self, last: FloatArray, twist: FloatArray, dt: float,
+                      directions: FloatArray) -> FloatArray:
+        """Drive torque of each wheel at the wheel (n,) [N m] for the step ``last -> twist``
+        over ``dt``, along ``directions`` (n, d): efforts plus the wheel's inertia."""
+        change = (twist - last) / dt
+        torque = self.drive_map @ change + self.effort_map @ coriolis(0.5 * (twist + last))
+        return np.einsum("nd,nd->n", torque, directions)
+
+    def voltage(self, torque: FloatArray, speed: FloatArray) -> FloatArray:
+        """Gearbox voltage [V] for wheel torque [N m] at wheel speed [rad/s]."""
+        return speed / self.kv + self.resistance * torque / self.kt
+
+    def motor_current(self, torque: FloatArray) -> FloatArray:
+        """Each motor's current [A] for wheel torque [N m] (the gearbox's split ``count``
+        ways)."""
+        return torque / (self.kt * self.count)
+
+
+_CACHE: weakref.WeakKeyDictionary[Robot, ForceMap] = weakref.WeakKeyDictionary()
+
+
+def force_map(robot: Robot) -> ForceMap:
+    """The :class:`ForceMap` of a robot with dynamics (built once per robot)."""
+    cached = _CACHE.get(robot)
+    if cached is None:
+        cached = _build(robot)
+        _CACHE[robot] = cached
+    return cached
+
+
+def _build(robot: Robot) -> ForceMap:
+    dyn = robot.dynamics
+    if dyn is None:
+        raise RobotError(f"robot {robot.name!r} has no dynamics; attach them with "
+                         "robot.with_dynamics(...)")
+    radii = wheel_radii(robot)
+    blocks = robot.wheel_blocks  # (n, d, 3)
+    n, d = blocks.shape[:2]
+    mass = np.diag([dyn.mass, dyn.mass, dyn.yaw_inertia])
+    active = np.repeat(robot.max_wheel_speed > 0.0, d)
+    flat = blocks.reshape(-1, 3) * active[:, None]
+    distribution = np.linalg.pinv(flat.T).reshape(n, d, 3)
+    effort = distribution @ mass
+    drive = effort + dyn.wheel_inertia * blocks
+    seen: dict[tuple[float, float], int] = {}  # contacts in order of first appearance
+    contact_of = np.array([seen.setdefault((float(x), float(y)), len(seen))
+                           for x, y in np.round(robot.wheel_positions, 9)], dtype=np.intp)
+    contacts = len(seen)
+    maps = np.zeros((contacts, 2, 3))
+    directions = np.zeros((contacts, 2))
+    for c in range(contacts):
+        wheels = np.flatnonzero(contact_of == c)
+        ground = blocks[wheels, :, :2].reshape(-1, 2)  # rows: force directions per effort
+        maps[c] = np.einsum("rk,rj->kj", ground, effort[wheels].reshape(-1, 3))
+        singular = np.linalg.svd(ground, compute_uv=False)
+        if singular.size < 2 or singular[1] <= 1e-9 * singular[0]:
+            directions[c] = ground[0] / np.linalg.norm(ground[0])
+    loads = _normal_loads(robot, contact_of, contacts, dyn)
+    wheel = dyn.wheel_motor
+    return ForceMap(
+        robot=robot, dynamics=dyn, mass_matrix=readonly(mass),
+        distribution=readonly(distribution), effort_map=readonly(effort),
+        drive_map=readonly(drive), contact_of=contact_of.astype(np.intp),
+        contact_maps=readonly(maps), contact_directions=readonly(directions),
+        normal_loads=readonly(loads), radii=readonly(radii), resistance=float(wheel.R),
+        kv=float(wheel.kv), kt=float(wheel.kt), torque_limit=float(dyn.max_wheel_torque),
+        count=int(wheel.count))
+
+
+def _normal_loads(robot: Robot, contact_of: IntArray, contacts: int,
+                  dyn: RobotDynamics) -> FloatArray:
+    """Static loads that balance the weight about the body origin (minimum-norm split)."""
+    points = np.zeros((contacts, 2))
+    points[contact_of] = robot.wheel_positions
+    balance = np.vstack([np.ones(contacts), points.T])  # (3, c)
+    weight = dyn.mass * GRAVITY
+    loads = np.linalg.pinv(balance) @ np.array([weight, 0.0, 0.0])
+    residual = float(np.abs(balance @ loads - [weight, 0.0, 0.0]).max())
+    if np.any(loads <= 0.0) or residual > 1e-6 * weight:
+        raise RobotError(f"robot {robot.name!r}: its wheels cannot carry the weight balanced "
+                         f"about the body origin (the centre of mass); loads {loads.round(3)} N")
+    return loads
+
+
+def apothem(sides: int) -> float:
+    """The inscribed regular polygon's apothem over its circle's radius, ``cos(pi/sides)``."""
+    return math.cos(math.pi / sides)

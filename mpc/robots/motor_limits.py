@@ -1,0 +1,509 @@
+"""Motor-aware limits: battery voltage, motor current and traction as rows on the plan.
+
+For a robot with :class:`~mpc.robots.dynamics.RobotDynamics`, every stage ``k`` of a plan
+of twists (``u_{-1}``: the last command) gets, on top of the kinematic rows, per wheel::
+
+    |V_end|, |V_start| <= (1 - headroom) V_bus      (battery voltage)
+    |T| <= (1 - headroom) T_limit                   (current limit: T = kt I)
+
+and per contact ``|F_c| <= (1 - headroom) mu N_c`` (traction), where over the change
+from ``u_{k-1}`` to ``u_k`` (``change_times[k]`` seconds, a constant acceleration):
+
+- the body acceleration is ``a_k = (u_k - u_{k-1}) / change_times[k] + coriolis(ubar_k)``
+  (:mod:`mpc.robots.force_map`), the wheel torque ``T = D (u_k - u_{k-1}) / dt + E c``
+  (minimum-norm efforts plus wheel inertia) and the contact force ``F = C a_k``;
+- the voltage a wheel's gearbox needs, ``V = w / kv + R T / kt``, is affine in time over
+  the change, so it is bounded at both ends: at the speed the change ends with
+  (``W u_k``, ``V_end``) and starts from (``W u_{k-1}``, ``V_start``). Braking needs less
+  voltage than accelerating at the same speed (back-EMF helps): the rows see it.
+
+Every row is linear in ``(u_k, u_{k-1})`` once the Coriolis term ``coriolis(ubar_k)``
+(``ubar_k``: the middle of the change in the plan the solver starts from) and the bus
+voltage are taken from that plan; both enter the bounds only, so the QP's rows never
+change and the fast path stays one QP per tick. ``V_bus`` is the bus voltage under the
+power that plan draws (``V_bus^2 - E V_bus + R_battery P = 0``); ``E`` without
+``battery_resistance``. The NLP takes the Coriolis term and the sag of its own plan,
+exactly.
+
+Swerve modules. The drive motor gives the torque along the wheel, ``e . q`` with
+``q = tau + J dv/dt`` the module's torque vector, at the speed ``e . v = |v|``; the QP
+bounds the vectors ``p = v / kv + R q / kt`` (at both ends) and ``q`` by an inscribed
+polygon (``|e . p| <= |p|``): exact when the module pushes along its wheel, and
+conservative by the lateral force's resistive voltage otherwise (about 1 % of the battery
+voltage at full cornering traction for the swerve preset), or, for the current, by the
+lateral force when the current limit is below the traction limit. The NLP uses the drive
+components along ``e = v / |v|`` exactly. Traction: a disk, a polygon in the QP.
+
+The first command is kept within the same limits by the clamp
+(:func:`motor_step_fraction`), the present wheel speeds being the last command's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import numpy.typing as npt
+
+from mpc.arrays import BoolArray, FloatArray
+from mpc.robots.base import Robot
+from mpc.robots.dynamics import bus_voltage
+from mpc.robots.force_map import AT_REST, ForceMap, apothem, force_map
+from mpc.robots.limits import StageLimits
+
+#: [rad/s] smoothing of a steered wheel's direction ``v / sqrt(|v|^2 + eps^2)`` in the NLP.
+DIRECTION_SMOOTHING = 1e-3
+
+
+@dataclass(frozen=True, eq=False)
+class MotorRows:
+    """The motor rows of one stage, before the change time and the plan's values enter::
+
+        value = s_now u_k + s_before u_{k-1} + q (u_k - u_{k-1}) / dt + g coriolis
+
+    each (m, 3), with ``|value| <= bound`` (m,) (``bound`` scaled by ``V_bus / E`` on the
+    ``voltage`` rows). Rows are in fractions of the battery voltage ``E``, of the torque
+    limit and of the traction limit. ``kind`` (m,) says which: 0 voltage, 1 current,
+    2 traction; ``index`` (m,) the wheel (or contact).
+    """
+
+    s_now: FloatArray
+    s_before: FloatArray
+    q: FloatArray
+    g: FloatArray
+    bound: FloatArray
+    voltage: BoolArray
+    kind: FloatArray
+    index: FloatArray
+
+    @property
+    def rows(self) -> int:
+        return int(self.bound.size)
+
+
+def _normals(dim: int, sides: int) -> tuple[FloatArray, float]:
+    """Row normals (K, dim) and their apothem: one exact row for dim 1, half a regular
+    polygon's edge normals (two-sided rows) for dim 2."""
+    if dim == 1:
+        return np.ones((1, 1)), 1.0
+    angles = 2.0 * math.pi * np.arange(sides // 2) / sides
+    return np.stack([np.cos(angles), np.sin(angles)], axis=1), apothem(sides)
+
+
+def motor_rows(forces: ForceMap, polygon_sides: int) -> MotorRows:
+    """The constant motor rows of a robot (:class:`MotorRows`); polygons of
+    ``polygon_sides`` sides (even) stand in for the disks of steered wheels and 2-D
+    contacts."""
+    dyn = forces.dynamics
+    robot = forces.robot
+    blocks = robot.wheel_blocks  # (n, d, 3)
+    n, d = blocks.shape[:2]
+    normals, ap = _normals(d, polygon_sides)  # (K, d)
+    keep = 1.0 - dyn.headroom
+    volt = dyn.battery_voltage
+    parts: dict[str, list[FloatArray]] = {key: [] for key in
+                                           ("s_now", "s_before", "q", "g", "bound", "voltage",
+                                            "kind", "index")}
+
+    def add(s_now: FloatArray, s_before: FloatArray, q: FloatArray, g: FloatArray,
+            bound: float, voltage: bool, kind: int, index: npt.NDArray[np.integer]) -> None:
+        rows = q.shape[0]
+        parts["s_now"].append(s_now)
+        parts["s_before"].append(s_before)
+        parts["q"].append(q)
+        parts["g"].append(g)
+        parts["bound"].append(np.full(rows, bound))
+        parts["voltage"].append(np.full(rows, voltage))
+        parts["kind"].append(np.full(rows, float(kind)))
+        parts["index"].append(index.astype(float))
+
+    speed = np.einsum("kd,ndj->nkj", normals, blocks).reshape(-1, 3)  # n . W_i
+    drive = np.einsum("kd,ndj->nkj", normals, forces.drive_map).reshape(-1, 3)
+    effort = np.einsum("kd,ndj->nkj", normals, forces.effort_map).reshape(-1, 3)
+    wheel = np.repeat(np.arange(n), normals.shape[0])
+    zero = np.zeros_like(speed)
+    r_over = forces.resistance / (forces.kt * volt)
+    for end in (True, False):
+        add(speed / (forces.kv * volt) if end else zero,
+            zero if end else speed / (forces.kv * volt),
+            r_over * drive, r_over * effort, keep * ap, True, 0, wheel)
+    limit = forces.torque_limit
+    add(zero, zero, drive / limit, effort / limit, keep * ap, False, 1, wheel)
+    traction = forces.friction_limits
+    if traction is not None:
+        for c in range(forces.n_contacts):
+            direction = forces.contact_directions[c]
+            if np.any(direction):
+                rows, contact_ap = direction[None, :] @ forces.contact_maps[c], 1.0
+            else:
+                polygon, contact_ap = _normals(2, polygon_sides)
+                rows = polygon @ forces.contact_maps[c]
+            rows = rows / traction[c]
+            add(np.zeros_like(rows), np.zeros_like(rows), rows, rows, keep * contact_ap,
+                False, 2, np.full(rows.shape[0], c))
+    stacked = {key: np.concatenate(value) for key, value in parts.items()}
+    return MotorRows(s_now=stacked["s_now"], s_before=stacked["s_before"], q=stacked["q"],
+                     g=stacked["g"], bound=stacked["bound"],
+                     voltage=stacked["voltage"].astype(bool), kind=stacked["kind"],
+                     index=stacked["index"])
+
+
+@dataclass(eq=False)
+class MotorStageLimits(StageLimits):
+    """:class:`StageLimits` whose first ``kinematic.rows`` rows are the robot's own and the
+    rest its motor rows (:class:`MotorRows`), refilled each tick (bounds only)."""
+
+    kinematic: StageLimits | None = None
+    motor: MotorRows | None = None
+    forces: ForceMap | None = None
+    # work arrays of the refill
+    previous: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    turn: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    coriolis_rows: FloatArray = field(default_factory=lambda: np.zeros((2, 0)))
+    motor_bound: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+
+
+def stage_limits(robot: Robot, change_times: FloatArray, polygon_sides: int) -> StageLimits:
+    """The QP's stage rows: the robot's own (:meth:`Robot.stage_limits`), plus the motor
+    rows for a robot with dynamics (module docstring)."""
+    kinematic = robot.stage_limits(change_times, polygon_sides)
+    if robot.dynamics is None:
+        return kinematic
+    forces = force_map(robot)
+    rows = motor_rows(forces, polygon_sides)
+    times = np.asarray(change_times, dtype=float)[:, None, None]
+    now = rows.s_now[None] + rows.q[None] / times
+    before = rows.s_before[None] - rows.q[None] / times
+    bound = np.broadcast_to(rows.bound, (times.shape[0], rows.rows))
+    limits = MotorStageLimits(
+        now=np.concatenate([kinematic.now, now], axis=1),
+        before=np.concatenate([kinematic.before, before], axis=1),
+        lower=np.concatenate([kinematic.lower, -bound], axis=1),
+        upper=np.concatenate([kinematic.upper, bound], axis=1),
+        constant=False, change_times=np.array(change_times, dtype=float),
+        kinematic=kinematic, motor=rows, forces=forces,
+        previous=np.zeros((times.shape[0], 3)), turn=np.zeros((times.shape[0], 3)),
+        coriolis_rows=np.ascontiguousarray(rows.g[:, :2].T), motor_bound=np.array(bound))
+    return limits
+
+
+def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
+                        last: FloatArray, steer_angles: FloatArray | None) -> None:
+    """Refill the rows that depend on the plan the solver starts from (``guess`` twists
+    (N, 3), ``last`` command): the robot's own, then the motor rows' bounds (the Coriolis
+    term and the bus voltage along ``guess``; the rows themselves stay)."""
+    if not isinstance(limits, MotorStageLimits) or limits.kinematic is None:
+        robot.update_stage_limits(limits, guess, last, steer_angles)
+        return
+    kinematic, rows, forces = limits.kinematic, limits.motor, limits.forces
+    if rows is None or forces is None:  # pragma: no cover - set by stage_limits
+        raise RuntimeError("motor stage limits without motor rows")
+    m = kinematic.rows
+    limits.changed = False
+    if not kinematic.constant:
+        robot.update_stage_limits(kinematic, guess, last, steer_angles)
+        if kinematic.changed:
+            limits.now[:, :m] = kinematic.now
+            limits.before[:, :m] = kinematic.before
+            limits.changed = True
+        limits.lower[:, :m] = kinematic.lower
+        limits.upper[:, :m] = kinematic.upper
+    previous = limits.previous
+    previous[0] = last
+    previous[1:] = guess[:-1]
+    middle = 0.5 * (guess + previous)
+    turn = limits.turn  # the Coriolis term (third column stays 0)
+    np.multiply(middle[:, 2], middle[:, 1], out=turn[:, 0])
+    np.negative(turn[:, 0], out=turn[:, 0])
+    np.multiply(middle[:, 2], middle[:, 0], out=turn[:, 1])
+    offset = turn[:, :2] @ limits.coriolis_rows  # (N, m_motor)
+    bound = limits.motor_bound
+    if forces.dynamics.battery_resistance > 0.0:
+        scale = _sag_scale(forces, guess, previous, limits.change_times, turn)
+        np.multiply(scale[:, None], rows.bound[rows.voltage], out=bound[:, rows.voltage])
+    np.subtract(bound, offset, out=limits.upper[:, m:])
+    np.subtract(-bound, offset, out=limits.lower[:, m:])
+
+
+def _sag_scale(forces: ForceMap, twists: FloatArray, previous: FloatArray,
+               change_times: FloatArray, turn: FloatArray) -> FloatArray:
+    """``V_bus / E`` at each stage (N,) for the power the plan ``twists`` draws."""
+    dyn = forces.dynamics
+    change = (twists - previous) / change_times[:, None]
+    torque = change @ forces.flat_drive.T + turn @ forces.flat_effort.T  # (N, n d)
+    velocity = twists @ forces.flat_blocks.T
+    if forces.robot.wheel_dim == 2:
+        vx, vy = velocity[:, 0::2], velocity[:, 1::2]
+        speed = np.sqrt(vx * vx + vy * vy)
+        drive = (torque[:, 0::2] * vx + torque[:, 1::2] * vy) / np.maximum(speed, 1e-9)
+    else:
+        speed, drive = velocity, torque
+    power = (forces.voltage(drive, speed) * drive).sum(axis=1) / forces.kt
+    return bus_voltages(dyn.battery_voltage, dyn.battery_resistance, power) / dyn.battery_voltage
+
+
+def bus_voltages(open_circuit: float, resistance: float, power: FloatArray) -> FloatArray:
+    """:func:`~mpc.robots.dynamics.bus_voltage` for an array of powers [W]."""
+    disc = np.maximum(open_circuit * open_circuit - 4.0 * resistance * np.maximum(power, 0.0),
+                      0.0)
+    return 0.5 * (open_circuit + np.sqrt(disc))
+
+
+# ---------------------------------------------------------------- the exact NLP
+
+
+def nlp_stage_limits(robot: Robot, twists: ca.SX, last: ca.SX, steer_angles: ca.SX | None,
+                     change_times: FloatArray
+                     ) -> tuple[list[ca.SX], list[FloatArray], list[FloatArray]]:
+    """The NLP's limits: the robot's own (:meth:`Robot.nlp_stage_limits`) plus, with
+    dynamics, the motor limits exactly (module docstring)."""
+    values, lower, upper = robot.nlp_stage_limits(twists, last, steer_angles, change_times)
+    if robot.dynamics is None:
+        return values, lower, upper
+    forces = force_map(robot)
+    for k in range(twists.shape[1]):
+        before = last if k == 0 else twists[:, k - 1]
+        for value, low, high in _nlp_stage(forces, twists[:, k], before,
+                                           float(change_times[k])):
+            values.append(value)
+            lower.append(low)
+            upper.append(high)
+    return values, lower, upper
+
+
+def _nlp_stage(forces: ForceMap, now: ca.SX, before: ca.SX, dt: float
+               ) -> list[tuple[ca.SX, FloatArray, FloatArray]]:
+    dyn = forces.dynamics
+    keep = 1.0 - dyn.headroom
+    volt = dyn.battery_voltage
+    change = (now - before) / dt
+    middle = 0.5 * (now + before)
+    accel = change + ca.vertcat(-middle[2] * middle[1], middle[2] * middle[0], 0)
+    blocks = forces.robot.wheel_blocks
+    out: list[tuple[ca.SX, FloatArray, FloatArray]] = []
+    speeds_end, speeds_start, torques = [], [], []
+    for i in range(blocks.shape[0]):
+        block = ca.DM(blocks[i])
+        torque = ca.DM(forces.drive_map[i]) @ change + ca.DM(forces.effort_map[i]) @ (
+            accel - change)
+        v_end, v_start = block @ now, block @ before
+        if blocks.shape[1] == 2:
+            direction = v_end / ca.sqrt(ca.sumsqr(v_end) + DIRECTION_SMOOTHING**2)
+            speeds_end.append(ca.dot(direction, v_end))
+            speeds_start.append(ca.dot(direction, v_start))
+            torques.append(ca.dot(direction, torque))
+        else:
+            speeds_end.append(v_end)
+            speeds_start.append(v_start)
+            torques.append(torque)
+    torque = ca.vertcat(*torques)
+    v_end = (ca.vertcat(*speeds_end) / forces.kv + forces.resistance * torque / forces.kt)
+    v_start = (ca.vertcat(*speeds_start) / forces.kv + forces.resistance * torque / forces.kt)
+    n = blocks.shape[0]
+    if dyn.battery_resistance > 0.0:
+        power = ca.dot(v_end, torque) / forces.kt
+        disc = ca.fmax(volt**2 - 4.0 * dyn.battery_resistance * power, 1e-6 * volt**2)
+        bus = ca.fmin(0.5 * (volt + ca.sqrt(disc)), volt)
+        for voltage in (v_end, v_start):
+            headroom = keep * ca.repmat(bus, n, 1)
+            out.append(((voltage - headroom) / volt, np.full(n, -np.inf), np.zeros(n)))
+            out.append(((voltage + headroom) / volt, np.zeros(n), np.full(n, np.inf)))
+    else:
+        for voltage in (v_end, v_start):
+            out.append((voltage / volt, np.full(n, -keep), np.full(n, keep)))
+    out.append((torque / forces.torque_limit, np.full(n, -keep), np.full(n, keep)))
+    traction = forces.friction_limits
+    if traction is not None:
+        for c in range(forces.n_contacts):
+            contact = ca.DM(forces.contact_maps[c]) @ accel / traction[c]
+            direction = forces.contact_directions[c]
+            if np.any(direction):
+                out.append((ca.dot(ca.DM(direction), contact), np.array([-keep]),
+                            np.array([keep])))
+            else:
+                out.append((ca.sumsqr(contact), np.array([-np.inf]), np.array([keep**2])))
+    return out
+
+
+# ---------------------------------------------------------------- the first command
+
+
+@dataclass(frozen=True, eq=False)
+class _StepRows:
+    """The first step's linear rows ``start = a @ last + b @ turn`` and
+    ``slope = c @ step + e @ step / dt`` (the voltage at the end and the start of the step,
+    the torque, one-direction traction), for wheels that do not steer; in units of their
+    bounds except the voltage rows (V)."""
+
+    a: FloatArray
+    b: FloatArray
+    c: FloatArray
+    e: FloatArray
+    wheels: int
+    disks: bool  # some contact's force is a 2-D vector (a ball): a disk, not a row
+
+
+_STEP_ROWS: dict[int, tuple[ForceMap, _StepRows]] = {}
+
+
+def _step_rows(forces: ForceMap) -> _StepRows:
+    cached = _STEP_ROWS.get(id(forces))
+    if cached is not None and cached[0] is forces:
+        return cached[1]
+    keep = 1.0 - forces.dynamics.headroom
+    w, effort, drive = forces.flat_blocks, forces.flat_effort, forces.flat_drive
+    r_kt = forces.resistance / forces.kt
+    zero = np.zeros_like(w)
+    limit = keep * forces.torque_limit
+    a = [w / forces.kv, w / forces.kv, zero]
+    b = [r_kt * effort, r_kt * effort, effort / limit]
+    c = [w / forces.kv, zero, zero]
+    e = [r_kt * drive, r_kt * drive, drive / limit]
+    traction = forces.friction_limits
+    if traction is not None:
+        for index in np.flatnonzero(np.any(forces.contact_directions != 0.0, axis=1)):
+            row = forces.contact_directions[index] @ forces.contact_maps[index]
+            row = (row / (keep * traction[index]))[None, :]
+            a.append(np.zeros_like(row))
+            b.append(row)
+            c.append(np.zeros_like(row))
+            e.append(row)
+    disks = traction is not None and not np.all(np.any(forces.contact_directions != 0.0,
+                                                         axis=1))
+    rows = _StepRows(np.vstack(a), np.vstack(b), np.vstack(c), np.vstack(e),
+                     wheels=w.shape[0], disks=bool(disks))
+    _STEP_ROWS[id(forces)] = (forces, rows)
+    return rows
+
+
+def motor_step_fraction(robot: Robot, last: FloatArray, target: FloatArray, dt: float,
+                        steer_angles: FloatArray | None) -> float:
+    """The largest ``f`` in [0, 1] such that the step ``last -> last + f (target - last)``
+    over ``dt`` keeps every wheel within its battery voltage and current limit and every
+    contact within traction (headroom included), the present wheel speeds being
+    ``last``'s; 1 without dynamics. Steered wheels drive along ``target``'s module
+    directions (the steer angles where at rest); the Coriolis term and the bus voltage
+    are those of the whole step. A limit ``last`` itself breaks only stops the step from
+    going further into it."""
+    if robot.dynamics is None:
+        return 1.0
+    forces = force_map(robot)
+    if robot.wheel_dim == 2:
+        return _steered_step_fraction(forces, last, target, dt, steer_angles)
+    dyn = forces.dynamics
+    rows = _step_rows(forces)
+    step = target - last
+    middle = 0.5 * (target + last)
+    turn = np.array([-middle[2] * middle[1], middle[2] * middle[0], 0.0])
+    start = rows.a @ last + rows.b @ turn
+    slope = rows.c @ step + rows.e @ (step / dt)
+    n = rows.wheels
+    if dyn.battery_resistance > 0.0:
+        end = start + slope
+        torque = end[2 * n:3 * n] * (forces.torque_limit * (1.0 - dyn.headroom))
+        power = float(end[:n] @ torque) / forces.kt
+        volts = bus_voltage(dyn.battery_voltage, dyn.battery_resistance, power)
+    else:
+        volts = dyn.battery_voltage
+    scale = 1.0 / ((1.0 - dyn.headroom) * volts)
+    start[:2 * n] *= scale
+    slope[:2 * n] *= scale
+    fraction = _linear_fraction(start, slope)
+    traction = forces.friction_limits
+    if rows.disks and traction is not None and fraction > 0.0:
+        force0 = (forces.flat_contacts @ turn).reshape(-1, 2)
+        force1 = (forces.flat_contacts @ step).reshape(-1, 2) / dt
+        fraction = min(fraction, _disk_fraction(force0, force1,
+                                                (1.0 - dyn.headroom) * traction))
+    return max(0.0, fraction * (1.0 - 1e-12))
+
+
+def _steered_step_fraction(forces: ForceMap, last: FloatArray, target: FloatArray, dt: float,
+                           steer_angles: FloatArray | None) -> float:
+    """:func:`motor_step_fraction` for steered wheels (drive components along their
+    directions, traction disks)."""
+    dyn = forces.dynamics
+    keep = 1.0 - dyn.headroom
+    step = target - last
+    middle = 0.5 * (target + last)
+    turn = np.array([-middle[2] * middle[1], middle[2] * middle[0], 0.0])
+    n = forces.robot.n_wheels
+    values = np.empty((5, 2 * n))
+    values[0] = forces.flat_blocks @ last
+    values[1] = forces.flat_blocks @ step
+    values[2] = forces.flat_effort @ turn
+    values[3] = forces.flat_drive @ step
+    values[4] = values[0] + values[1]  # the target's wheel velocities: the directions
+    pairs = values.reshape(5, n, 2)
+    speed = np.hypot(pairs[4, :, 0], pairs[4, :, 1])
+    moving = speed > AT_REST
+    angles = np.zeros(n) if steer_angles is None else steer_angles
+    cos = np.where(moving, pairs[4, :, 0] / np.where(moving, speed, 1.0), np.cos(angles))
+    sin = np.where(moving, pairs[4, :, 1] / np.where(moving, speed, 1.0), np.sin(angles))
+    speed0, speed1, torque0, torque1 = pairs[:4, :, 0] * cos + pairs[:4, :, 1] * sin
+    torque1 = torque1 / dt
+    r_kt = forces.resistance / forces.kt
+    volts0 = speed0 / forces.kv + r_kt * torque0
+    end = torque0 + torque1
+    power = float(((speed0 + speed1) / forces.kv + r_kt * end) @ end) / forces.kt
+    volts = keep * bus_voltage(dyn.battery_voltage, dyn.battery_resistance, power)
+    limit = keep * forces.torque_limit
+    start = np.concatenate([volts0 / volts, volts0 / volts, torque0 / limit])
+    slope = np.concatenate([(speed1 / forces.kv + r_kt * torque1) / volts,
+                            r_kt * torque1 / volts, torque1 / limit])
+    fraction = _linear_fraction(start, slope)
+    traction = forces.friction_limits
+    if traction is not None and fraction > 0.0:
+        force0 = (forces.flat_contacts @ turn).reshape(-1, 2)
+        force1 = (forces.flat_contacts @ step).reshape(-1, 2) / dt
+        fraction = min(fraction, _disk_fraction(force0, force1, keep * traction))
+    return max(0.0, fraction * (1.0 - 1e-12))
+
+
+def _linear_fraction(start: FloatArray, slope: FloatArray) -> float:
+    """Largest f in [0, 1] with ``|start + f slope| <= 1`` for every entry; an entry already
+    beyond it may not go further out (then 0), only back in."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        reach = (np.copysign(1.0, slope) - np.where(slope == 0.0, 0.0, start)) / slope
+    return float(min(1.0, max(0.0, reach.min())))
+
+
+def _disk_fraction(start: FloatArray, slope: FloatArray, bound: FloatArray) -> float:
+    """Largest f in [0, 1] with ``|start_c + f slope_c| <= bound_c`` for every row c (rows
+    already beyond it: only as far as their closest approach)."""
+    a = (slope * slope).sum(axis=1)
+    h = (start * slope).sum(axis=1)
+    c = (start * start).sum(axis=1) - bound * bound
+    moving = a > 0.0
+    safe_a = np.where(moving, a, 1.0)
+    inside = (-h + np.sqrt(np.maximum(h * h - a * c, 0.0))) / safe_a
+    reach = np.where(c > 0.0, np.maximum(0.0, -h / safe_a), inside)
+    return float(min(1.0, np.where(moving, reach, np.inf).min()))
+
+
+def first_step_feedforward(robot: Robot, last: FloatArray, twist: FloatArray, dt: float,
+                           steer_angles: FloatArray | None
+                           ) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+    """The first step's feedforward: per wheel the drive force at the floor [N] (the
+    effort along the wheel's rolling direction over its radius, wheel inertia
+    excluded), each motor's torque at its shaft [N m] and current [A] (wheel inertia
+    included), signed like the wheel speeds sent (steered wheels: along their commanded
+    ``steer_angles``). None without dynamics."""
+    if robot.dynamics is None:
+        return None
+    forces = force_map(robot)
+    change = (twist - last) / dt
+    middle = 0.5 * (twist + last)
+    turn = np.array([-middle[2] * middle[1], middle[2] * middle[0], 0.0])
+    static = forces.flat_effort @ (change + turn)
+    torque = forces.flat_drive @ change + forces.flat_effort @ turn
+    if robot.wheel_dim == 2:
+        angles = np.zeros(robot.n_wheels) if steer_angles is None else steer_angles
+        cos, sin = np.cos(angles), np.sin(angles)
+        static = static[0::2] * cos + static[1::2] * sin
+        torque = torque[0::2] * cos + torque[1::2] * sin
+    gearing = forces.dynamics.gearing
+    return (static / forces.radii, torque / (gearing * forces.count),
+            forces.motor_current(torque))
