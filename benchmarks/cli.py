@@ -6,6 +6,7 @@
     mpc-bench report RESULTS     rebuild the report from a results.json
     mpc-bench perf [options]     tick time against horizon for both solver paths
     mpc-bench soak [options]     memory and tick time over a long run
+    mpc-bench motors [options]   motor-aware MPC against kinematic control on the motor plant
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from benchmarks import perf, soak
+from benchmarks import motors, perf, soak
 from benchmarks.runner import build_scenarios, results_document, run_all, summary_table, write_csv
 from benchmarks.scenarios import (
     CONTROLLERS,
@@ -158,7 +159,7 @@ def report(argv: list[str]) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mpc-bench`` console script."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    commands = {"report": report, "perf": perf.main, "soak": soak.main}
+    commands = {"report": report, "perf": perf.main, "soak": soak.main, "motors": motors.main}
     try:
         if argv and argv[0] in commands:
             return commands[argv[0]](argv[1:])

@@ -17,6 +17,9 @@ from mpc.robots.motor_limits import motor_step_fraction
 #: Relative slack under which a wheel counts as within its limit (rounding).
 _SPEED_SLACK = 1e-12
 
+#: Passes of the motor step: each takes the Coriolis term of the step the last one left.
+_MOTOR_PASSES = 4
+
 
 def clamp_command(
     robot: Robot, target: FloatArray, last: FloatArray, dt: float,
@@ -63,8 +66,10 @@ def clamp_command(
             safe = last + (1.0 - _SPEED_SLACK) / ratio * step
     if robot.dynamics is not None and not (robot.wheel_magnitudes(last) - limit * (1 + 1e-9)
                                            ).max() > _SPEED_SLACK:
-        fraction = motor_step_fraction(robot, last, safe, dt, steer_angles)
-        if fraction < 1.0:
+        for _ in range(_MOTOR_PASSES):  # the Coriolis term moves with the step: again
+            fraction = motor_step_fraction(robot, last, safe, dt, steer_angles)
+            if fraction >= 1.0 - 1e-9:
+                break
             safe = last + fraction * (safe - last)
     if steer_angles is not None:
         fraction = robot.steering_fraction(last, safe, steer_angles, dt)

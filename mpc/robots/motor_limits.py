@@ -53,6 +53,10 @@ from mpc.robots.dynamics import bus_voltage
 from mpc.robots.force_map import AT_REST, ForceMap, apothem, force_map
 from mpc.robots.limits import StageLimits
 
+#: Whether the QP's rows carry the Coriolis term linearised around the plan the solver starts
+#: from (rows refilled every tick) rather than its value there (bounds only).
+LINEARISE_CORIOLIS = True
+
 #: [rad/s] smoothing of a steered wheel's direction ``v / sqrt(|v|^2 + eps^2)`` in the NLP.
 DIRECTION_SMOOTHING = 1e-3
 
@@ -163,6 +167,8 @@ class MotorStageLimits(StageLimits):
     turn: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
     coriolis_rows: FloatArray = field(default_factory=lambda: np.zeros((2, 0)))
     motor_bound: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+    base_now: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    base_before: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
 
 
 def stage_limits(robot: Robot, change_times: FloatArray, polygon_sides: int) -> StageLimits:
@@ -185,7 +191,8 @@ def stage_limits(robot: Robot, change_times: FloatArray, polygon_sides: int) -> 
         constant=False, change_times=np.array(change_times, dtype=float),
         kinematic=kinematic, motor=rows, forces=forces,
         previous=np.zeros((times.shape[0], 3)), turn=np.zeros((times.shape[0], 3)),
-        coriolis_rows=np.ascontiguousarray(rows.g[:, :2].T), motor_bound=np.array(bound))
+        coriolis_rows=np.ascontiguousarray(rows.g[:, :2].T), motor_bound=np.array(bound),
+        base_now=now, base_before=before)
     return limits
 
 
@@ -214,11 +221,24 @@ def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
     previous[0] = last
     previous[1:] = guess[:-1]
     middle = 0.5 * (guess + previous)
-    turn = limits.turn  # the Coriolis term (third column stays 0)
+    turn = limits.turn  # the Coriolis term at the middle (third column stays 0)
     np.multiply(middle[:, 2], middle[:, 1], out=turn[:, 0])
     np.negative(turn[:, 0], out=turn[:, 0])
     np.multiply(middle[:, 2], middle[:, 0], out=turn[:, 1])
-    offset = turn[:, :2] @ limits.coriolis_rows  # (N, m_motor)
+    offset = turn[:, :2] @ limits.coriolis_rows  # g . coriolis(middle), (N, m_motor)
+    if LINEARISE_CORIOLIS:
+        # coriolis(m) ~ J m - coriolis(mbar) with J its Jacobian at mbar, m = (u_k + u_{k-1})
+        # / 2: half of g J on each twist, and the offset changes sign.
+        gx, gy = limits.coriolis_rows
+        omega, vx, vy = middle[:, 2:3], middle[:, 0:1], middle[:, 1:2]
+        coef = np.empty_like(limits.base_now)
+        np.multiply(0.5 * gy, omega, out=coef[:, :, 0])
+        np.multiply(-0.5 * gx, omega, out=coef[:, :, 1])
+        coef[:, :, 2] = 0.5 * (gy * vx - gx * vy)
+        np.add(limits.base_now, coef, out=limits.now[:, m:])
+        np.add(limits.base_before, coef, out=limits.before[:, m:])
+        np.negative(offset, out=offset)
+        limits.changed = True
     bound = limits.motor_bound
     if forces.dynamics.battery_resistance > 0.0:
         scale = _sag_scale(forces, guess, previous, limits.change_times, turn)
@@ -335,7 +355,9 @@ class _StepRows:
     """The first step's linear rows ``start = a @ last + b @ turn`` and
     ``slope = c @ step + e @ step / dt`` (the voltage at the end and the start of the step,
     the torque, one-direction traction), for wheels that do not steer; in units of their
-    bounds except the voltage rows (V)."""
+    bounds except the voltage rows (V). The end's voltage, torque and traction rows are
+    checked with the end's Coriolis term, the start's voltage, torque and traction rows
+    with the start's."""
 
     a: FloatArray
     b: FloatArray
@@ -343,6 +365,8 @@ class _StepRows:
     e: FloatArray
     wheels: int
     disks: bool  # some contact's force is a 2-D vector (a ball): a disk, not a row
+    at_end: npt.NDArray[np.intp]  # rows checked with the end's Coriolis term
+    at_start: npt.NDArray[np.intp]  # and with the start's
 
 
 _STEP_ROWS: dict[int, tuple[ForceMap, _StepRows]] = {}
@@ -372,8 +396,11 @@ def _step_rows(forces: ForceMap) -> _StepRows:
             e.append(row)
     disks = traction is not None and not np.all(np.any(forces.contact_directions != 0.0,
                                                          axis=1))
-    rows = _StepRows(np.vstack(a), np.vstack(b), np.vstack(c), np.vstack(e),
-                     wheels=w.shape[0], disks=bool(disks))
+    n = w.shape[0]
+    total = sum(part.shape[0] for part in a)
+    rows = _StepRows(np.vstack(a), np.vstack(b), np.vstack(c), np.vstack(e), wheels=n,
+                     disks=bool(disks), at_end=np.r_[0:n, 2 * n:total],
+                     at_start=np.r_[n:total])
     _STEP_ROWS[id(forces)] = (forces, rows)
     return rows
 
@@ -383,10 +410,12 @@ def motor_step_fraction(robot: Robot, last: FloatArray, target: FloatArray, dt: 
     """The largest ``f`` in [0, 1] such that the step ``last -> last + f (target - last)``
     over ``dt`` keeps every wheel within its battery voltage and current limit and every
     contact within traction (headroom included), the present wheel speeds being
-    ``last``'s; 1 without dynamics. Steered wheels drive along ``target``'s module
-    directions (the steer angles where at rest); the Coriolis term and the bus voltage
-    are those of the whole step. A limit ``last`` itself breaks only stops the step from
-    going further into it."""
+    ``last``'s; 1 without dynamics. The limits are checked at both ends of the step, the
+    Coriolis term of each end being ``last``'s and ``target``'s (it moves with the twist
+    over the step: call again with the twist this returns, as the clamp does); steered
+    wheels drive along ``target``'s module directions (the steer angles where at rest);
+    the bus voltage is the one under the whole step's power. A limit ``last`` itself
+    breaks only stops the step from going further into it."""
     if robot.dynamics is None:
         return 1.0
     forces = force_map(robot)
@@ -395,28 +424,32 @@ def motor_step_fraction(robot: Robot, last: FloatArray, target: FloatArray, dt: 
     dyn = forces.dynamics
     rows = _step_rows(forces)
     step = target - last
-    middle = 0.5 * (target + last)
-    turn = np.array([-middle[2] * middle[1], middle[2] * middle[0], 0.0])
-    start = rows.a @ last + rows.b @ turn
+    turn_end = np.array([-target[2] * target[1], target[2] * target[0], 0.0])
+    turn_start = np.array([-last[2] * last[1], last[2] * last[0], 0.0])
+    base = rows.a @ last
+    start_end = base + rows.b @ turn_end
+    start_start = base + rows.b @ turn_start
     slope = rows.c @ step + rows.e @ (step / dt)
     n = rows.wheels
     if dyn.battery_resistance > 0.0:
-        end = start + slope
+        end = start_end + slope
         torque = end[2 * n:3 * n] * (forces.torque_limit * (1.0 - dyn.headroom))
         power = float(end[:n] @ torque) / forces.kt
         volts = bus_voltage(dyn.battery_voltage, dyn.battery_resistance, power)
     else:
         volts = dyn.battery_voltage
     scale = 1.0 / ((1.0 - dyn.headroom) * volts)
-    start[:2 * n] *= scale
-    slope[:2 * n] *= scale
-    fraction = _linear_fraction(start, slope)
+    for values in (start_end, start_start, slope):
+        values[:2 * n] *= scale
+    fraction = min(_linear_fraction(start_end[rows.at_end], slope[rows.at_end]),
+                   _linear_fraction(start_start[rows.at_start], slope[rows.at_start]))
     traction = forces.friction_limits
     if rows.disks and traction is not None and fraction > 0.0:
-        force0 = (forces.flat_contacts @ turn).reshape(-1, 2)
+        keep = (1.0 - dyn.headroom) * traction
         force1 = (forces.flat_contacts @ step).reshape(-1, 2) / dt
-        fraction = min(fraction, _disk_fraction(force0, force1,
-                                                (1.0 - dyn.headroom) * traction))
+        for turn in (turn_end, turn_start):
+            force0 = (forces.flat_contacts @ turn).reshape(-1, 2)
+            fraction = min(fraction, _disk_fraction(force0, force1, keep))
     return max(0.0, fraction * (1.0 - 1e-12))
 
 
@@ -427,38 +460,42 @@ def _steered_step_fraction(forces: ForceMap, last: FloatArray, target: FloatArra
     dyn = forces.dynamics
     keep = 1.0 - dyn.headroom
     step = target - last
-    middle = 0.5 * (target + last)
-    turn = np.array([-middle[2] * middle[1], middle[2] * middle[0], 0.0])
+    turn_end = np.array([-target[2] * target[1], target[2] * target[0], 0.0])
+    turn_start = np.array([-last[2] * last[1], last[2] * last[0], 0.0])
     n = forces.robot.n_wheels
-    values = np.empty((5, 2 * n))
+    values = np.empty((6, 2 * n))
     values[0] = forces.flat_blocks @ last
     values[1] = forces.flat_blocks @ step
-    values[2] = forces.flat_effort @ turn
-    values[3] = forces.flat_drive @ step
-    values[4] = values[0] + values[1]  # the target's wheel velocities: the directions
-    pairs = values.reshape(5, n, 2)
-    speed = np.hypot(pairs[4, :, 0], pairs[4, :, 1])
+    values[2] = forces.flat_effort @ turn_end
+    values[3] = forces.flat_effort @ turn_start
+    values[4] = forces.flat_drive @ step
+    values[5] = values[0] + values[1]  # the target's wheel velocities: the directions
+    pairs = values.reshape(6, n, 2)
+    speed = np.hypot(pairs[5, :, 0], pairs[5, :, 1])
     moving = speed > AT_REST
     angles = np.zeros(n) if steer_angles is None else steer_angles
-    cos = np.where(moving, pairs[4, :, 0] / np.where(moving, speed, 1.0), np.cos(angles))
-    sin = np.where(moving, pairs[4, :, 1] / np.where(moving, speed, 1.0), np.sin(angles))
-    speed0, speed1, torque0, torque1 = pairs[:4, :, 0] * cos + pairs[:4, :, 1] * sin
+    cos = np.where(moving, pairs[5, :, 0] / np.where(moving, speed, 1.0), np.cos(angles))
+    sin = np.where(moving, pairs[5, :, 1] / np.where(moving, speed, 1.0), np.sin(angles))
+    speed0, speed1, torque_end, torque_start, torque1 = (pairs[:5, :, 0] * cos
+                                                         + pairs[:5, :, 1] * sin)
     torque1 = torque1 / dt
     r_kt = forces.resistance / forces.kt
-    volts0 = speed0 / forces.kv + r_kt * torque0
-    end = torque0 + torque1
+    end = torque_end + torque1
     power = float(((speed0 + speed1) / forces.kv + r_kt * end) @ end) / forces.kt
     volts = keep * bus_voltage(dyn.battery_voltage, dyn.battery_resistance, power)
     limit = keep * forces.torque_limit
-    start = np.concatenate([volts0 / volts, volts0 / volts, torque0 / limit])
+    start = np.concatenate([(speed0 / forces.kv + r_kt * torque_end) / volts,
+                            (speed0 / forces.kv + r_kt * torque_start) / volts,
+                            torque_end / limit, torque_start / limit])
     slope = np.concatenate([(speed1 / forces.kv + r_kt * torque1) / volts,
-                            r_kt * torque1 / volts, torque1 / limit])
+                            r_kt * torque1 / volts, torque1 / limit, torque1 / limit])
     fraction = _linear_fraction(start, slope)
     traction = forces.friction_limits
     if traction is not None and fraction > 0.0:
-        force0 = (forces.flat_contacts @ turn).reshape(-1, 2)
         force1 = (forces.flat_contacts @ step).reshape(-1, 2) / dt
-        fraction = min(fraction, _disk_fraction(force0, force1, keep * traction))
+        for turn in (turn_end, turn_start):
+            force0 = (forces.flat_contacts @ turn).reshape(-1, 2)
+            fraction = min(fraction, _disk_fraction(force0, force1, keep * traction))
     return max(0.0, fraction * (1.0 - 1e-12))
 
 

@@ -2,6 +2,8 @@
 
 - :mod:`.plant`: the simulated robot (RK4 of the wheels' actual motion, with
   motor lag, delay, noise, slip and steering rate);
+- :mod:`.motor_plant`: the robot driven through its DC motors (voltage, current,
+  back-EMF, battery sag, traction and slip), ``plant="motor"``;
 - :mod:`.simulate`: the closed loop, :func:`simulate`;
 - :mod:`.recorder`: :class:`Recorder`, the same record from a loop of your own;
 - :mod:`.result`: :class:`SimResult` and its metrics;
@@ -13,6 +15,7 @@
 
 from mpc.sim.bag import write_bag
 from mpc.sim.baselines import SATURATIONS, FeedforwardPController
+from mpc.sim.motor_plant import MotorPlant, MotorPlantConfig
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.sim.recorder import Recorder
 from mpc.sim.result import LIMIT_RTOL, SimResult
@@ -25,6 +28,8 @@ __all__ = [
     "SATURATIONS",
     "FeedforwardPController",
     "FeedforwardPSetpointController",
+    "MotorPlant",
+    "MotorPlantConfig",
     "Plant",
     "PlantConfig",
     "Recorder",

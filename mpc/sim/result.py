@@ -47,6 +47,8 @@ class SimResult:
             the commanded twists instead.
         steer_command: commanded steer angles (K, n) [rad] of steered wheels, else None.
         steer_rate_limit: their steering rate limits (n,) [rad/s], else None.
+        plant_events: per-tick series of a motor plant (:meth:`MotorPlant.events`:
+            voltage and current violations, slips, peak ratios, bus voltage), else None.
     """
 
     time: FloatArray
@@ -69,6 +71,7 @@ class SimResult:
     wheel_velocity_command: FloatArray | None = None
     steer_command: FloatArray | None = None
     steer_rate_limit: FloatArray | None = None
+    plant_events: dict[str, FloatArray] | None = field(default=None, repr=False)
 
     @property
     def reference_time(self) -> FloatArray:
@@ -135,7 +138,9 @@ class SimResult:
         there is none); ``steer_violations`` (ticks on which a steered wheel's commanded
         angle turned faster than its limit, modulo a half turn: the flip rule). Errors
         and the peak wheel ratio cover the ticks after ``skip``; violations count every
-        tick.
+        tick. On a motor plant also ``voltage_violations``, ``current_violations`` and
+        ``slip_events`` (ticks), ``peak_voltage_ratio``, ``peak_current_ratio`` and
+        ``min_bus_voltage`` [V] (every tick).
         """
         if not is_finite_number(skip) or skip < 0:
             raise SimulationError(f"skip must be a finite number of seconds >= 0, got {skip!r}")
@@ -179,7 +184,20 @@ class SimResult:
             "max_lag": float(lag[keep].max()),
             "mean_lag": float(lag[keep].mean()),
             "lap_time": float(laps[-1]) if laps.size else None,
+            **self._plant_metrics(),
         }
+
+    def _plant_metrics(self) -> dict[str, Any]:
+        """A motor plant's counts and peaks (empty for other plants)."""
+        events = self.plant_events
+        if events is None:
+            return {}
+        return {"voltage_violations": int(events["voltage_violation"].sum()),
+                "current_violations": int(events["current_violation"].sum()),
+                "slip_events": int(events["slip"].sum()),
+                "peak_voltage_ratio": float(events["peak_voltage_ratio"].max()),
+                "peak_current_ratio": float(events["peak_current_ratio"].max()),
+                "min_bus_voltage": float(events["bus_voltage"].min())}
 
     def _accel_violations(self) -> int:
         """Ticks whose command changed a wheel faster than its acceleration limit."""

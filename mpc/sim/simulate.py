@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from typing import Protocol
 
@@ -11,6 +12,7 @@ from numpy.typing import ArrayLike
 from mpc.control.command import Command
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
+from mpc.sim.motor_plant import MotorPlant, MotorPlantConfig
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.sim.recorder import Recorder
 from mpc.sim.result import SimResult
@@ -48,7 +50,10 @@ def simulate(
         duration: simulated time [s] (> 0), ``round(duration / dt)`` ticks.
         initial_pose: true start pose; default the reference at t = 0.
         plant: a :class:`~mpc.sim.plant.PlantConfig`, a preset name from
-            :data:`~mpc.sim.plant.PLANT_PRESETS`, or None for the ideal plant.
+            :data:`~mpc.sim.plant.PLANT_PRESETS`, or None for the ideal plant; a
+            :class:`~mpc.sim.motor_plant.MotorPlantConfig` (``"motor"``) drives the robot
+            through its motors (it needs dynamics) and records its events in
+            ``SimResult.plant_events``.
         seed: seeds measurement noise and slip.
         robot: the true robot, if it differs from the controller's (e.g. a
             wheel the controller does not know has failed); default the same.
@@ -64,7 +69,8 @@ def simulate(
         start = trajectory.sample(0.0).pose
     else:
         start = finite_vector("initial_pose", initial_pose, 3, "(x, y, theta)", SimulationError)
-    sim = Plant(robot or controller.robot, dt, start, config, np.random.default_rng(seed))
+    kind = MotorPlant if isinstance(config, MotorPlantConfig) else Plant
+    sim = kind(robot or controller.robot, dt, start, config, np.random.default_rng(seed))
     controller.reset()
     recorder = Recorder(controller.robot, trajectory, dt)
     for k in range(ticks):
@@ -74,6 +80,8 @@ def simulate(
         recorder.record(t, pose, command, measured, sim.apply(command))
         if on_tick is not None:
             on_tick(k, ticks)
+    if isinstance(sim, MotorPlant):
+        return dataclasses.replace(recorder.result(), plant_events=sim.events())
     return recorder.result()
 
 

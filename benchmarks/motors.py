@@ -1,0 +1,263 @@
+"""``mpc-bench motors``: what motor-aware limits buy, on the motor plant.
+
+Every layout with motors (:func:`mpc.robots.motor_preset`), circle and figure-eight, the
+reference timed so that it needs **100 % of the motor model, not derated**: its peak,
+over a lap, of wheel speed / free speed, drive torque / current-limited torque and
+contact force / ``mu N`` is exactly 1 (the box Choreo plans in: full free speed and full
+torque, each on its own; the DC motor cannot give both at once, back-EMF takes the
+torque away as the speed rises, and the battery sags under load). Controllers:
+
+==================  ==========================================================================
+``mpc-motors``      this project with the motor rows (daqp fast path); ``-osqp``, ``-ipopt``
+``mpc-kinematic``   the same MPC given the kinematic stand-in a team would derive from the
+                    motors: speed limit = free speed, acceleration limit = the one a wheel's
+                    force limit (current or traction) gives its share of the mass
+``ff-p-clip``       feedforward + P, per-wheel clipping into the stand-in's limits
+``ff-p-desat``      feedforward + P, WPILib-style desaturation into them
+``ff-p-setpoint``   swerve: feedforward + P through a Team 254-style setpoint generator
+==================  ==========================================================================
+
+All run on :class:`~mpc.sim.motor_plant.MotorPlant` (the motors' voltage, current,
+back-EMF, battery sag, traction and slip; the same wheel velocity loop with acceleration
+feedforward for every controller) from rest on the reference. Reported per run: RMS
+position error after the settling time, ticks with a battery-voltage or current-limit
+violation (a wheel loop asked for more than the bus or the limit gives), slip events
+(ticks on which a wheel slid), and tick times.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from benchmarks.runner import machine
+from benchmarks.scenarios import Parser, ScenarioError, choose
+from mpc import Controller
+from mpc.robots import (
+    PRESETS,
+    Robot,
+    SphericalRobot,
+    SwedishRobot,
+    SwerveRobot,
+    motor_preset,
+)
+from mpc.robots.force_map import force_map
+from mpc.sim import (
+    FeedforwardPController,
+    FeedforwardPSetpointController,
+    TrackingController,
+    simulate,
+)
+from trajectories import Circle, FigureEight, Trajectory
+
+CONTROLLERS: tuple[str, ...] = ("mpc-motors", "mpc-motors-osqp", "mpc-motors-ipopt",
+                                "mpc-kinematic", "ff-p-clip", "ff-p-desat", "ff-p-setpoint")
+DEFAULT_CONTROLLERS: tuple[str, ...] = ("mpc-motors", "mpc-kinematic", "ff-p-clip",
+                                        "ff-p-desat", "ff-p-setpoint")
+TRAJECTORIES: tuple[str, ...] = ("circle", "figure8")
+_PROBE_PERIOD = 10.0
+
+
+def kinematic_stand_in(robot: Robot) -> Robot:
+    """``robot`` without dynamics, with the kinematic limits a team would derive from its
+    motors (Choreo's view): the speed limit is the free speed at the battery voltage, the
+    acceleration limit of wheel ``i`` is ``tau_max / (J + m_i / |W_i|^2)``, with
+    ``tau_max`` the smaller of the current-limited torque and the torque that reaches
+    traction when the wheel pushes alone, ``m_i`` its contact's share of the mass and
+    ``|W_i|`` its rolling map's planar norm (rad/s per m/s; 1 / r for a plain wheel)."""
+    forces = force_map(robot)
+    dyn = forces.dynamics
+    blocks = robot.wheel_blocks
+    reach = np.linalg.norm(blocks[:, :, :2], axis=2).max(axis=1)  # |W_i[:2]| (n,)
+    share = dyn.mass / forces.n_contacts
+    limit = np.full(robot.n_wheels, forces.torque_limit)
+    traction = forces.friction_limits
+    if traction is not None:
+        limit = np.minimum(limit, traction[forces.contact_of] / reach)
+    accel = limit / (dyn.wheel_inertia + share / reach**2)
+    speed = dyn.free_speed
+    if isinstance(robot, SwedishRobot):
+        wheels = tuple(replace(w, max_speed=speed, max_accel=float(a))
+                       for w, a in zip(robot.wheels, accel, strict=True))
+        return replace(robot, wheels=wheels, dynamics=None)
+    if isinstance(robot, SwerveRobot):
+        return replace(robot, max_speed=speed, max_accel=float(accel.min()), dynamics=None)
+    if isinstance(robot, SphericalRobot):
+        return replace(robot, max_speed=speed, max_accel=accel.reshape(-1, 2), dynamics=None)
+    raise ScenarioError(f"no kinematic stand-in for robot kind {robot.kind!r}")
+
+
+def motor_demand(trajectory: Trajectory, robot: Robot, samples: int = 1201) -> float:
+    """The peak over one lap of the reference's need against the motor model, no headroom:
+    ``max(|wheel speed| / free speed, |drive torque| / torque limit, |F_c| / (mu N_c))``
+    (drive torque with the wheel inertia; a swerve module's along its wheel)."""
+    forces = force_map(robot)
+    dyn = forces.dynamics
+    period = trajectory.period or trajectory.duration or 10.0
+    times = np.linspace(0.0, period, samples)
+    sample = trajectory.sample(times)
+    twist = trajectory.body_twist(times)
+    theta = sample.pose[:, 2]
+    c, s = np.cos(theta), np.sin(theta)
+    accel = np.stack([c * sample.acceleration[:, 0] + s * sample.acceleration[:, 1],
+                      -s * sample.acceleration[:, 0] + c * sample.acceleration[:, 1],
+                      sample.acceleration[:, 2]], axis=1)  # body-frame acceleration
+    twist_rate = accel.copy()  # du/dt = a - coriolis(u)
+    twist_rate[:, 0] += twist[:, 2] * twist[:, 1]
+    twist_rate[:, 1] -= twist[:, 2] * twist[:, 0]
+    velocity = np.einsum("ndj,kj->knd", robot.wheel_blocks, twist)
+    torque = (np.einsum("ndj,kj->knd", forces.effort_map, accel)
+              + dyn.wheel_inertia * np.einsum("ndj,kj->knd", robot.wheel_blocks, twist_rate))
+    speed = np.linalg.norm(velocity, axis=2)
+    if robot.wheel_dim == 2:
+        direction = velocity / np.maximum(speed, 1e-9)[:, :, None]
+        drive = np.abs(np.einsum("knd,knd->kn", torque, direction))
+    else:
+        drive = np.abs(torque[:, :, 0])
+    ratios = [speed.max() / dyn.free_speed, drive.max() / forces.torque_limit]
+    traction = forces.friction_limits
+    if traction is not None:
+        contact = np.linalg.norm(np.einsum("cij,kj->kci", forces.contact_maps, accel), axis=2)
+        ratios.append(float((contact / traction).max()))
+    return float(max(ratios))
+
+
+def motor_reference(name: str, robot: Robot, ratio: float = 1.0, size: float = 1.0,
+                    heading: str = "fixed") -> Trajectory:
+    """The named shape (``size`` [m]) timed so that :func:`motor_demand` is ``ratio``."""
+
+    def make(period: float) -> Trajectory:
+        spec: Any = 0.0 if heading == "fixed" else "tangent"
+        if name == "circle":
+            return Circle(size, period, heading=spec)
+        return FigureEight(size, period, heading=spec)
+
+    low, high = 0.05, 200.0  # demand falls as the period grows
+    for _ in range(60):
+        middle = math.sqrt(low * high)
+        if motor_demand(make(middle), robot) > ratio:
+            low = middle
+        else:
+            high = middle
+    return make(high)
+
+
+def controller(name: str, robot: Robot, trajectory: Trajectory, dt: float,
+               horizon: int) -> TrackingController:
+    """A controller by name (:data:`CONTROLLERS`) for the motor robot ``robot``."""
+    if name.startswith("mpc-motors"):
+        solver = {"mpc-motors": "daqp", "mpc-motors-osqp": "osqp",
+                  "mpc-motors-ipopt": "ipopt"}[name]
+        return Controller(robot, trajectory, horizon, dt, solver=solver)
+    stand_in = kinematic_stand_in(robot)
+    if name == "mpc-kinematic":
+        return Controller(stand_in, trajectory, horizon, dt)
+    if name == "ff-p-setpoint":
+        return FeedforwardPSetpointController(stand_in, trajectory, dt)
+    return FeedforwardPController(stand_in, trajectory, dt,
+                                  saturation="clip" if name == "ff-p-clip" else "desaturate")
+
+
+def run(layouts: list[str], trajectories: list[str], controllers: list[str], *,
+        ratio: float = 1.0, size: float = 1.0, heading: str = "fixed", dt: float = 0.05,
+        horizon: int = 20, laps: float = 2.0, skip: float = 2.0, seed: int = 0,
+        log: Any = print) -> list[dict[str, Any]]:
+    """Every layout x trajectory x controller on the motor plant; one row per run."""
+    rows = []
+    for layout in layouts:
+        robot = motor_preset(layout)
+        for shape in trajectories:
+            reference = motor_reference(shape, robot, ratio, size, heading)
+            period = float(reference.period or 10.0)
+            for name in controllers:
+                if name == "ff-p-setpoint" and not robot.steered:
+                    continue
+                started = time.perf_counter()
+                control = controller(name, robot, reference, dt, horizon)
+                result = simulate(control, laps * period + skip, plant="motor", robot=robot,
+                                  seed=seed)
+                m = result.metrics(skip=skip)
+                row = {"layout": layout, "trajectory": shape, "heading": heading,
+                       "period": period, "controller": name,
+                       **{key: m[key] for key in (
+                           "rms_position_error", "max_position_error", "max_cross_track_error",
+                           "voltage_violations", "current_violations", "slip_events",
+                           "limit_violations", "accel_violations", "failures",
+                           "peak_voltage_ratio", "peak_current_ratio", "min_bus_voltage",
+                           "tick_time_p50", "tick_time_p99")}}
+                rows.append(row)
+                log(f"{layout:8s} {shape:8s} T {period:5.2f} s {name:16s} "
+                    f"rms {row['rms_position_error'] * 1e3:7.1f} mm  "
+                    f"V {row['voltage_violations']:3d}  I {row['current_violations']:3d}  "
+                    f"slip {row['slip_events']:3d}  tick p50 {row['tick_time_p50'] * 1e3:.3f} "
+                    f"p99 {row['tick_time_p99'] * 1e3:.3f} ms "
+                    f"({time.perf_counter() - started:.1f} s)")
+    return rows
+
+
+def table(rows: list[dict[str, Any]], controllers: list[str]) -> str:
+    """Markdown: per scenario, each controller's RMS error [mm] / V / I / slip ticks."""
+    head = "| scenario | period [s] | " + " | ".join(controllers) + " |"
+    lines = [head, "|" + "---|" * (len(controllers) + 2)]
+    scenarios = dict.fromkeys((r["layout"], r["trajectory"]) for r in rows)
+    for layout, shape in scenarios:
+        cells = []
+        period = 0.0
+        for name in controllers:
+            found = [r for r in rows if (r["layout"], r["trajectory"], r["controller"])
+                     == (layout, shape, name)]
+            if not found:
+                cells.append("-")
+                continue
+            r = found[0]
+            period = r["period"]
+            cells.append(f"{r['rms_position_error'] * 1e3:.1f} / {r['voltage_violations']} / "
+                         f"{r['current_violations']} / {r['slip_events']}")
+        lines.append(f"| {layout} {shape} | {period:.2f} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str]) -> int:
+    parser = Parser(prog="mpc-bench motors", description=__doc__.split("\n")[0])
+    parser.add_argument("--layouts", help=f"comma list of {', '.join(PRESETS)} (default: all)")
+    parser.add_argument("--trajectories", help="comma list of circle, figure8 (default: both)")
+    parser.add_argument("--controllers",
+                        help=f"comma list of {', '.join(CONTROLLERS)} "
+                             f"(default: {', '.join(DEFAULT_CONTROLLERS)})")
+    parser.add_argument("--heading", default="fixed", choices=("fixed", "tangent"))
+    parser.add_argument("--ratio", type=float, default=1.0,
+                        help="the reference's peak need / the motor model (1.0)")
+    parser.add_argument("--size", type=float, default=1.0, help="shape size [m] (1.0)")
+    parser.add_argument("--laps", type=float, default=2.0, help="laps per run (2)")
+    parser.add_argument("--skip", type=float, default=2.0,
+                        help="seconds left out of the errors (2.0)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", default="bench-out", metavar="DIR",
+                        help="writes motors.json here")
+    args = parser.parse_args(argv)
+    if not (args.ratio > 0 and args.size > 0 and args.laps > 0 and args.skip >= 0):
+        raise ScenarioError("--ratio, --size and --laps must be > 0, --skip >= 0")
+    layouts = choose("layout", args.layouts, PRESETS)
+    trajectories = choose("trajectory", args.trajectories, TRAJECTORIES)
+    controllers = choose("controller", args.controllers, CONTROLLERS, DEFAULT_CONTROLLERS)
+    started = time.perf_counter()
+    rows = run(layouts, trajectories, controllers, ratio=args.ratio, size=args.size,
+               heading=args.heading, laps=args.laps, skip=args.skip, seed=args.seed,
+               log=lambda line: print(line, flush=True))
+    print()
+    print("RMS position error [mm] / voltage-violation ticks / current-violation ticks / "
+          "slip ticks")
+    print(table(rows, controllers))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "motors.json").write_text(json.dumps(
+        {"command": " ".join(["mpc-bench", "motors", *argv]), "machine": machine(),
+         "rows": rows}, indent=1))
+    print(f"\nwrote {out / 'motors.json'} ({time.perf_counter() - started:.0f} s)")
+    return 0

@@ -1,0 +1,327 @@
+"""A simulated robot driven through its DC motors: voltage in, traction out.
+
+Each wheel's motor controller runs a velocity loop on the command: the setpoint ramps
+from the last commanded wheel speed to this one over the tick (what the controllers
+plan: a constant acceleration), and the voltage is the feedforward for the setpoint's
+speed and the tick's torque plus proportional feedback::
+
+    V_demand = w_set / kv + R T_ff / kt + velocity_gain (w_set - w)
+
+``T_ff`` is the command's own motor torque (:attr:`Command.motor_torques`) when it has
+one, otherwise the torque the commanded change of twist needs on this robot (an
+acceleration feedforward, as a well-identified ``kA`` gives: controllers that do not
+plan forces are not handicapped by a poorer wheel loop). The motor controller applies
+``V_demand`` clipped to the bus voltage, then lowers it so that the current stays within
+the current limit (a stator current limit). Counted, per tick, on any sub-step:
+
+- a **voltage violation** when ``|V_demand|`` exceeds the bus voltage;
+- a **current violation** when the current of the clipped voltage exceeds the limit;
+- a **slip event** when a wheel's contact force reached ``mu N`` and the wheel slid.
+
+Physics per sub-step (implicit Euler in the twist and the wheel speeds):
+
+- each motor: ``T = kt (V - w / kv) / R`` at the wheel (WPILib's model);
+- each wheel: ``J dw/dt = T - tau`` with ``tau`` the floor's reaction (wheel torque
+  units); the body: ``M (du/dt + coriolis(u)) = sum W^T tau`` (:mod:`mpc.robots.force_map`);
+- the floor: a stiff regularised contact, ``tau = k (w - W u)`` along each slip
+  direction (a Swedish wheel's roller axis, a ball's two actuators, a swerve module's
+  rolling and lateral directions), ``k`` such that the wheel creeps ``slip_speed`` at
+  ``mu N``; a contact whose force would exceed ``mu N`` slides with ``mu N`` (kinetic
+  friction along the force it would have needed);
+- the battery: ``V_bus = E - R_battery I_battery``, ``I_battery = sum V I / V_bus``
+  (the last sub-step's draw);
+- a swerve module steers towards its commanded angle at ``max_steer_rate``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from mpc.arrays import FloatArray
+from mpc.control.command import Command
+from mpc.errors import SimulationError
+from mpc.robots.base import Robot
+from mpc.robots.force_map import ForceMap, force_map
+from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
+from mpc.validation import is_finite_number
+
+#: Event series a :class:`MotorPlant` records per tick (:meth:`MotorPlant.events`).
+EVENT_KEYS: tuple[str, ...] = ("voltage_violation", "current_violation", "slip",
+                               "peak_voltage_ratio", "peak_current_ratio", "bus_voltage")
+
+
+@dataclass(frozen=True)
+class _SubStep:
+    """One sub-step's outcome: the voltages applied [V] and currents drawn [A] (n,), and
+    what the wheel loops asked for against the limits."""
+
+    voltage: FloatArray
+    current: FloatArray
+    voltage_violation: bool
+    current_violation: bool
+    slipped: bool
+    voltage_ratio: float
+    current_ratio: float
+
+
+@dataclass(frozen=True)
+class MotorPlantConfig(PlantConfig):
+    """The motor plant's settings (the delay and noise of :class:`PlantConfig` apply too;
+    its ``motor_lag`` and ``slip`` must stay 0: the motors and traction model both).
+
+    Attributes:
+        velocity_gain: each wheel loop's proportional gain [V per rad/s at the wheel];
+            None: five times the back-EMF slope ``1 / kv``.
+        battery_resistance: [ohm]; None: the robot's ``dynamics.battery_resistance``.
+        slip_speed: how fast a wheel creeps at full traction [m/s] (the contact's
+            stiffness), > 0.
+    """
+
+    substeps: int = 20
+    velocity_gain: float | None = None
+    battery_resistance: float | None = None
+    slip_speed: float = 0.002
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.motor_lag != 0.0 or self.slip != 0.0:
+            raise SimulationError("the motor plant models the motors and traction itself: "
+                                  f"motor_lag and slip must be 0, got {self.motor_lag!r} and "
+                                  f"{self.slip!r}")
+        for name in ("velocity_gain", "battery_resistance"):
+            value = getattr(self, name)
+            if value is not None and (not is_finite_number(value) or value < 0):
+                raise SimulationError(f"{name} must be a finite number >= 0 or None, "
+                                      f"got {value!r}")
+        if not is_finite_number(self.slip_speed) or self.slip_speed <= 0:
+            raise SimulationError(f"slip_speed [m/s] must be a finite number > 0, "
+                                  f"got {self.slip_speed!r}")
+
+
+# `simulate(..., plant="motor")` and `mpc-bench --plant motor`.
+PLANT_PRESETS["motor"] = MotorPlantConfig()
+
+
+class MotorPlant(Plant):
+    """The robot driven through its motors (module docstring).
+
+    Args:
+        robot: the true robot; it must have dynamics (:meth:`Robot.with_dynamics`).
+        dt: control tick [s].
+        pose: initial world pose (x, y, theta).
+        config: a :class:`MotorPlantConfig`.
+        rng: random generator for the measurement noise.
+    """
+
+    def __init__(self, robot: Robot, dt: float, pose: FloatArray, config: PlantConfig,
+                 rng: np.random.Generator) -> None:
+        if robot.dynamics is None:
+            raise SimulationError(f"the motor plant needs a robot with dynamics; robot "
+                                  f"{robot.name!r} has none (robot.with_dynamics(...))")
+        if not isinstance(config, MotorPlantConfig):
+            raise SimulationError(f"config must be a MotorPlantConfig, got {config!r}")
+        super().__init__(robot, dt, pose, config, rng)
+        self.forces: ForceMap = force_map(robot)
+        dyn = robot.dynamics
+        forces = self.forces
+        self.battery_resistance = (dyn.battery_resistance if config.battery_resistance is None
+                                   else config.battery_resistance)
+        self.velocity_gain = (5.0 / forces.kv if config.velocity_gain is None
+                              else config.velocity_gain)
+        self.current_limit = forces.torque_limit / forces.kt  # the gearbox's [A]
+        self.twist = np.zeros(3)  # body twist [m/s, m/s, rad/s]
+        self._battery_current = 0.0
+        self._last_speeds = np.zeros(robot.n_wheels)  # last commanded wheel speeds
+        self._last_twist = np.zeros(3)
+        self._events: list[tuple[float, ...]] = []
+        self._commands: deque[Command | None] = deque([None] * config.delay_ticks)
+        n = robot.n_wheels
+        mu = 1.0 if dyn.friction is None else dyn.friction
+        stiffness = mu * forces.normal_loads / config.slip_speed  # [N per m/s]
+        self._contact_stiffness = stiffness[forces.contact_of]  # per wheel
+        self._mass_over_h = forces.mass_matrix * (config.substeps / dt)
+        self._inertia_over_h = dyn.wheel_inertia * config.substeps / dt
+        self._damping = forces.kt / (forces.resistance * forces.kv)  # back-EMF [N m s/rad]
+        self._size = 3 + n
+
+    # ------------------------------------------------------------ one tick
+    def apply(self, command: Command) -> FloatArray:
+        """Run one tick under ``command``; return the wheel speeds reached [rad/s]."""
+        self._commands.append(command)
+        delayed = self._commands.popleft()
+        if delayed is None:  # the delay line still holds the robot at rest
+            target_speeds, target_angles = np.zeros(self.robot.n_wheels), self.steer_angles
+            feedforward = self._feedforward(np.zeros(3), None, target_angles)
+        else:
+            target_speeds, target_angles = delayed.wheel_speeds, delayed.steer_angles
+            feedforward = self._feedforward(np.asarray(delayed.twist, dtype=float),
+                                            delayed.motor_torques, target_angles)
+        config, forces = self.config, self.forces
+        substeps = config.substeps
+        h = self.dt / substeps
+        start = self._last_speeds
+        flags = [False, False, False]
+        peaks = [0.0, 0.0]
+        lowest = math.inf
+        for s in range(substeps):
+            if self.steer_angles is not None and target_angles is not None:
+                self._steer(target_angles, h)
+            setpoint = start + (target_speeds - start) * ((s + 1.0) / substeps)
+            bus = self.robot.dynamics.battery_voltage - self.battery_resistance * (  # type: ignore[union-attr]
+                self._battery_current)
+            lowest = min(lowest, bus)
+            ahead = forces.voltage(feedforward, setpoint) + self.velocity_gain * setpoint
+            previous = self.twist
+            sub = self._step(ahead, bus, h)
+            flags[0] |= sub.voltage_violation
+            flags[1] |= sub.current_violation
+            flags[2] |= sub.slipped
+            peaks[0] = max(peaks[0], sub.voltage_ratio)
+            peaks[1] = max(peaks[1], sub.current_ratio)
+            self._battery_current = float(sub.voltage @ sub.current) / max(bus, 1e-9)
+            self._integrate(0.5 * (previous + self.twist), h)
+        self._last_speeds = np.asarray(target_speeds, dtype=float).copy()
+        self._events.append((float(flags[0]), float(flags[1]), float(flags[2]),
+                             peaks[0], peaks[1], lowest))
+        return self.wheel_speeds.copy()
+
+    def _feedforward(self, twist: FloatArray, motor_torques: FloatArray | None,
+                     angles: FloatArray | None) -> FloatArray:
+        """Wheel torques [N m] the loop feeds forward this tick: the command's own motor
+        torques, or the torque its change of twist needs (acceleration feedforward)."""
+        forces = self.forces
+        if motor_torques is not None:
+            torque = np.asarray(motor_torques, dtype=float) * (
+                forces.dynamics.gearing * forces.count)
+        else:
+            if self.robot.wheel_dim == 2:
+                steer = np.zeros(self.robot.n_wheels) if angles is None else angles
+                directions = np.stack([np.cos(steer), np.sin(steer)], axis=1)
+            else:
+                directions = np.ones((self.robot.n_wheels, 1))
+            torque = forces.drive_torques(self._last_twist, twist, self.dt, directions)
+        self._last_twist = twist
+        return torque
+
+    # ------------------------------------------------------------ physics
+    def _channels(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Slip directions as rows on the twist (m, 3) [rad/s per twist unit], the wheel
+        each drives (m,) (-1: a swerve module's lateral direction, no wheel) and the
+        contact each belongs to (m,)."""
+        robot, forces = self.robot, self.forces
+        blocks = robot.wheel_blocks
+        n = robot.n_wheels
+        if robot.wheel_dim == 1:
+            return blocks[:, 0, :], np.arange(n, dtype=float), forces.contact_of.astype(float)
+        angles = self.steer_angles if self.steer_angles is not None else np.zeros(n)
+        along = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        across = np.stack([-np.sin(angles), np.cos(angles)], axis=1)
+        rows = np.concatenate([np.einsum("nd,ndj->nj", along, blocks),
+                               np.einsum("nd,ndj->nj", across, blocks)])
+        wheel = np.concatenate([np.arange(n), np.full(n, -1)]).astype(float)
+        contact = np.concatenate([forces.contact_of, forces.contact_of]).astype(float)
+        return rows, wheel, contact
+
+    def _step(self, ahead: FloatArray, bus: float, h: float) -> _SubStep:
+        """One implicit-Euler sub-step of the twist and the wheel speeds ``w``.
+
+        Each wheel's loop asks for ``V = ahead - velocity_gain w`` (``w``: the speed the
+        sub-step reaches; a motor controller's loop runs much faster than a sub-step);
+        the controller clips it to the bus voltage, then holds the current at the limit;
+        a contact past traction slides. Which wheels and contacts saturate is found by
+        solving again with them saturated until nothing changes."""
+        forces, n = self.forces, self.robot.n_wheels
+        rows, wheel, contact = self._channels()
+        contact_index = contact.astype(int)
+        planar = np.linalg.norm(rows[:, :2], axis=1)  # rad/s per m/s along the direction
+        stiffness = self._contact_stiffness[contact_index] / planar**2
+        actuated = wheel >= 0
+        select = np.zeros((rows.shape[0], n))
+        select[np.flatnonzero(actuated), wheel[actuated].astype(int)] = 1.0
+        turn = self.twist
+        coriolis = forces.mass_matrix @ np.array([-turn[2] * turn[1], turn[2] * turn[0], 0.0])
+        k_r = forces.kt / forces.resistance
+        gain = self.velocity_gain
+        # motor torque = drive - damping * w per wheel, by mode: 0 linear, 1 voltage
+        # clipped at +-bus, 2 current held at +-limit
+        mode = np.zeros(n, dtype=int)
+        sign = np.zeros(n)
+        fixed = np.zeros(rows.shape[0])  # efforts of sliding channels
+        sliding = np.zeros(rows.shape[0], dtype=bool)
+        limits = forces.friction_limits
+        size = self._size
+        demand_asked = asked = np.zeros(n)  # what the loops asked for on the first pass
+        for attempt in range(2 * n + forces.n_contacts + 2):
+            drive = np.select([mode == 0, mode == 1],
+                              [k_r * ahead, k_r * sign * bus], sign * forces.kt
+                              * self.current_limit)
+            damping = np.select([mode == 0, mode == 1],
+                                [k_r * (gain + 1.0 / forces.kv), self._damping], 0.0)
+            stick = np.where(sliding, 0.0, stiffness)
+            matrix = np.zeros((size, size))
+            matrix[:3, :3] = self._mass_over_h + (rows.T * stick) @ rows
+            matrix[:3, 3:] = -(rows.T * stick) @ select
+            matrix[3:, :3] = matrix[:3, 3:].T
+            matrix[3:, 3:] = (np.diag(self._inertia_over_h + damping)
+                              + (select.T * stick) @ select)
+            rhs = np.empty(size)
+            rhs[:3] = self._mass_over_h @ self.twist - coriolis + rows.T @ fixed
+            rhs[3:] = self._inertia_over_h * self.wheel_speeds + drive - select.T @ fixed
+            solution = np.linalg.solve(matrix, rhs)
+            twist, speeds = solution[:3], solution[3:]
+            demand = ahead - gain * speeds
+            voltage = np.select([mode == 0, mode == 1], [demand, sign * bus],
+                                speeds / forces.kv + sign * forces.resistance
+                                * self.current_limit)
+            current = (voltage - speeds / forces.kv) / forces.resistance
+            if attempt == 0:  # what the loops ask for, before any saturation
+                demand_asked = demand
+                asked = (np.clip(demand, -bus, bus) - speeds / forces.kv) / forces.resistance
+            changed = False
+            clip = (mode == 0) & (np.abs(demand) > bus * (1.0 + 1e-12))
+            if np.any(clip):
+                mode[clip], sign[clip] = 1, np.sign(demand[clip])
+                changed = True
+            held = (mode < 2) & (np.abs(current) > self.current_limit * (1.0 + 1e-12))
+            if np.any(held):
+                mode[held], sign[held] = 2, np.sign(current[held])
+                changed = True
+            if not changed and limits is not None:
+                efforts = np.where(sliding, fixed, stick * (select @ speeds - rows @ twist))
+                force = np.zeros((forces.n_contacts, 2))
+                np.add.at(force, contact_index, rows[:, :2] * efforts[:, None])
+                magnitude = np.hypot(force[:, 0], force[:, 1])
+                slid = np.bincount(contact_index, weights=sliding.astype(float),
+                                   minlength=forces.n_contacts) > 0
+                over = (magnitude > limits * (1.0 + 1e-9)) & ~slid
+                if np.any(over):
+                    scale = np.where(over, limits / np.maximum(magnitude, 1e-300), 1.0)
+                    newly = over[contact_index]
+                    fixed = np.where(newly, efforts * scale[contact_index], fixed)
+                    sliding |= newly
+                    changed = True
+            if not changed:
+                break
+        self.twist = twist
+        self.wheel_speeds = speeds  # type: ignore[assignment]
+        demand = demand_asked
+        return _SubStep(
+            voltage=voltage, current=current,
+            voltage_violation=bool(np.any(np.abs(demand) > bus * (1.0 + 1e-9))),
+            current_violation=bool(np.any(np.abs(asked) > self.current_limit * (1.0 + 1e-9))),
+            slipped=bool(np.any(sliding)),
+            voltage_ratio=float(np.abs(demand).max()) / bus,
+            current_ratio=float(np.abs(asked).max()) / self.current_limit)
+
+    # ------------------------------------------------------------ record
+    def events(self) -> dict[str, FloatArray]:
+        """Per tick so far: ``voltage_violation``, ``current_violation``, ``slip`` (1.0 or
+        0.0), ``peak_voltage_ratio`` (largest ``|V_demand| / V_bus``),
+        ``peak_current_ratio`` (largest ``|I| / limit``) and the lowest ``bus_voltage``
+        [V] over its sub-steps."""
+        table = np.array(self._events, dtype=float).reshape(-1, len(EVENT_KEYS))
+        return {key: table[:, i].copy() for i, key in enumerate(EVENT_KEYS)}
