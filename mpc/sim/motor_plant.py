@@ -271,7 +271,7 @@ class MotorPlant(Plant):
             rhs = np.empty(size)
             rhs[:3] = self._mass_over_h @ self.twist - coriolis + rows.T @ fixed
             rhs[3:] = self._inertia_over_h * self.wheel_speeds + drive - select.T @ fixed
-            solution = np.linalg.solve(matrix, rhs)
+            solution: FloatArray = np.linalg.solve(matrix, rhs)
             twist, speeds = solution[:3], solution[3:]
             demand = ahead - gain * speeds
             voltage = np.select([mode == 0, mode == 1], [demand, sign * bus],
@@ -306,8 +306,7 @@ class MotorPlant(Plant):
                     changed = True
             if not changed:
                 break
-        self.twist = twist
-        self.wheel_speeds = speeds  # type: ignore[assignment]
+        self.twist, self.wheel_speeds = twist, speeds
         demand = demand_asked
         return _SubStep(
             voltage=voltage, current=current,
