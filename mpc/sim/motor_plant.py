@@ -271,7 +271,7 @@ class MotorPlant(Plant):
             rhs = np.empty(size)
             rhs[:3] = self._mass_over_h @ self.twist - coriolis + rows.T @ fixed
             rhs[3:] = self._inertia_over_h * self.wheel_speeds + drive - select.T @ fixed
-            solution: FloatArray = np.linalg.solve(matrix, rhs)
+            solution = np.asarray(np.linalg.solve(matrix, rhs), dtype=np.float64)
             twist, speeds = solution[:3], solution[3:]
             demand = ahead - gain * speeds
             voltage = np.select([mode == 0, mode == 1], [demand, sign * bus],
