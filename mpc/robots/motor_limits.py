@@ -57,6 +57,11 @@ from mpc.robots.limits import StageLimits
 #: from (rows refilled every tick) rather than its value there (bounds only).
 LINEARISE_CORIOLIS = True
 
+#: The share of ``headroom`` the final clamp keeps for the first command (the plan keeps it
+#: all): the rest absorbs the plan's linearisation (Coriolis term, sag) so that the clamp
+#: does not cut a plan for its second-order terms.
+CLAMP_HEADROOM = 0.5
+
 #: [rad/s] smoothing of a steered wheel's direction ``v / sqrt(|v|^2 + eps^2)`` in the NLP.
 DIRECTION_SMOOTHING = 1e-3
 
@@ -70,7 +75,9 @@ class MotorRows:
     each (m, 3), with ``|value| <= bound`` (m,) (``bound`` scaled by ``V_bus / E`` on the
     ``voltage`` rows). Rows are in fractions of the battery voltage ``E``, of the torque
     limit and of the traction limit. ``kind`` (m,) says which: 0 voltage, 1 current,
-    2 traction; ``index`` (m,) the wheel (or contact).
+    2 traction; ``index`` (m,) the wheel (or contact); ``end`` (m,) whether the row holds
+    at the end of the change (the Coriolis term of ``u_k``) or at its start
+    (``u_{k-1}``'s): the voltage at the end, at the start, current and traction at both.
     """
 
     s_now: FloatArray
@@ -81,6 +88,7 @@ class MotorRows:
     voltage: BoolArray
     kind: FloatArray
     index: FloatArray
+    end: BoolArray
 
     @property
     def rows(self) -> int:
@@ -109,19 +117,22 @@ def motor_rows(forces: ForceMap, polygon_sides: int) -> MotorRows:
     volt = dyn.battery_voltage
     parts: dict[str, list[FloatArray]] = {key: [] for key in
                                            ("s_now", "s_before", "q", "g", "bound", "voltage",
-                                            "kind", "index")}
+                                            "kind", "index", "end")}
 
     def add(s_now: FloatArray, s_before: FloatArray, q: FloatArray, g: FloatArray,
-            bound: float, voltage: bool, kind: int, index: npt.NDArray[np.integer]) -> None:
+            bound: float, voltage: bool, kind: int, index: npt.NDArray[np.integer],
+            ends: tuple[bool, ...] = (True, False)) -> None:
         rows = q.shape[0]
-        parts["s_now"].append(s_now)
-        parts["s_before"].append(s_before)
-        parts["q"].append(q)
-        parts["g"].append(g)
-        parts["bound"].append(np.full(rows, bound))
-        parts["voltage"].append(np.full(rows, voltage))
-        parts["kind"].append(np.full(rows, float(kind)))
-        parts["index"].append(index.astype(float))
+        for end in ends:
+            parts["s_now"].append(s_now)
+            parts["s_before"].append(s_before)
+            parts["q"].append(q)
+            parts["g"].append(g)
+            parts["bound"].append(np.full(rows, bound))
+            parts["voltage"].append(np.full(rows, voltage))
+            parts["kind"].append(np.full(rows, float(kind)))
+            parts["index"].append(index.astype(float))
+            parts["end"].append(np.full(rows, end))
 
     speed = np.einsum("kd,ndj->nkj", normals, blocks).reshape(-1, 3)  # n . W_i
     drive = np.einsum("kd,ndj->nkj", normals, forces.drive_map).reshape(-1, 3)
@@ -132,7 +143,7 @@ def motor_rows(forces: ForceMap, polygon_sides: int) -> MotorRows:
     for end in (True, False):
         add(speed / (forces.kv * volt) if end else zero,
             zero if end else speed / (forces.kv * volt),
-            r_over * drive, r_over * effort, keep * ap, True, 0, wheel)
+            r_over * drive, r_over * effort, keep * ap, True, 0, wheel, (end,))
     limit = forces.torque_limit
     add(zero, zero, drive / limit, effort / limit, keep * ap, False, 1, wheel)
     traction = forces.friction_limits
@@ -151,7 +162,7 @@ def motor_rows(forces: ForceMap, polygon_sides: int) -> MotorRows:
     return MotorRows(s_now=stacked["s_now"], s_before=stacked["s_before"], q=stacked["q"],
                      g=stacked["g"], bound=stacked["bound"],
                      voltage=stacked["voltage"].astype(bool), kind=stacked["kind"],
-                     index=stacked["index"])
+                     index=stacked["index"], end=stacked["end"].astype(bool))
 
 
 @dataclass(eq=False)
@@ -165,10 +176,13 @@ class MotorStageLimits(StageLimits):
     # work arrays of the refill
     previous: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
     turn: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    turn_start: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
     coriolis_rows: FloatArray = field(default_factory=lambda: np.zeros((2, 0)))
+    coriolis_start_rows: FloatArray = field(default_factory=lambda: np.zeros((2, 0)))
     motor_bound: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
     base_now: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
     base_before: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    coef: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
 
 
 def stage_limits(robot: Robot, change_times: FloatArray, polygon_sides: int) -> StageLimits:
@@ -191,8 +205,11 @@ def stage_limits(robot: Robot, change_times: FloatArray, polygon_sides: int) -> 
         constant=False, change_times=np.array(change_times, dtype=float),
         kinematic=kinematic, motor=rows, forces=forces,
         previous=np.zeros((times.shape[0], 3)), turn=np.zeros((times.shape[0], 3)),
-        coriolis_rows=np.ascontiguousarray(rows.g[:, :2].T), motor_bound=np.array(bound),
-        base_now=now, base_before=before)
+        turn_start=np.zeros((times.shape[0], 3)),
+        coriolis_rows=np.ascontiguousarray((rows.g[:, :2] * rows.end[:, None]).T),
+        coriolis_start_rows=np.ascontiguousarray((rows.g[:, :2] * ~rows.end[:, None]).T),
+        motor_bound=np.array(bound), base_now=now, base_before=before,
+        coef=np.zeros_like(now))
     return limits
 
 
@@ -220,31 +237,41 @@ def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
     previous = limits.previous
     previous[0] = last
     previous[1:] = guess[:-1]
-    middle = 0.5 * (guess + previous)
-    turn = limits.turn  # the Coriolis term at the middle (third column stays 0)
-    np.multiply(middle[:, 2], middle[:, 1], out=turn[:, 0])
-    np.negative(turn[:, 0], out=turn[:, 0])
-    np.multiply(middle[:, 2], middle[:, 0], out=turn[:, 1])
-    offset = turn[:, :2] @ limits.coriolis_rows  # g . coriolis(middle), (N, m_motor)
+    turn_end, turn_start = limits.turn, limits.turn_start  # third columns stay 0
+    _coriolis(guess, turn_end)
+    _coriolis(previous, turn_start)
+    gx, gy = limits.coriolis_rows  # (m_motor,) each, zero where the row is the other end's
+    sx, sy = limits.coriolis_start_rows
+    offset = turn_end[:, :2] @ limits.coriolis_rows + turn_start[:, :2] @ (
+        limits.coriolis_start_rows)  # g . coriolis at each row's end, (N, m_motor)
     if LINEARISE_CORIOLIS:
-        # coriolis(m) ~ J m - coriolis(mbar) with J its Jacobian at mbar, m = (u_k + u_{k-1})
-        # / 2: half of g J on each twist, and the offset changes sign.
-        gx, gy = limits.coriolis_rows
-        omega, vx, vy = middle[:, 2:3], middle[:, 0:1], middle[:, 1:2]
-        coef = np.empty_like(limits.base_now)
-        np.multiply(0.5 * gy, omega, out=coef[:, :, 0])
-        np.multiply(-0.5 * gx, omega, out=coef[:, :, 1])
-        coef[:, :, 2] = 0.5 * (gy * vx - gx * vy)
-        np.add(limits.base_now, coef, out=limits.now[:, m:])
-        np.add(limits.base_before, coef, out=limits.before[:, m:])
+        # coriolis(u) ~ J u - coriolis(ubar), J its Jacobian at ubar: g J on the end's
+        # twist (u_k or u_{k-1}), and the offset changes sign.
+        for rows_x, rows_y, twists, out, base in (
+                (gx, gy, guess, limits.now, limits.base_now),
+                (sx, sy, previous, limits.before, limits.base_before)):
+            omega, vx, vy = twists[:, 2:3], twists[:, 0:1], twists[:, 1:2]
+            coef = limits.coef
+            np.multiply(rows_y, omega, out=coef[:, :, 0])
+            np.multiply(rows_x, omega, out=coef[:, :, 1])
+            np.negative(coef[:, :, 1], out=coef[:, :, 1])
+            coef[:, :, 2] = rows_y * vx - rows_x * vy
+            np.add(base, coef, out=out[:, m:])
         np.negative(offset, out=offset)
         limits.changed = True
     bound = limits.motor_bound
     if forces.dynamics.battery_resistance > 0.0:
-        scale = _sag_scale(forces, guess, previous, limits.change_times, turn)
+        scale = _sag_scale(forces, guess, previous, limits.change_times, turn_end)
         np.multiply(scale[:, None], rows.bound[rows.voltage], out=bound[:, rows.voltage])
     np.subtract(bound, offset, out=limits.upper[:, m:])
     np.subtract(-bound, offset, out=limits.lower[:, m:])
+
+
+def _coriolis(twists: FloatArray, out: FloatArray) -> None:
+    """``coriolis(twists)`` (N, 3) into ``out`` (its third column left as it is)."""
+    np.multiply(twists[:, 2], twists[:, 1], out=out[:, 0])
+    np.negative(out[:, 0], out=out[:, 0])
+    np.multiply(twists[:, 2], twists[:, 0], out=out[:, 1])
 
 
 def _sag_scale(forces: ForceMap, twists: FloatArray, previous: FloatArray,
@@ -295,47 +322,58 @@ def nlp_stage_limits(robot: Robot, twists: ca.SX, last: ca.SX, steer_angles: ca.
 
 def _nlp_stage(forces: ForceMap, now: ca.SX, before: ca.SX, dt: float
                ) -> list[tuple[ca.SX, FloatArray, FloatArray]]:
+    """One change's motor limits, exactly: at its end (``now``'s speed and Coriolis term)
+    and at its start (``before``'s)."""
     dyn = forces.dynamics
     keep = 1.0 - dyn.headroom
     volt = dyn.battery_voltage
     change = (now - before) / dt
-    middle = 0.5 * (now + before)
-    accel = change + ca.vertcat(-middle[2] * middle[1], middle[2] * middle[0], 0)
+
+    def coriolis_of(twist: ca.SX) -> ca.SX:
+        return ca.vertcat(-twist[2] * twist[1], twist[2] * twist[0], 0)
+
+    turns = (coriolis_of(now), coriolis_of(before))
     blocks = forces.robot.wheel_blocks
-    out: list[tuple[ca.SX, FloatArray, FloatArray]] = []
-    speeds_end, speeds_start, torques = [], [], []
-    for i in range(blocks.shape[0]):
-        block = ca.DM(blocks[i])
-        torque = ca.DM(forces.drive_map[i]) @ change + ca.DM(forces.effort_map[i]) @ (
-            accel - change)
-        v_end, v_start = block @ now, block @ before
-        if blocks.shape[1] == 2:
-            direction = v_end / ca.sqrt(ca.sumsqr(v_end) + DIRECTION_SMOOTHING**2)
-            speeds_end.append(ca.dot(direction, v_end))
-            speeds_start.append(ca.dot(direction, v_start))
-            torques.append(ca.dot(direction, torque))
-        else:
-            speeds_end.append(v_end)
-            speeds_start.append(v_start)
-            torques.append(torque)
-    torque = ca.vertcat(*torques)
-    v_end = (ca.vertcat(*speeds_end) / forces.kv + forces.resistance * torque / forces.kt)
-    v_start = (ca.vertcat(*speeds_start) / forces.kv + forces.resistance * torque / forces.kt)
     n = blocks.shape[0]
+    speeds: tuple[list[ca.SX], list[ca.SX]] = ([], [])
+    torques: tuple[list[ca.SX], list[ca.SX]] = ([], [])
+    for i in range(n):
+        block = ca.DM(blocks[i])
+        velocities = (block @ now, block @ before)
+        direction = None
+        if blocks.shape[1] == 2:
+            end = velocities[0]
+            direction = end / ca.sqrt(ca.sumsqr(end) + DIRECTION_SMOOTHING**2)
+        for side in (0, 1):
+            torque = (ca.DM(forces.drive_map[i]) @ change
+                      + ca.DM(forces.effort_map[i]) @ turns[side])
+            if direction is None:
+                speeds[side].append(velocities[side])
+                torques[side].append(torque)
+            else:
+                speeds[side].append(ca.dot(direction, velocities[side]))
+                torques[side].append(ca.dot(direction, torque))
+    torque = (ca.vertcat(*torques[0]), ca.vertcat(*torques[1]))
+    voltage = tuple(ca.vertcat(*speeds[side]) / forces.kv
+                    + forces.resistance * torque[side] / forces.kt for side in (0, 1))
+    out: list[tuple[ca.SX, FloatArray, FloatArray]] = []
     if dyn.battery_resistance > 0.0:
-        power = ca.dot(v_end, torque) / forces.kt
+        power = ca.dot(voltage[0], torque[0]) / forces.kt
         disc = ca.fmax(volt**2 - 4.0 * dyn.battery_resistance * power, 1e-6 * volt**2)
         bus = ca.fmin(0.5 * (volt + ca.sqrt(disc)), volt)
-        for voltage in (v_end, v_start):
-            headroom = keep * ca.repmat(bus, n, 1)
-            out.append(((voltage - headroom) / volt, np.full(n, -np.inf), np.zeros(n)))
-            out.append(((voltage + headroom) / volt, np.zeros(n), np.full(n, np.inf)))
+        headroom = keep * ca.repmat(bus, n, 1)
+        for value in voltage:
+            out.append(((value - headroom) / volt, np.full(n, -np.inf), np.zeros(n)))
+            out.append(((value + headroom) / volt, np.zeros(n), np.full(n, np.inf)))
     else:
-        for voltage in (v_end, v_start):
-            out.append((voltage / volt, np.full(n, -keep), np.full(n, keep)))
-    out.append((torque / forces.torque_limit, np.full(n, -keep), np.full(n, keep)))
+        for value in voltage:
+            out.append((value / volt, np.full(n, -keep), np.full(n, keep)))
     traction = forces.friction_limits
-    if traction is not None:
+    for side in (0, 1):
+        out.append((torque[side] / forces.torque_limit, np.full(n, -keep), np.full(n, keep)))
+        if traction is None:
+            continue
+        accel = change + turns[side]
         for c in range(forces.n_contacts):
             contact = ca.DM(forces.contact_maps[c]) @ accel / traction[c]
             direction = forces.contact_directions[c]
@@ -355,9 +393,7 @@ class _StepRows:
     """The first step's linear rows ``start = a @ last + b @ turn`` and
     ``slope = c @ step + e @ step / dt`` (the voltage at the end and the start of the step,
     the torque, one-direction traction), for wheels that do not steer; in units of their
-    bounds except the voltage rows (V). The end's voltage, torque and traction rows are
-    checked with the end's Coriolis term, the start's voltage, torque and traction rows
-    with the start's."""
+    bounds except the voltage rows (V)."""
 
     a: FloatArray
     b: FloatArray
@@ -365,8 +401,8 @@ class _StepRows:
     e: FloatArray
     wheels: int
     disks: bool  # some contact's force is a 2-D vector (a ball): a disk, not a row
-    at_end: npt.NDArray[np.intp]  # rows checked with the end's Coriolis term
-    at_start: npt.NDArray[np.intp]  # and with the start's
+    at_end: npt.NDArray[np.intp]  # the rows that hold at the step's end
+    at_start: npt.NDArray[np.intp]  # and at its start
 
 
 _STEP_ROWS: dict[int, tuple[ForceMap, _StepRows]] = {}
@@ -376,7 +412,7 @@ def _step_rows(forces: ForceMap) -> _StepRows:
     cached = _STEP_ROWS.get(id(forces))
     if cached is not None and cached[0] is forces:
         return cached[1]
-    keep = 1.0 - forces.dynamics.headroom
+    keep = 1.0 - CLAMP_HEADROOM * forces.dynamics.headroom
     w, effort, drive = forces.flat_blocks, forces.flat_effort, forces.flat_drive
     r_kt = forces.resistance / forces.kt
     zero = np.zeros_like(w)
@@ -410,12 +446,13 @@ def motor_step_fraction(robot: Robot, last: FloatArray, target: FloatArray, dt: 
     """The largest ``f`` in [0, 1] such that the step ``last -> last + f (target - last)``
     over ``dt`` keeps every wheel within its battery voltage and current limit and every
     contact within traction (headroom included), the present wheel speeds being
-    ``last``'s; 1 without dynamics. The limits are checked at both ends of the step, the
-    Coriolis term of each end being ``last``'s and ``target``'s (it moves with the twist
-    over the step: call again with the twist this returns, as the clamp does); steered
-    wheels drive along ``target``'s module directions (the steer angles where at rest);
-    the bus voltage is the one under the whole step's power. A limit ``last`` itself
-    breaks only stops the step from going further into it."""
+    ``last``'s; 1 without dynamics. As the QP's rows, the limits hold at both ends of the
+    step, each with its own Coriolis term: ``last``'s at the start, at the end the chord
+    from ``last``'s (at ``f = 0``) to ``target``'s (it moves with the twist, so call again
+    with the twist this returns, as the clamp does). Steered wheels drive along
+    ``target``'s module directions (the steer angles where at rest); the bus voltage is
+    the one under the whole step's power. A limit ``last`` itself breaks only stops the
+    step from going further into it."""
     if robot.dynamics is None:
         return 1.0
     forces = force_map(robot)
@@ -426,30 +463,32 @@ def motor_step_fraction(robot: Robot, last: FloatArray, target: FloatArray, dt: 
     step = target - last
     turn_end = np.array([-target[2] * target[1], target[2] * target[0], 0.0])
     turn_start = np.array([-last[2] * last[1], last[2] * last[0], 0.0])
-    base = rows.a @ last
-    start_end = base + rows.b @ turn_end
-    start_start = base + rows.b @ turn_start
+    # At f = 0 the step is the present state (last's Coriolis term at both ends); the
+    # end's Coriolis term runs to target's along the step (its chord).
+    start = rows.a @ last + rows.b @ turn_start
     slope = rows.c @ step + rows.e @ (step / dt)
+    slope_end = slope + rows.b @ (turn_end - turn_start)
     n = rows.wheels
     if dyn.battery_resistance > 0.0:
-        end = start_end + slope
-        torque = end[2 * n:3 * n] * (forces.torque_limit * (1.0 - dyn.headroom))
+        end = start + slope_end
+        torque = end[2 * n:3 * n] * (forces.torque_limit * (1.0 - CLAMP_HEADROOM * dyn.headroom))
         power = float(end[:n] @ torque) / forces.kt
         volts = bus_voltage(dyn.battery_voltage, dyn.battery_resistance, power)
     else:
         volts = dyn.battery_voltage
-    scale = 1.0 / ((1.0 - dyn.headroom) * volts)
-    for values in (start_end, start_start, slope):
+    scale = 1.0 / ((1.0 - CLAMP_HEADROOM * dyn.headroom) * volts)
+    for values in (start, slope, slope_end):
         values[:2 * n] *= scale
-    fraction = min(_linear_fraction(start_end[rows.at_end], slope[rows.at_end]),
-                   _linear_fraction(start_start[rows.at_start], slope[rows.at_start]))
+    fraction = min(_linear_fraction(start[rows.at_end], slope_end[rows.at_end]),
+                   _linear_fraction(start[rows.at_start], slope[rows.at_start]))
     traction = forces.friction_limits
     if rows.disks and traction is not None and fraction > 0.0:
-        keep = (1.0 - dyn.headroom) * traction
+        keep = (1.0 - CLAMP_HEADROOM * dyn.headroom) * traction
+        force0 = (forces.flat_contacts @ turn_start).reshape(-1, 2)
         force1 = (forces.flat_contacts @ step).reshape(-1, 2) / dt
-        for turn in (turn_end, turn_start):
-            force0 = (forces.flat_contacts @ turn).reshape(-1, 2)
-            fraction = min(fraction, _disk_fraction(force0, force1, keep))
+        turned = (forces.flat_contacts @ (turn_end - turn_start)).reshape(-1, 2)
+        fraction = min(fraction, _disk_fraction(force0, force1 + turned, keep),
+                       _disk_fraction(force0, force1, keep))
     return max(0.0, fraction * (1.0 - 1e-12))
 
 
@@ -458,7 +497,7 @@ def _steered_step_fraction(forces: ForceMap, last: FloatArray, target: FloatArra
     """:func:`motor_step_fraction` for steered wheels (drive components along their
     directions, traction disks)."""
     dyn = forces.dynamics
-    keep = 1.0 - dyn.headroom
+    keep = 1.0 - CLAMP_HEADROOM * dyn.headroom
     step = target - last
     turn_end = np.array([-target[2] * target[1], target[2] * target[0], 0.0])
     turn_start = np.array([-last[2] * last[1], last[2] * last[0], 0.0])
@@ -476,26 +515,28 @@ def _steered_step_fraction(forces: ForceMap, last: FloatArray, target: FloatArra
     angles = np.zeros(n) if steer_angles is None else steer_angles
     cos = np.where(moving, pairs[5, :, 0] / np.where(moving, speed, 1.0), np.cos(angles))
     sin = np.where(moving, pairs[5, :, 1] / np.where(moving, speed, 1.0), np.sin(angles))
-    speed0, speed1, torque_end, torque_start, torque1 = (pairs[:5, :, 0] * cos
-                                                         + pairs[:5, :, 1] * sin)
+    speed0, speed1, torque_end, torque0, torque1 = (pairs[:5, :, 0] * cos
+                                                    + pairs[:5, :, 1] * sin)
     torque1 = torque1 / dt
+    turned = torque_end - torque0  # the end's Coriolis term runs to target's (a chord)
     r_kt = forces.resistance / forces.kt
     end = torque_end + torque1
     power = float(((speed0 + speed1) / forces.kv + r_kt * end) @ end) / forces.kt
     volts = keep * bus_voltage(dyn.battery_voltage, dyn.battery_resistance, power)
     limit = keep * forces.torque_limit
-    start = np.concatenate([(speed0 / forces.kv + r_kt * torque_end) / volts,
-                            (speed0 / forces.kv + r_kt * torque_start) / volts,
-                            torque_end / limit, torque_start / limit])
-    slope = np.concatenate([(speed1 / forces.kv + r_kt * torque1) / volts,
-                            r_kt * torque1 / volts, torque1 / limit, torque1 / limit])
+    volts0 = (speed0 / forces.kv + r_kt * torque0) / volts
+    start = np.concatenate([volts0, volts0, torque0 / limit, torque0 / limit])
+    slope = np.concatenate([(speed1 / forces.kv + r_kt * (torque1 + turned)) / volts,
+                            r_kt * torque1 / volts, (torque1 + turned) / limit,
+                            torque1 / limit])
     fraction = _linear_fraction(start, slope)
     traction = forces.friction_limits
     if traction is not None and fraction > 0.0:
+        force0 = (forces.flat_contacts @ turn_start).reshape(-1, 2)
         force1 = (forces.flat_contacts @ step).reshape(-1, 2) / dt
-        for turn in (turn_end, turn_start):
-            force0 = (forces.flat_contacts @ turn).reshape(-1, 2)
-            fraction = min(fraction, _disk_fraction(force0, force1, keep * traction))
+        chord = (forces.flat_contacts @ (turn_end - turn_start)).reshape(-1, 2)
+        fraction = min(fraction, _disk_fraction(force0, force1 + chord, keep * traction),
+                       _disk_fraction(force0, force1, keep * traction))
     return max(0.0, fraction * (1.0 - 1e-12))
 
 
