@@ -345,14 +345,14 @@ def _nlp_stage(forces: ForceMap, now: ca.SX, before: ca.SX, dt: float
             end = velocities[0]
             direction = end / ca.sqrt(ca.sumsqr(end) + DIRECTION_SMOOTHING**2)
         for side in (0, 1):
-            torque = (ca.DM(forces.drive_map[i]) @ change
+            effort = (ca.DM(forces.drive_map[i]) @ change
                       + ca.DM(forces.effort_map[i]) @ turns[side])
             if direction is None:
                 speeds[side].append(velocities[side])
-                torques[side].append(torque)
+                torques[side].append(effort)
             else:
                 speeds[side].append(ca.dot(direction, velocities[side]))
-                torques[side].append(ca.dot(direction, torque))
+                torques[side].append(ca.dot(direction, effort))
     torque = (ca.vertcat(*torques[0]), ca.vertcat(*torques[1]))
     voltage = tuple(ca.vertcat(*speeds[side]) / forces.kv
                     + forces.resistance * torque[side] / forces.kt for side in (0, 1))
