@@ -271,5 +271,8 @@ def _normal_loads(robot: Robot, contact_of: IntArray, contacts: int,
 
 
 def apothem(sides: int) -> float:
-    """The inscribed regular polygon's apothem over its circle's radius, ``cos(pi/sides)``."""
-    return math.cos(math.pi / sides)
+    """The edge distance, over the disk's radius, of the polygon the QP takes for a disk:
+    midway between the inscribed and the circumscribed one, ``(1 + cos(pi/sides)) / 2``
+    (as the swerve speed polygon: closer to the disk on average; the clamp keeps the first
+    command within the disk itself)."""
+    return 0.5 * (1.0 + math.cos(math.pi / sides))

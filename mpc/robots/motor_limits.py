@@ -469,26 +469,21 @@ def motor_step_fraction(robot: Robot, last: FloatArray, target: FloatArray, dt: 
     slope = rows.c @ step + rows.e @ (step / dt)
     slope_end = slope + rows.b @ (turn_end - turn_start)
     n = rows.wheels
-    if dyn.battery_resistance > 0.0:
-        end = start + slope_end
-        torque = end[2 * n:3 * n] * (forces.torque_limit * (1.0 - CLAMP_HEADROOM * dyn.headroom))
-        power = float(end[:n] @ torque) / forces.kt
-        volts = bus_voltage(dyn.battery_voltage, dyn.battery_resistance, power)
-    else:
-        volts = dyn.battery_voltage
-    scale = 1.0 / ((1.0 - CLAMP_HEADROOM * dyn.headroom) * volts)
-    for values in (start, slope, slope_end):
-        values[:2 * n] *= scale
-    fraction = min(_linear_fraction(start[rows.at_end], slope_end[rows.at_end]),
-                   _linear_fraction(start[rows.at_start], slope[rows.at_start]))
+    keep = 1.0 - CLAMP_HEADROOM * dyn.headroom
+    torque_scale = keep * forces.torque_limit  # the torque rows are in its units
+    fraction = _sag_fraction(
+        forces, volts=(start[:2 * n], np.concatenate([slope_end[:n], slope[n:2 * n]])),
+        others=(np.concatenate([start[2 * n:], start[2 * n:]]),
+                np.concatenate([slope_end[2 * n:], slope[2 * n:]])),
+        power=(start[:n], slope_end[:n], torque_scale * start[2 * n:3 * n],
+               torque_scale * slope_end[2 * n:3 * n]))
     traction = forces.friction_limits
     if rows.disks and traction is not None and fraction > 0.0:
-        keep = (1.0 - CLAMP_HEADROOM * dyn.headroom) * traction
         force0 = (forces.flat_contacts @ turn_start).reshape(-1, 2)
         force1 = (forces.flat_contacts @ step).reshape(-1, 2) / dt
         turned = (forces.flat_contacts @ (turn_end - turn_start)).reshape(-1, 2)
-        fraction = min(fraction, _disk_fraction(force0, force1 + turned, keep),
-                       _disk_fraction(force0, force1, keep))
+        fraction = min(fraction, _disk_fraction(force0, force1 + turned, keep * traction),
+                       _disk_fraction(force0, force1, keep * traction))
     return max(0.0, fraction * (1.0 - 1e-12))
 
 
@@ -520,16 +515,15 @@ def _steered_step_fraction(forces: ForceMap, last: FloatArray, target: FloatArra
     torque1 = torque1 / dt
     turned = torque_end - torque0  # the end's Coriolis term runs to target's (a chord)
     r_kt = forces.resistance / forces.kt
-    end = torque_end + torque1
-    power = float(((speed0 + speed1) / forces.kv + r_kt * end) @ end) / forces.kt
-    volts = keep * bus_voltage(dyn.battery_voltage, dyn.battery_resistance, power)
+    volts0 = speed0 / forces.kv + r_kt * torque0
+    end_slope = speed1 / forces.kv + r_kt * (torque1 + turned)
     limit = keep * forces.torque_limit
-    volts0 = (speed0 / forces.kv + r_kt * torque0) / volts
-    start = np.concatenate([volts0, volts0, torque0 / limit, torque0 / limit])
-    slope = np.concatenate([(speed1 / forces.kv + r_kt * (torque1 + turned)) / volts,
-                            r_kt * torque1 / volts, (torque1 + turned) / limit,
-                            torque1 / limit])
-    fraction = _linear_fraction(start, slope)
+    fraction = _sag_fraction(
+        forces, volts=(np.concatenate([volts0, volts0]),
+                       np.concatenate([end_slope, r_kt * torque1])),
+        others=(np.concatenate([torque0, torque0]) / limit,
+                np.concatenate([torque1 + turned, torque1]) / limit),
+        power=(volts0, end_slope, torque0, torque1 + turned))
     traction = forces.friction_limits
     if traction is not None and fraction > 0.0:
         force0 = (forces.flat_contacts @ turn_start).reshape(-1, 2)
@@ -538,6 +532,45 @@ def _steered_step_fraction(forces: ForceMap, last: FloatArray, target: FloatArra
         fraction = min(fraction, _disk_fraction(force0, force1 + chord, keep * traction),
                        _disk_fraction(force0, force1, keep * traction))
     return max(0.0, fraction * (1.0 - 1e-12))
+
+
+def _sag_fraction(forces: ForceMap, volts: tuple[FloatArray, FloatArray],
+                  others: tuple[FloatArray, FloatArray],
+                  power: tuple[FloatArray, FloatArray, FloatArray, FloatArray]) -> float:
+    """Largest f in [0, 1] with every voltage row ``|v0 + f v1|`` [V] within the clamp's
+    share of the bus voltage under the step's power at ``f`` and every other row
+    ``|o0 + f o1| <= 1``. ``power``: end voltages and torques ``(V0, V1, T0, T1)`` (the
+    power at f is ``sum (V0 + f V1)(T0 + f T1) / kt``)."""
+    dyn = forces.dynamics
+    keep = 1.0 - CLAMP_HEADROOM * dyn.headroom
+    upper = _linear_fraction(*others)
+    v0, v1 = volts
+
+    def bus(fraction: float) -> float:
+        if dyn.battery_resistance == 0.0:
+            return dyn.battery_voltage
+        e0, e1, t0, t1 = power
+        drawn = float((e0 + fraction * e1) @ (t0 + fraction * t1)) / forces.kt
+        return bus_voltage(dyn.battery_voltage, dyn.battery_resistance, drawn)
+
+    def reach(fraction: float) -> float:
+        scale = 1.0 / (keep * bus(fraction))
+        return _linear_fraction(v0 * scale, v1 * scale)
+
+    if upper <= 0.0:
+        return 0.0
+    if reach(upper) >= upper:
+        return upper
+    if dyn.battery_resistance == 0.0:
+        return reach(upper)
+    # the bus sags with the step's power: the largest f that fits under its own bus
+    low, high = 0.0, upper
+    if reach(0.0) <= 0.0:
+        return 0.0
+    for _ in range(12):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if reach(middle) >= middle else (low, middle)
+    return low
 
 
 def _linear_fraction(start: FloatArray, slope: FloatArray) -> float:

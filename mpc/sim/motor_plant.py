@@ -25,12 +25,15 @@ Physics per sub-step (implicit Euler in the twist and the wheel speeds):
   units); the body: ``M (du/dt + coriolis(u)) = sum W^T tau`` (:mod:`mpc.robots.force_map`);
 - the floor: a stiff regularised contact, ``tau = k (w - W u)`` along each slip
   direction (a Swedish wheel's roller axis, a ball's two actuators, a swerve module's
-  rolling and lateral directions), ``k`` such that the wheel creeps ``slip_speed`` at
-  ``mu N``; a contact whose force would exceed ``mu N`` slides with ``mu N`` (kinetic
-  friction along the force it would have needed);
+  rolling and lateral directions), ``k`` such that the contact creeps at
+  ``slip_speed + slip_ratio |v|`` (``v`` its ground speed) at ``mu N``, as a tyre whose
+  force saturates at a few degrees of slip angle or a few percent of slip; a contact
+  whose force would exceed ``mu N`` slides with ``mu N`` (kinetic friction along the
+  force it would have needed);
 - the battery: ``V_bus = E - R_battery I_battery``, ``I_battery = sum V I / V_bus``
   (the last sub-step's draw);
-- a swerve module steers towards its commanded angle at ``max_steer_rate``.
+- a swerve module steers towards its commanded angle at ``max_steer_rate``, the
+  setpoint ramping from the last commanded angle over the tick as the speed's does.
 """
 
 from __future__ import annotations
@@ -46,12 +49,14 @@ from mpc.control.command import Command
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
 from mpc.robots.force_map import ForceMap, force_map
+from mpc.robots.swerve import wrap_angle
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.validation import is_finite_number
 
 #: Event series a :class:`MotorPlant` records per tick (:meth:`MotorPlant.events`).
 EVENT_KEYS: tuple[str, ...] = ("voltage_violation", "current_violation", "slip",
-                               "peak_voltage_ratio", "peak_current_ratio", "bus_voltage")
+                               "peak_voltage_ratio", "peak_current_ratio", "bus_voltage",
+                               "peak_traction_ratio")
 
 
 @dataclass(frozen=True)
@@ -66,6 +71,7 @@ class _SubStep:
     slipped: bool
     voltage_ratio: float
     current_ratio: float
+    traction_ratio: float
 
 
 @dataclass(frozen=True)
@@ -77,14 +83,17 @@ class MotorPlantConfig(PlantConfig):
         velocity_gain: each wheel loop's proportional gain [V per rad/s at the wheel];
             None: five times the back-EMF slope ``1 / kv``.
         battery_resistance: [ohm]; None: the robot's ``dynamics.battery_resistance``.
-        slip_speed: how fast a wheel creeps at full traction [m/s] (the contact's
-            stiffness), > 0.
+        slip_speed: how fast a contact creeps at full traction at rest [m/s], > 0; and
+        slip_ratio: how much faster per m/s of its ground speed, >= 0 (0 by default: a
+            stiff tread; 0.05: traction saturates at about 3 degrees of slip angle or 5 %
+            of slip, as a softer tyre).
     """
 
     substeps: int = 20
     velocity_gain: float | None = None
     battery_resistance: float | None = None
     slip_speed: float = 0.002
+    slip_ratio: float = 0.0
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -100,6 +109,9 @@ class MotorPlantConfig(PlantConfig):
         if not is_finite_number(self.slip_speed) or self.slip_speed <= 0:
             raise SimulationError(f"slip_speed [m/s] must be a finite number > 0, "
                                   f"got {self.slip_speed!r}")
+        if not is_finite_number(self.slip_ratio) or self.slip_ratio < 0:
+            raise SimulationError(f"slip_ratio must be a finite number >= 0, "
+                                  f"got {self.slip_ratio!r}")
 
 
 # `simulate(..., plant="motor")` and `mpc-bench --plant motor`.
@@ -137,12 +149,13 @@ class MotorPlant(Plant):
         self._battery_current = 0.0
         self._last_speeds = np.zeros(robot.n_wheels)  # last commanded wheel speeds
         self._last_twist = np.zeros(3)
+        self._last_angles = self.steer_angles  # last commanded steer angles
         self._events: list[tuple[float, ...]] = []
         self._commands: deque[Command | None] = deque([None] * config.delay_ticks)
         n = robot.n_wheels
         mu = 1.0 if dyn.friction is None else dyn.friction
-        stiffness = mu * forces.normal_loads / config.slip_speed  # [N per m/s]
-        self._contact_stiffness = stiffness[forces.contact_of]  # per wheel
+        self._contact_strength = (mu * forces.normal_loads)[forces.contact_of]  # [N] per wheel
+        self._contact_points = robot.wheel_positions
         self._mass_over_h = forces.mass_matrix * (config.substeps / dt)
         self._inertia_over_h = dyn.wheel_inertia * config.substeps / dt
         self._damping = forces.kt / (forces.resistance * forces.kv)  # back-EMF [N m s/rad]
@@ -165,11 +178,14 @@ class MotorPlant(Plant):
         h = self.dt / substeps
         start = self._last_speeds
         flags = [False, False, False]
-        peaks = [0.0, 0.0]
+        peaks = [0.0, 0.0, 0.0]
         lowest = math.inf
         for s in range(substeps):
             if self.steer_angles is not None and target_angles is not None:
-                self._steer(target_angles, h)
+                # the steering setpoint ramps too (the module's velocity turns over the tick)
+                before = target_angles if self._last_angles is None else self._last_angles
+                turn = wrap_angle(target_angles - before)
+                self._steer(before + turn * ((s + 1.0) / substeps), h)
             setpoint = start + (target_speeds - start) * ((s + 1.0) / substeps)
             bus = self.robot.dynamics.battery_voltage - self.battery_resistance * (  # type: ignore[union-attr]
                 self._battery_current)
@@ -182,11 +198,14 @@ class MotorPlant(Plant):
             flags[2] |= sub.slipped
             peaks[0] = max(peaks[0], sub.voltage_ratio)
             peaks[1] = max(peaks[1], sub.current_ratio)
+            peaks[2] = max(peaks[2], sub.traction_ratio)
             self._battery_current = float(sub.voltage @ sub.current) / max(bus, 1e-9)
             self._integrate(0.5 * (previous + self.twist), h)
         self._last_speeds = np.asarray(target_speeds, dtype=float).copy()
+        if target_angles is not None:
+            self._last_angles = np.asarray(target_angles, dtype=float).copy()
         self._events.append((float(flags[0]), float(flags[1]), float(flags[2]),
-                             peaks[0], peaks[1], lowest))
+                             peaks[0], peaks[1], lowest, peaks[2]))
         return self.wheel_speeds.copy()
 
     def _feedforward(self, twist: FloatArray, motor_torques: FloatArray | None,
@@ -238,7 +257,13 @@ class MotorPlant(Plant):
         rows, wheel, contact = self._channels()
         contact_index = contact.astype(int)
         planar = np.linalg.norm(rows[:, :2], axis=1)  # rad/s per m/s along the direction
-        stiffness = self._contact_stiffness[contact_index] / planar**2
+        # [N per m/s] per contact: saturates at slip_speed + slip_ratio * ground speed
+        points = self._contact_points
+        ground = np.hypot(self.twist[0] - self.twist[2] * points[:, 1],
+                          self.twist[1] + self.twist[2] * points[:, 0])
+        creep = self.config.slip_speed + self.config.slip_ratio * ground  # type: ignore[attr-defined]
+        wheel_of = np.where(wheel >= 0, wheel, np.arange(len(wheel)) % n).astype(int)
+        stiffness = (self._contact_strength / creep)[wheel_of] / planar**2
         actuated = wheel >= 0
         select = np.zeros((rows.shape[0], n))
         select[np.flatnonzero(actuated), wheel[actuated].astype(int)] = 1.0
@@ -255,6 +280,7 @@ class MotorPlant(Plant):
         limits = forces.friction_limits
         size = self._size
         demand_asked = asked = np.zeros(n)  # what the loops asked for on the first pass
+        traction = 0.0  # the largest contact force / (mu N) before any contact slid
         for attempt in range(2 * n + forces.n_contacts + 2):
             drive = np.select([mode == 0, mode == 1],
                               [k_r * ahead, k_r * sign * bus], sign * forces.kt
@@ -297,6 +323,8 @@ class MotorPlant(Plant):
                 magnitude = np.hypot(force[:, 0], force[:, 1])
                 slid = np.bincount(contact_index, weights=sliding.astype(float),
                                    minlength=forces.n_contacts) > 0
+                if not np.any(slid):
+                    traction = max(traction, float((magnitude / limits).max()))
                 over = (magnitude > limits * (1.0 + 1e-9)) & ~slid
                 if np.any(over):
                     scale = np.where(over, limits / np.maximum(magnitude, 1e-300), 1.0)
@@ -314,13 +342,15 @@ class MotorPlant(Plant):
             current_violation=bool(np.any(np.abs(asked) > self.current_limit * (1.0 + 1e-9))),
             slipped=bool(np.any(sliding)),
             voltage_ratio=float(np.abs(demand).max()) / bus,
-            current_ratio=float(np.abs(asked).max()) / self.current_limit)
+            current_ratio=float(np.abs(asked).max()) / self.current_limit,
+            traction_ratio=traction)
 
     # ------------------------------------------------------------ record
     def events(self) -> dict[str, FloatArray]:
         """Per tick so far: ``voltage_violation``, ``current_violation``, ``slip`` (1.0 or
         0.0), ``peak_voltage_ratio`` (largest ``|V_demand| / V_bus``),
-        ``peak_current_ratio`` (largest ``|I| / limit``) and the lowest ``bus_voltage``
+        ``peak_current_ratio`` (largest ``|I| / limit``), ``peak_traction_ratio`` (largest
+        contact force / ``mu N`` the contacts were asked for) and the lowest ``bus_voltage``
         [V] over its sub-steps."""
         table = np.array(self._events, dtype=float).reshape(-1, len(EVENT_KEYS))
         return {key: table[:, i].copy() for i, key in enumerate(EVENT_KEYS)}
