@@ -53,7 +53,7 @@ def clamp_command(
     limit = robot.max_wheel_speed
     speed = robot.wheel_magnitudes(safe)
     if (speed - limit).max() > _SPEED_SLACK:
-        over = speed > limit + _SPEED_SLACK
+        over = speed - limit > _SPEED_SLACK  # the test above, element by element (rounding)
         # The smallest limit / speed over the wheels; a failed wheel (limit 0) stops the robot.
         safe = safe * (limit[over] / speed[over]).min() * (1.0 - _SPEED_SLACK)
     accel = robot.max_wheel_accel

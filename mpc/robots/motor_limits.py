@@ -66,18 +66,31 @@ CLAMP_HEADROOM = 0.5
 DIRECTION_SMOOTHING = 1e-3
 
 
+#: Sides of the polygon standing in for a 2-D contact's traction disk in the QP, turned
+#: each tick so that one edge faces the force the plan it starts from asks of the contact.
+TRACTION_SIDES = 12
+
+#: How a row's direction is chosen each tick (:attr:`MotorRows.direction`).
+_FIXED, _DRIVE, _FORCE = 0, 1, 2
+
+
 @dataclass(frozen=True, eq=False)
 class MotorRows:
     """The motor rows of one stage, before the change time and the plan's values enter::
 
-        value = s_now u_k + s_before u_{k-1} + q (u_k - u_{k-1}) / dt + g coriolis
+        value = d . (s_now u_k + s_before u_{k-1} + q (u_k - u_{k-1}) / dt + g coriolis)
 
-    each (m, 3), with ``|value| <= bound`` (m,) (``bound`` scaled by ``V_bus / E`` on the
-    ``voltage`` rows). Rows are in fractions of the battery voltage ``E``, of the torque
-    limit and of the traction limit. ``kind`` (m,) says which: 0 voltage, 1 current,
-    2 traction; ``index`` (m,) the wheel (or contact); ``end`` (m,) whether the row holds
-    at the end of the change (the Coriolis term of ``u_k``) or at its start
-    (``u_{k-1}``'s): the voltage at the end, at the start, current and traction at both.
+    each matrix (m, 2, 3), ``d`` a unit 2-vector per row and stage, with ``|value| <=
+    bound`` (m,) (``bound`` scaled by ``V_bus / E`` on the ``voltage`` rows). Rows are in
+    fractions of the battery voltage ``E``, of the torque limit and of the traction limit.
+    ``kind`` (m,): 0 voltage, 1 current, 2 traction; ``index`` (m,) the wheel (or contact);
+    ``end`` (m,) whether the row holds at the end of the change (the Coriolis term of
+    ``u_k``) or at its start (``u_{k-1}``'s): the voltage at the end, at the start, current
+    and traction at both. ``direction`` (m,): how ``d`` is chosen: fixed (``(1, 0)``: a
+    wheel's own signed row, a Swedish wheel's traction along its rollers), a steered
+    wheel's drive direction (its velocity in the plan the solver starts from), or a 2-D
+    contact's traction polygon turned to its planned force (``angle`` (m,): the edge's
+    angle from that force).
     """
 
     s_now: FloatArray
@@ -87,88 +100,99 @@ class MotorRows:
     bound: FloatArray
     voltage: BoolArray
     kind: FloatArray
-    index: FloatArray
+    index: npt.NDArray[np.intp]
     end: BoolArray
+    direction: npt.NDArray[np.intp]
+    angle: FloatArray
 
     @property
     def rows(self) -> int:
         return int(self.bound.size)
 
-
-def _normals(dim: int, sides: int) -> tuple[FloatArray, float]:
-    """Row normals (K, dim) and their apothem: one exact row for dim 1, half a regular
-    polygon's edge normals (two-sided rows) for dim 2."""
-    if dim == 1:
-        return np.ones((1, 1)), 1.0
-    angles = 2.0 * math.pi * np.arange(sides // 2) / sides
-    return np.stack([np.cos(angles), np.sin(angles)], axis=1), apothem(sides)
+    @property
+    def moving(self) -> bool:
+        """Whether some row's direction changes with the plan (steered wheels, balls)."""
+        return bool(np.any(self.direction != _FIXED))
 
 
-def motor_rows(forces: ForceMap, polygon_sides: int) -> MotorRows:
-    """The constant motor rows of a robot (:class:`MotorRows`); polygons of
-    ``polygon_sides`` sides (even) stand in for the disks of steered wheels and 2-D
-    contacts."""
+def motor_rows(forces: ForceMap) -> MotorRows:
+    """The motor rows of a robot (:class:`MotorRows`): per wheel the voltage at both ends
+    and the torque at both ends of each change (along the drive direction for steered
+    wheels), per contact its traction at both ends (a :data:`TRACTION_SIDES`-gon turned to
+    the planned force for 2-D contacts)."""
     dyn = forces.dynamics
     robot = forces.robot
     blocks = robot.wheel_blocks  # (n, d, 3)
     n, d = blocks.shape[:2]
-    normals, ap = _normals(d, polygon_sides)  # (K, d)
     keep = 1.0 - dyn.headroom
     volt = dyn.battery_voltage
-    parts: dict[str, list[FloatArray]] = {key: [] for key in
-                                           ("s_now", "s_before", "q", "g", "bound", "voltage",
-                                            "kind", "index", "end")}
+    parts: dict[str, list[FloatArray]] = {key: [] for key in (
+        "s_now", "s_before", "q", "g", "bound", "voltage", "kind", "index", "end",
+        "direction", "angle")}
+
+    def pad(matrices: FloatArray) -> FloatArray:
+        """(r, d, 3) -> (r, 2, 3)."""
+        out = np.zeros((matrices.shape[0], 2, 3))
+        out[:, :matrices.shape[1]] = matrices
+        return out
 
     def add(s_now: FloatArray, s_before: FloatArray, q: FloatArray, g: FloatArray,
-            bound: float, voltage: bool, kind: int, index: npt.NDArray[np.integer],
-            ends: tuple[bool, ...] = (True, False)) -> None:
+            bound: float, voltage: bool, kind: int, index: npt.NDArray[np.intp],
+            direction: int, angle: FloatArray, ends: tuple[bool, ...] = (True, False)
+            ) -> None:
         rows = q.shape[0]
         for end in ends:
-            parts["s_now"].append(s_now)
-            parts["s_before"].append(s_before)
-            parts["q"].append(q)
-            parts["g"].append(g)
+            for key, value in (("s_now", s_now), ("s_before", s_before), ("q", q),
+                               ("g", g)):
+                parts[key].append(pad(value))
             parts["bound"].append(np.full(rows, bound))
             parts["voltage"].append(np.full(rows, voltage))
             parts["kind"].append(np.full(rows, float(kind)))
             parts["index"].append(index.astype(float))
             parts["end"].append(np.full(rows, end))
+            parts["direction"].append(np.full(rows, float(direction)))
+            parts["angle"].append(angle)
 
-    speed = np.einsum("kd,ndj->nkj", normals, blocks).reshape(-1, 3)  # n . W_i
-    drive = np.einsum("kd,ndj->nkj", normals, forces.drive_map).reshape(-1, 3)
-    effort = np.einsum("kd,ndj->nkj", normals, forces.effort_map).reshape(-1, 3)
-    wheel = np.repeat(np.arange(n), normals.shape[0])
-    zero = np.zeros_like(speed)
+    wheel = np.arange(n)
+    steer = _DRIVE if d == 2 else _FIXED
+    zero = np.zeros_like(blocks)
     r_over = forces.resistance / (forces.kt * volt)
+    speed = blocks / (forces.kv * volt)
     for end in (True, False):
-        add(speed / (forces.kv * volt) if end else zero,
-            zero if end else speed / (forces.kv * volt),
-            r_over * drive, r_over * effort, keep * ap, True, 0, wheel, (end,))
+        add(speed if end else zero, zero if end else speed, r_over * forces.drive_map,
+            r_over * forces.effort_map, keep, True, 0, wheel, steer, np.zeros(n), (end,))
     limit = forces.torque_limit
-    add(zero, zero, drive / limit, effort / limit, keep * ap, False, 1, wheel)
+    add(zero, zero, forces.drive_map / limit, forces.effort_map / limit, keep, False, 1,
+        wheel, steer, np.zeros(n))
     traction = forces.friction_limits
     if traction is not None:
         for c in range(forces.n_contacts):
             direction = forces.contact_directions[c]
-            if np.any(direction):
-                rows, contact_ap = direction[None, :] @ forces.contact_maps[c], 1.0
-            else:
-                polygon, contact_ap = _normals(2, polygon_sides)
-                rows = polygon @ forces.contact_maps[c]
-            rows = rows / traction[c]
-            add(np.zeros_like(rows), np.zeros_like(rows), rows, rows, keep * contact_ap,
-                False, 2, np.full(rows.shape[0], c))
+            contact = forces.contact_maps[c] / traction[c]  # (2, 3)
+            if np.any(direction):  # one direction: its row, exactly
+                row = (direction @ contact)[None, None, :]
+                add(np.zeros_like(row), np.zeros_like(row), row, row, keep, False, 2,
+                    np.array([c]), _FIXED, np.zeros(1))
+                continue
+            sides = TRACTION_SIDES
+            angles = 2.0 * math.pi * np.arange(sides // 2) / sides
+            many = np.repeat(contact[None], sides // 2, axis=0)
+            add(np.zeros_like(many), np.zeros_like(many), many, many, keep * apothem(sides),
+                False, 2, np.full(sides // 2, c), _FORCE, angles)
     stacked = {key: np.concatenate(value) for key, value in parts.items()}
+    order = np.argsort(stacked["direction"] != _FIXED, kind="stable")  # moving rows last
+    stacked = {key: value[order] for key, value in stacked.items()}
     return MotorRows(s_now=stacked["s_now"], s_before=stacked["s_before"], q=stacked["q"],
                      g=stacked["g"], bound=stacked["bound"],
                      voltage=stacked["voltage"].astype(bool), kind=stacked["kind"],
-                     index=stacked["index"], end=stacked["end"].astype(bool))
+                     index=stacked["index"].astype(np.intp), end=stacked["end"].astype(bool),
+                     direction=stacked["direction"].astype(np.intp), angle=stacked["angle"])
 
 
 @dataclass(eq=False)
 class MotorStageLimits(StageLimits):
     """:class:`StageLimits` whose first ``kinematic.rows`` rows are the robot's own and the
-    rest its motor rows (:class:`MotorRows`), refilled each tick (bounds only)."""
+    rest its motor rows (:class:`MotorRows`), refilled each tick."""
 
     kinematic: StageLimits | None = None
     motor: MotorRows | None = None
@@ -177,47 +201,71 @@ class MotorStageLimits(StageLimits):
     previous: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
     turn: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
     turn_start: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
-    coriolis_rows: FloatArray = field(default_factory=lambda: np.zeros((2, 0)))
-    coriolis_start_rows: FloatArray = field(default_factory=lambda: np.zeros((2, 0)))
+    directions: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 2)))
     motor_bound: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
     base_now: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
     base_before: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    g: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
     coef: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    first_moving: int = 0  # the motor rows from this one on turn with the plan
 
 
 def stage_limits(robot: Robot, change_times: FloatArray, polygon_sides: int) -> StageLimits:
     """The QP's stage rows: the robot's own (:meth:`Robot.stage_limits`), plus the motor
-    rows for a robot with dynamics (module docstring)."""
+    rows for a robot with dynamics (module docstring). ``polygon_sides`` goes to the
+    robot's own rows; a 2-D traction disk is a :data:`TRACTION_SIDES`-gon."""
     kinematic = robot.stage_limits(change_times, polygon_sides)
     if robot.dynamics is None:
         return kinematic
     forces = force_map(robot)
-    rows = motor_rows(forces, polygon_sides)
-    times = np.asarray(change_times, dtype=float)[:, None, None]
-    now = rows.s_now[None] + rows.q[None] / times
-    before = rows.s_before[None] - rows.q[None] / times
-    bound = np.broadcast_to(rows.bound, (times.shape[0], rows.rows))
+    rows = motor_rows(forces)
+    horizon = len(change_times)
+    directions = np.zeros((horizon, rows.rows, 2))
+    directions[:, :, 0] = np.cos(rows.angle)
+    directions[:, :, 1] = np.sin(rows.angle)
+    bound = np.broadcast_to(rows.bound, (horizon, rows.rows))
+    empty = np.zeros((horizon, rows.rows, 3))
     limits = MotorStageLimits(
-        now=np.concatenate([kinematic.now, now], axis=1),
-        before=np.concatenate([kinematic.before, before], axis=1),
+        now=np.concatenate([kinematic.now, empty], axis=1),
+        before=np.concatenate([kinematic.before, empty], axis=1),
         lower=np.concatenate([kinematic.lower, -bound], axis=1),
         upper=np.concatenate([kinematic.upper, bound], axis=1),
         constant=False, change_times=np.array(change_times, dtype=float),
         kinematic=kinematic, motor=rows, forces=forces,
-        previous=np.zeros((times.shape[0], 3)), turn=np.zeros((times.shape[0], 3)),
-        turn_start=np.zeros((times.shape[0], 3)),
-        coriolis_rows=np.ascontiguousarray((rows.g[:, :2] * rows.end[:, None]).T),
-        coriolis_start_rows=np.ascontiguousarray((rows.g[:, :2] * ~rows.end[:, None]).T),
-        motor_bound=np.array(bound), base_now=now, base_before=before,
-        coef=np.zeros_like(now))
+        previous=np.zeros((horizon, 3)), turn=np.zeros((horizon, 3)),
+        turn_start=np.zeros((horizon, 3)), directions=directions,
+        motor_bound=np.array(bound), base_now=empty.copy(), base_before=empty.copy(),
+        g=empty.copy(), coef=empty.copy(),
+        first_moving=int(np.sum(rows.direction == _FIXED)))
+    _fill_rows(limits)
     return limits
+
+
+def _fill_rows(limits: MotorStageLimits, first: int = 0) -> None:
+    """The motor rows' base coefficients and Coriolis rows for the present directions (of
+    the rows from ``first`` on: the moving ones are last)."""
+    rows = limits.motor
+    if rows is None:  # pragma: no cover - set by stage_limits
+        return
+    pick = slice(first, None)
+    times = limits.change_times[:, None, None]
+    d0 = limits.directions[:, pick, 0:1]
+    d1 = limits.directions[:, pick, 1:2]
+
+    def turned(matrix: FloatArray) -> FloatArray:  # d . matrix per stage and row
+        return d0 * matrix[pick, 0, :] + d1 * matrix[pick, 1, :]
+
+    q = turned(rows.q) / times
+    limits.base_now[:, pick] = turned(rows.s_now) + q
+    limits.base_before[:, pick] = turned(rows.s_before) - q
+    limits.g[:, pick] = turned(rows.g)
 
 
 def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
                         last: FloatArray, steer_angles: FloatArray | None) -> None:
     """Refill the rows that depend on the plan the solver starts from (``guess`` twists
-    (N, 3), ``last`` command): the robot's own, then the motor rows' bounds (the Coriolis
-    term and the bus voltage along ``guess``; the rows themselves stay)."""
+    (N, 3), ``last`` command): the robot's own, then the motor rows (their directions, the
+    Coriolis term linearised along ``guess``, the bus voltage under its power)."""
     if not isinstance(limits, MotorStageLimits) or limits.kinematic is None:
         robot.update_stage_limits(limits, guess, last, steer_angles)
         return
@@ -240,24 +288,31 @@ def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
     turn_end, turn_start = limits.turn, limits.turn_start  # third columns stay 0
     _coriolis(guess, turn_end)
     _coriolis(previous, turn_start)
-    gx, gy = limits.coriolis_rows  # (m_motor,) each, zero where the row is the other end's
-    sx, sy = limits.coriolis_start_rows
-    offset = turn_end[:, :2] @ limits.coriolis_rows + turn_start[:, :2] @ (
-        limits.coriolis_start_rows)  # g . coriolis at each row's end, (N, m_motor)
+    if rows.moving:
+        _turn_rows(limits, forces, guess, previous, steer_angles)
+        _fill_rows(limits, limits.first_moving)
+    g = limits.g
+    end = rows.end
+    # g . coriolis at each row's end of the change (N, m_motor)
+    offset = np.where(end, np.einsum("kmj,kj->km", g, turn_end),
+                      np.einsum("kmj,kj->km", g, turn_start))
     if LINEARISE_CORIOLIS:
         # coriolis(u) ~ J u - coriolis(ubar), J its Jacobian at ubar: g J on the end's
-        # twist (u_k or u_{k-1}), and the offset changes sign.
-        for rows_x, rows_y, twists, out, base in (
-                (gx, gy, guess, limits.now, limits.base_now),
-                (sx, sy, previous, limits.before, limits.base_before)):
+        # twist (u_k for the end's rows, u_{k-1} for the start's); the offset turns sign.
+        coef = limits.coef
+        for twists, out, base, mask in ((guess, limits.now, limits.base_now, end),
+                                        (previous, limits.before, limits.base_before, ~end)):
             omega, vx, vy = twists[:, 2:3], twists[:, 0:1], twists[:, 1:2]
-            coef = limits.coef
-            np.multiply(rows_y, omega, out=coef[:, :, 0])
-            np.multiply(rows_x, omega, out=coef[:, :, 1])
-            np.negative(coef[:, :, 1], out=coef[:, :, 1])
-            coef[:, :, 2] = rows_y * vx - rows_x * vy
+            gx, gy = g[:, :, 0] * mask, g[:, :, 1] * mask
+            np.multiply(gy, omega, out=coef[:, :, 0])
+            np.multiply(gx, -omega, out=coef[:, :, 1])
+            coef[:, :, 2] = gy * vx - gx * vy
             np.add(base, coef, out=out[:, m:])
         np.negative(offset, out=offset)
+        limits.changed = True
+    elif rows.moving:
+        limits.now[:, m:] = limits.base_now
+        limits.before[:, m:] = limits.base_before
         limits.changed = True
     bound = limits.motor_bound
     if forces.dynamics.battery_resistance > 0.0:
@@ -265,6 +320,46 @@ def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
         np.multiply(scale[:, None], rows.bound[rows.voltage], out=bound[:, rows.voltage])
     np.subtract(bound, offset, out=limits.upper[:, m:])
     np.subtract(-bound, offset, out=limits.lower[:, m:])
+
+
+def _turn_rows(limits: MotorStageLimits, forces: ForceMap, guess: FloatArray,
+               previous: FloatArray, steer_angles: FloatArray | None) -> None:
+    """Point the moving rows: a steered wheel's along its velocity at the stage's end in
+    ``guess`` (where that is at rest: the stage before's, or the present steer angle), a
+    2-D contact's polygon at the force ``guess`` asks of it at the row's end."""
+    rows = limits.motor
+    if rows is None:  # pragma: no cover
+        return
+    d = limits.directions
+    drive = rows.direction == _DRIVE
+    if np.any(drive):
+        n = forces.robot.n_wheels
+        velocity = (guess @ forces.flat_blocks.T).reshape(len(guess), n, 2)
+        speed = np.hypot(velocity[:, :, 0], velocity[:, :, 1])
+        angle = np.arctan2(velocity[:, :, 1], velocity[:, :, 0])
+        rest = np.zeros(n) if steer_angles is None else np.asarray(steer_angles, float)
+        stopped = speed <= AT_REST
+        if np.any(stopped):  # at rest: keep the direction before
+            for k in range(len(guess)):
+                angle[k] = np.where(stopped[k], rest, angle[k])
+                rest = angle[k]
+        wheel = rows.index[drive]
+        d[:, drive, 0] = np.cos(angle[:, wheel])
+        d[:, drive, 1] = np.sin(angle[:, wheel])
+    force_rows = rows.direction == _FORCE
+    if np.any(force_rows):
+        change = (guess - previous) / limits.change_times[:, None]
+        contact = rows.index[force_rows]
+        ends = rows.end[force_rows]
+        angles = np.empty((len(guess), int(force_rows.sum())))
+        for turn, mask in ((limits.turn, ends), (limits.turn_start, ~ends)):
+            accel = change + turn  # (N, 3)
+            force = np.einsum("cij,kj->kci", forces.contact_maps, accel)  # (N, c, 2)
+            heading = np.arctan2(force[:, :, 1], force[:, :, 0])
+            angles[:, mask] = heading[:, contact[mask]]
+        angles += rows.angle[force_rows]
+        d[:, force_rows, 0] = np.cos(angles)
+        d[:, force_rows, 1] = np.sin(angles)
 
 
 def _coriolis(twists: FloatArray, out: FloatArray) -> None:
