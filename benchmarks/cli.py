@@ -36,6 +36,7 @@ from benchmarks.scenarios import (
     robots,
 )
 from mpc.errors import MpcError
+from mpc.robots import motor_preset
 from mpc.sim import PLANT_PRESETS
 
 
@@ -67,8 +68,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--skip", type=float, default=2.0,
                         help="seconds of settling left out of the tracking errors (2.0)")
     parser.add_argument("--plant", default="ideal", choices=sorted(PLANT_PRESETS),
-                        help="simulated robot: ideal, or realistic (motor lag, 1-tick delay, "
-                             "pose noise, slip)")
+                        help="simulated robot: ideal, realistic (motor lag, 1-tick delay, "
+                             "pose noise, slip) or motor (the layouts' motor presets driven "
+                             "through their DC motors; see also 'mpc-bench motors')")
     parser.add_argument("--robot", metavar="TOML", help="also run a robot from a TOML file")
     parser.add_argument("--trajectory-csv", metavar="CSV",
                         help="also run a waypoint trajectory from a CSV file (t,x,y,theta)")
@@ -97,6 +99,9 @@ def run(argv: list[str]) -> int:
         )
     layouts = choose("layout", args.layouts, PRESETS)
     chosen_robots = robots(layouts, args.robot)
+    if args.plant == "motor":  # a motor plant drives robots with motors: the motor presets
+        chosen_robots = {name: motor_preset(name) if name in layouts else robot
+                         for name, robot in chosen_robots.items()}
     trajectories = choose("trajectory", args.trajectories, TRAJECTORIES)
     controllers = choose("controller", args.controllers, CONTROLLERS, DEFAULT_CONTROLLERS)
     headings = choose("heading", args.heading, HEADINGS, DEFAULT_HEADINGS)
