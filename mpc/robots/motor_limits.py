@@ -317,7 +317,7 @@ def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
     bound = limits.motor_bound
     if forces.dynamics.battery_resistance > 0.0:
         scale = _sag_scale(forces, guess, previous, limits.change_times, turn_end)
-        np.multiply(scale[:, None], rows.bound[rows.voltage], out=bound[:, rows.voltage])
+        bound[:, rows.voltage] = scale[:, None] * rows.bound[rows.voltage]
     np.subtract(bound, offset, out=limits.upper[:, m:])
     np.subtract(-bound, offset, out=limits.lower[:, m:])
 

@@ -161,6 +161,20 @@ class MotorPlant(Plant):
         self._damping = forces.kt / (forces.resistance * forces.kv)  # back-EMF [N m s/rad]
         self._size = 3 + n
 
+    def set_motion(self, twist: FloatArray) -> None:
+        """Put the robot in motion at body ``twist`` with its wheels rolling along (steered
+        wheels pointing along their velocity) and the last command equal to it."""
+        robot = self.robot
+        twist = np.array(twist, dtype=float)
+        speeds, angles = robot.wheel_commands(twist, robot.initial_steer_angles())
+        self.twist = twist
+        self.wheel_speeds = np.asarray(speeds, dtype=float).copy()
+        self._last_speeds = self.wheel_speeds.copy()
+        self._last_twist = twist.copy()
+        if angles is not None:
+            self.steer_angles = np.asarray(angles, dtype=float).copy()
+            self._last_angles = self.steer_angles.copy()
+
     # ------------------------------------------------------------ one tick
     def apply(self, command: Command) -> FloatArray:
         """Run one tick under ``command``; return the wheel speeds reached [rad/s]."""
