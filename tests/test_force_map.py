@@ -81,7 +81,7 @@ def test_swedish_contact_force_by_hand() -> None:
 def test_coriolis_linearisation_against_finite_differences() -> None:
     """The QP's motor rows carry ``g . coriolis(u)`` linearised around the guess: their
     coefficients are the Jacobian of the exact term (central differences)."""
-    from mpc.robots.motor_limits import stage_limits, update_stage_limits
+    from mpc.robots.motor_limits import MotorStageLimits, stage_limits, update_stage_limits
 
     robot = motor_preset("mecanum")
     times = np.full(4, 0.1)
@@ -90,6 +90,7 @@ def test_coriolis_linearisation_against_finite_differences() -> None:
     guess = rng.normal(size=(4, 3))
     last = rng.normal(size=3)
     update_stage_limits(robot, limits, guess, last, None)
+    assert isinstance(limits, MotorStageLimits)
     m = robot.n_wheels  # the kinematic speed rows come first
     g = limits.g  # (N, rows, 3): each row's coefficient on the body acceleration
     rows = limits.motor
@@ -109,7 +110,7 @@ def test_coriolis_linearisation_against_finite_differences() -> None:
     # bound's shift, give g . coriolis(ubar_k) (end rows)
     coefficient = limits.now[:, m:] - limits.base_now
     value = np.einsum("kmj,kj->km", coefficient, guess)
-    shift = limits.upper[:, m:] - limits.motor_bound  # type: ignore[attr-defined]
+    shift = limits.upper[:, m:] - limits.motor_bound
     exact = np.einsum("kmj,kj->km", g, coriolis(guess))
     np.testing.assert_allclose(np.where(rows.end, value - shift, 0.0),
                                np.where(rows.end, exact, 0.0), atol=1e-9)

@@ -207,13 +207,15 @@ def test_controller_reports_the_feedforward_of_its_command() -> None:
     first = controller.step(pose, 0.0)
     second = controller.step(pose, 0.05)
     feed = first_step_feedforward(robot, first.twist, second.twist, 0.05, None)
-    assert feed is not None and second.motor_currents is not None
+    assert feed is not None and robot.dynamics is not None
+    assert second.wheel_forces is not None and second.motor_torques is not None
+    assert second.motor_currents is not None
     for mine, theirs in zip((second.wheel_forces, second.motor_torques,
                              second.motor_currents), feed, strict=True):
         np.testing.assert_allclose(mine, theirs)
     forces = force_map(robot)
     np.testing.assert_allclose(second.motor_currents,
-                               second.motor_torques / (forces.kt / robot.dynamics.gearing))  # type: ignore[union-attr]
+                               second.motor_torques / (forces.kt / robot.dynamics.gearing))
 
 
 def test_sag_lowers_the_planned_voltage_bound() -> None:

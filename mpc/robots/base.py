@@ -26,7 +26,7 @@ from __future__ import annotations
 import abc
 import dataclasses
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, ClassVar, NamedTuple
+from typing import TYPE_CHECKING, ClassVar, NamedTuple, TypeVar
 
 import casadi as ca
 import numpy as np
@@ -39,6 +39,9 @@ from mpc.validation import is_finite_number, is_integer
 
 if TYPE_CHECKING:
     from mpc.robots.dynamics import RobotDynamics
+
+
+RobotT = TypeVar("RobotT", bound="Robot")
 
 
 class WheelCommands(NamedTuple):
@@ -362,7 +365,7 @@ class Robot(abc.ABC):
     def _with_derating(self, derating: tuple[float, ...]) -> Robot: ...
 
     # ------------------------------------------------------------ dynamics
-    def with_dynamics(self, dynamics: RobotDynamics | None) -> Robot:
+    def with_dynamics(self: RobotT, dynamics: RobotDynamics | None) -> RobotT:
         """A copy with ``dynamics`` (a :class:`~mpc.robots.dynamics.RobotDynamics`): the
         solvers, the clamp and ``Command`` then respect and report the motors; None drops
         them (kinematic limits only)."""

@@ -1,0 +1,53 @@
+"""``mpc-bench motors``: the reference at 100 % of the motor model, the kinematic stand-in,
+and a short run of the command."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from benchmarks.cli import main
+from benchmarks.motors import kinematic_stand_in, motor_demand, motor_reference
+from mpc.robots import motor_preset
+from mpc.robots.force_map import force_map
+
+
+@pytest.mark.parametrize("name", ["omni3", "swerve", "ball3"])
+def test_reference_needs_exactly_the_motor_model(name: str) -> None:
+    robot = motor_preset(name)
+    for shape in ("circle", "figure8"):
+        reference = motor_reference(shape, robot)
+        assert motor_demand(reference, robot) == pytest.approx(1.0, abs=1e-6)
+        assert reference.period is not None and reference.period > 0.5
+
+
+def test_kinematic_stand_in_by_hand() -> None:
+    """Swerve: speed limit the free speed; acceleration limit the traction-limited torque
+    (mu m g / 4 r here: below the current limit) over the wheel inertia plus a quarter of
+    the mass at the rim."""
+    robot = motor_preset("swerve")
+    dyn = robot.dynamics
+    assert dyn is not None
+    stand_in = kinematic_stand_in(robot)
+    assert stand_in.dynamics is None
+    np.testing.assert_allclose(stand_in.max_wheel_speed, dyn.free_speed)
+    traction = force_map(robot).normal_loads[0] * 1.1 * 0.05  # [N m] < 7.85 N m
+    accel = traction / (dyn.wheel_inertia + dyn.mass / 4 * 0.05**2)
+    assert stand_in.max_wheel_accel is not None
+    np.testing.assert_allclose(stand_in.max_wheel_accel, accel, rtol=1e-12)
+
+
+def test_motors_command_writes_its_table(tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                        ) -> None:
+    code = main(["motors", "--layouts", "omni3", "--trajectories", "figure8", "--laps", "0.3",
+                 "--skip", "0.3", "--controllers", "mpc-motors,ff-p-clip", "--out",
+                 str(tmp_path)])
+    assert code == 0
+    document = json.loads((tmp_path / "motors.json").read_text())
+    assert [row["controller"] for row in document["rows"]] == ["mpc-motors", "ff-p-clip"]
+    assert document["rows"][0]["voltage_violations"] == 0
+    assert "| omni3 figure8 |" in capsys.readouterr().out
+    assert main(["motors", "--layouts", "hexapod"]) == 2
