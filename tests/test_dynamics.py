@@ -156,3 +156,20 @@ def test_bus_voltage_solves_the_battery_by_hand() -> None:
     assert bus_voltage(12.0, 0.02, -50.0) == 12.0  # regeneration is not planned on
     assert bus_voltage(12.0, 0.02, 5000.0) == 6.0  # beyond the battery's most power
     assert bus_voltage(12.0, 0.0, 1000.0) == 12.0
+
+
+def test_a_choreo_file_gives_a_robot_with_motors() -> None:
+    """The shipped minimal Choreo file: its robot with the motor model of its config drives
+    its own trajectory on the motor plant within the motor limits."""
+    from mpc import Controller
+    from mpc.sim import simulate
+    from trajectories import read_choreo
+
+    reference = read_choreo(Path(__file__).parent / "data" / "minimal.traj")
+    robot = reference.robot.with_dynamics(choreo_dynamics(reference.config))
+    assert robot.dynamics is not None
+    np.testing.assert_allclose(robot.max_wheel_speed, robot.dynamics.free_speed, rtol=1e-12)
+    result = simulate(Controller(robot, reference, dt=0.02),
+                      float(reference.end_time or 1.0) + 0.2, plant="motor")
+    metrics = result.metrics()
+    assert metrics["voltage_violations"] == metrics["current_violations"] == 0

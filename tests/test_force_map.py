@@ -121,7 +121,8 @@ def test_plant_acceleration_matches_the_feedforward(name: str) -> None:
     """Finite differences of the motor plant's own twist: driven by the feedforward torques
     of a step, the robot accelerates as the force map says (Coriolis term included)."""
     robot = motor_preset(name)
-    config = MotorPlantConfig(substeps=40, velocity_gain=0.0, battery_resistance=0.0)
+    config = MotorPlantConfig(substeps=40, velocity_gain=0.0, battery_resistance=0.0,
+                              slip_ratio=0.0)  # a rigid tread: the physics, not the tyre
     start = np.array([0.6, -0.3, 0.8])  # moving and turning: the Coriolis term matters
     target = start + np.array([0.02, 0.015, 0.03])
     dt = 0.02

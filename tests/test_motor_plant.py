@@ -57,7 +57,8 @@ def test_cruising_draws_the_free_current_and_sags_by_hand() -> None:
     dyn = robot.dynamics
     assert dyn is not None
     forces = force_map(robot)
-    plant = MotorPlant(robot, DT, np.zeros(3), MotorPlantConfig(), np.random.default_rng(0))
+    plant = MotorPlant(robot, DT, np.zeros(3), MotorPlantConfig(slip_ratio=0.0),
+                       np.random.default_rng(0))  # a rigid tread: no creep
     twist = np.array([2.0, 0.0, 0.0])
     plant.set_motion(twist)
     speeds, angles = robot.wheel_commands(twist, plant.steer_angles)

@@ -206,15 +206,22 @@ def dynamics_from_dict(table: object, source: str = "dynamics") -> RobotDynamics
 
 
 class ChoreoMotorConfig(Protocol):
-    """What :func:`choreo_dynamics` reads of a Choreo config (``trajectories.ChoreoConfig``)."""
+    """What :func:`choreo_dynamics` reads of a Choreo config (``trajectories.ChoreoConfig``):
+    ``mass`` [kg], ``inertia`` [kg m^2], ``gearing``, ``vmax`` [rad/s at the motor],
+    ``tmax`` [N m at the motor], ``cof``."""
 
-    mass: float
-    inertia: float
-    gearing: float
-    radius: float
-    vmax: float
-    tmax: float
-    cof: float
+    @property
+    def mass(self) -> float: ...
+    @property
+    def inertia(self) -> float: ...
+    @property
+    def gearing(self) -> float: ...
+    @property
+    def vmax(self) -> float: ...
+    @property
+    def tmax(self) -> float: ...
+    @property
+    def cof(self) -> float: ...
 
 
 def choreo_dynamics(config: ChoreoMotorConfig, *, motor: str | DCMotor = "kraken_x60",

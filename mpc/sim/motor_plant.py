@@ -32,8 +32,10 @@ Physics per sub-step (implicit Euler in the twist and the wheel speeds):
   force it would have needed);
 - the battery: ``V_bus = E - R_battery I_battery``, ``I_battery = sum V I / V_bus``
   (the last sub-step's draw);
-- a swerve module steers towards its commanded angle at ``max_steer_rate``, the
-  setpoint ramping from the last commanded angle over the tick as the speed's does.
+- a swerve module steers at ``max_steer_rate`` along the module velocity the tick's ramp
+  has reached (from the last command's to this one's: the direction turns over the tick
+  as the speed changes), and its wheel loop's setpoint is that velocity's component along
+  the way the wheel points.
 """
 
 from __future__ import annotations
@@ -52,6 +54,10 @@ from mpc.robots.force_map import ForceMap, force_map
 from mpc.robots.swerve import wrap_angle
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.validation import is_finite_number
+
+#: [kg m^2] the plant's wheel inertia at least (massless wheels that slide with their current
+#: held have no speed to settle at).
+MIN_WHEEL_INERTIA = 1e-6
 
 #: Event series a :class:`MotorPlant` records per tick (:meth:`MotorPlant.events`).
 EVENT_KEYS: tuple[str, ...] = ("voltage_violation", "current_violation", "slip",
@@ -84,16 +90,17 @@ class MotorPlantConfig(PlantConfig):
             None: five times the back-EMF slope ``1 / kv``.
         battery_resistance: [ohm]; None: the robot's ``dynamics.battery_resistance``.
         slip_speed: how fast a contact creeps at full traction at rest [m/s], > 0; and
-        slip_ratio: how much faster per m/s of its ground speed, >= 0 (0 by default: a
-            stiff tread; 0.05: traction saturates at about 3 degrees of slip angle or 5 %
-            of slip, as a softer tyre).
+        slip_ratio: how much faster per m/s of its ground speed, >= 0 (0.02: traction
+            saturates at about 1 degree of slip angle or 2 % of slip, a stiff tread; 0: a
+            rigid one, which a module steering a degree behind its velocity already
+            slides).
     """
 
     substeps: int = 20
     velocity_gain: float | None = None
     battery_resistance: float | None = None
     slip_speed: float = 0.002
-    slip_ratio: float = 0.0
+    slip_ratio: float = 0.02
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -157,7 +164,8 @@ class MotorPlant(Plant):
         self._contact_strength = (mu * forces.normal_loads)[forces.contact_of]  # [N] per wheel
         self._contact_points = robot.wheel_positions
         self._mass_over_h = forces.mass_matrix * (config.substeps / dt)
-        self._inertia_over_h = dyn.wheel_inertia * config.substeps / dt
+        # a sliding wheel held at its current limit needs some inertia to spin up against
+        self._inertia_over_h = max(dyn.wheel_inertia, MIN_WHEEL_INERTIA) * config.substeps / dt
         self._damping = forces.kt / (forces.resistance * forces.kv)  # back-EMF [N m s/rad]
         self._size = 3 + n
 
@@ -194,13 +202,29 @@ class MotorPlant(Plant):
         flags = [False, False, False]
         peaks = [0.0, 0.0, 0.0]
         lowest = math.inf
+        aims = target_angles if self.steer_angles is not None else None
+        if aims is not None:  # the module velocity vectors the tick ramps between
+            before = aims if self._last_angles is None else self._last_angles
+            begin = start[:, None] * np.stack([np.cos(before), np.sin(before)], axis=1)
+            finish = np.asarray(target_speeds)[:, None] * np.stack(
+                [np.cos(aims), np.sin(aims)], axis=1)
         for s in range(substeps):
-            if self.steer_angles is not None and target_angles is not None:
-                # the steering setpoint ramps too (the module's velocity turns over the tick)
-                before = target_angles if self._last_angles is None else self._last_angles
-                turn = wrap_angle(target_angles - before)
-                self._steer(before + turn * ((s + 1.0) / substeps), h)
-            setpoint = start + (target_speeds - start) * ((s + 1.0) / substeps)
+            fraction = (s + 1.0) / substeps
+            setpoint = start + (target_speeds - start) * fraction
+            if aims is not None:
+                # each module steers along the velocity the ramp has reached (flip rule
+                # against its present angle; at rest, towards its commanded angle) and
+                # drives its component along the way it points
+                velocity = begin + (finish - begin) * fraction
+                speed = np.hypot(velocity[:, 0], velocity[:, 1])
+                angle = np.arctan2(velocity[:, 1], velocity[:, 0])
+                present = aims if self.steer_angles is None else self.steer_angles
+                flip = np.abs(wrap_angle(angle - present)) > math.pi / 2
+                angle = np.where(speed > 1e-9, np.where(flip, angle + math.pi, angle), aims)
+                self._steer(angle, h)
+                pointing = aims if self.steer_angles is None else self.steer_angles
+                setpoint = (velocity[:, 0] * np.cos(pointing)
+                            + velocity[:, 1] * np.sin(pointing))
             bus = self.robot.dynamics.battery_voltage - self.battery_resistance * (  # type: ignore[union-attr]
                 self._battery_current)
             lowest = min(lowest, bus)
