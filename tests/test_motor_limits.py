@@ -237,3 +237,36 @@ def test_sag_lowers_the_planned_voltage_bound() -> None:
     assert resting.motor is not None
     np.testing.assert_allclose(resting.motor_bound,
                                np.broadcast_to(resting.motor.bound, resting.motor_bound.shape))
+
+
+def test_sag_rows_against_finite_differences() -> None:
+    """The voltage rows carry the bus's sag linearised around the guess: their change of
+    value with the plan is the sagged bound's, by central differences of B(P(u))."""
+    from mpc.robots.motor_limits import _sag
+
+    robot = motor_preset("mecanum")
+    times = np.array([0.05, 0.1])
+    rng = np.random.default_rng(RNG_SEED)
+    guess = rng.normal(size=(2, 3)) * [1.0, 1.0, 1.0] + [1.5, 0.0, 0.0]
+    last = guess[0] - [0.2, 0.05, 0.1]
+    limits = stage_limits(robot, times, 16)
+    assert isinstance(limits, MotorStageLimits) and limits.motor is not None
+    previous = np.vstack([last, guess[:-1]])
+
+    def scale(twists: np.ndarray, before: np.ndarray) -> np.ndarray:
+        sag = _sag(limits.forces, twists, before, times, coriolis(twists),  # type: ignore[arg-type]
+                   coriolis(before), limits.directions, limits.motor)  # type: ignore[arg-type]
+        return sag.scale
+
+    sag = _sag(limits.forces, guess, previous, times, coriolis(guess),  # type: ignore[arg-type]
+               coriolis(previous), limits.directions, limits.motor)
+    h = 1e-5
+    for j in range(3):
+        step = np.zeros((2, 3))
+        step[:, j] = h
+        numeric = (scale(guess + step, previous) - scale(guess - step, previous)) / (2 * h)
+        np.testing.assert_allclose(numeric, sag.slope * sag.grad_now[:, j], rtol=1e-4,
+                                   atol=1e-9)
+        numeric = (scale(guess, previous + step) - scale(guess, previous - step)) / (2 * h)
+        np.testing.assert_allclose(numeric, sag.slope * sag.grad_before[:, j], rtol=1e-4,
+                                   atol=1e-9)

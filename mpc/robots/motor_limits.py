@@ -316,8 +316,26 @@ def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
         limits.changed = True
     bound = limits.motor_bound
     if forces.dynamics.battery_resistance > 0.0:
-        scale = _sag_scale(forces, guess, previous, limits.change_times, turn_end)
-        bound[:, rows.voltage] = scale[:, None] * rows.bound[rows.voltage]
+        # the bus sags with the plan's power: the voltage rows' bound keep B(P) / E,
+        # linearised around the guess (Newton: a bound read off the guess alone lags the
+        # plan and swings between too loose and too tight)
+        sag = _sag(forces, guess, previous, limits.change_times, turn_end, turn_start,
+                   limits.directions, rows)
+        voltage = rows.voltage
+        bound[:, voltage] = sag.scale[:, None] * rows.bound[voltage]
+        sign = np.where(rows.end[voltage], np.sign(sag.v_end[:, rows.index[voltage]]),
+                        np.sign(sag.v_start[:, rows.index[voltage]]))
+        sign[sign == 0.0] = 1.0
+        weight = -sign * rows.bound[voltage] * sag.slope[:, None]  # (N, rows)
+        add_now = weight[:, :, None] * sag.grad_now[:, None, :]
+        add_before = weight[:, :, None] * sag.grad_before[:, None, :]
+        columns = m + np.flatnonzero(voltage)
+        limits.now[:, columns] += add_now
+        limits.before[:, columns] += add_before
+        shift = (np.einsum("kmj,kj->km", add_now, guess)
+                 + np.einsum("kmj,kj->km", add_before, previous))
+        offset[:, voltage] -= shift
+        limits.changed = True
     np.subtract(bound, offset, out=limits.upper[:, m:])
     np.subtract(-bound, offset, out=limits.lower[:, m:])
 
@@ -369,21 +387,66 @@ def _coriolis(twists: FloatArray, out: FloatArray) -> None:
     np.multiply(twists[:, 2], twists[:, 0], out=out[:, 1])
 
 
-def _sag_scale(forces: ForceMap, twists: FloatArray, previous: FloatArray,
-               change_times: FloatArray, turn: FloatArray) -> FloatArray:
-    """``V_bus / E`` at each stage (N,) for the power the plan ``twists`` draws."""
+@dataclass(frozen=True, eq=False)
+class _Sag:
+    """The bus along the guess: ``scale = B(P) / E`` (N,), its slope ``B'(P) / E`` [per W]
+    (N,), the power's gradient on ``u_k`` and ``u_{k-1}`` (N, 3) [W per twist unit], and
+    every wheel's voltage at the end and the start of each change (N, n) [V]."""
+
+    scale: FloatArray
+    slope: FloatArray
+    grad_now: FloatArray
+    grad_before: FloatArray
+    v_end: FloatArray
+    v_start: FloatArray
+
+
+def _sag(forces: ForceMap, twists: FloatArray, previous: FloatArray, change_times: FloatArray,
+         turn_end: FloatArray, turn_start: FloatArray, directions: FloatArray,
+         rows: MotorRows) -> _Sag:
+    """:class:`_Sag` of the plan ``twists`` (power at each change's end: ``sum V T / kt``)."""
     dyn = forces.dynamics
-    change = (twists - previous) / change_times[:, None]
-    torque = change @ forces.flat_drive.T + turn @ forces.flat_effort.T  # (N, n d)
-    velocity = twists @ forces.flat_blocks.T
-    if forces.robot.wheel_dim == 2:
-        vx, vy = velocity[:, 0::2], velocity[:, 1::2]
-        speed = np.sqrt(vx * vx + vy * vy)
-        drive = (torque[:, 0::2] * vx + torque[:, 1::2] * vy) / np.maximum(speed, 1e-9)
+    robot = forces.robot
+    n, d = robot.n_wheels, robot.wheel_dim
+    times = change_times[:, None]
+    if d == 2:  # each wheel's drive direction, as its voltage rows have it
+        first = np.flatnonzero(rows.voltage & rows.end)
+        e = np.zeros((len(twists), n, 2))
+        e[:, rows.index[first]] = directions[:, first]
     else:
-        speed, drive = velocity, torque
-    power = (forces.voltage(drive, speed) * drive).sum(axis=1) / forces.kt
-    return bus_voltages(dyn.battery_voltage, dyn.battery_resistance, power) / dyn.battery_voltage
+        e = np.ones((len(twists), n, 1))
+    blocks, drive, effort = robot.wheel_blocks, forces.drive_map, forces.effort_map
+    e_w = np.einsum("knd,ndj->knj", e, blocks)
+    e_d = np.einsum("knd,ndj->knj", e, drive)
+    e_e = np.einsum("knd,ndj->knj", e, effort)
+    change = (twists - previous) / times
+    speed_end = np.einsum("knj,kj->kn", e_w, twists)
+    speed_start = np.einsum("knj,kj->kn", e_w, previous)
+    torque_base = np.einsum("knj,kj->kn", e_d, change)
+    torque_end = torque_base + np.einsum("knj,kj->kn", e_e, turn_end)
+    torque_start = torque_base + np.einsum("knj,kj->kn", e_e, turn_start)
+    v_end = forces.voltage(torque_end, speed_end)
+    v_start = forces.voltage(torque_start, speed_start)
+    power = (v_end * torque_end).sum(axis=1) / forces.kt
+    volt, resistance = dyn.battery_voltage, dyn.battery_resistance
+    disc = volt * volt - 4.0 * resistance * np.maximum(power, 0.0)
+    scale = bus_voltages(volt, resistance, power) / volt
+    slope = np.where((power > 0.0) & (disc > 1e-6 * volt * volt),
+                     -resistance / np.sqrt(np.maximum(disc, 1e-12)), 0.0) / volt
+    # dP = sum_j (T_j / kv ds_j + (V_j + R T_j / kt) dT_j) / kt, with ds = e W du_k and
+    # dT = e D (du_k - du_{k-1}) / dt + e E J(ubar_k) du_k (J: the Coriolis Jacobian)
+    through = (v_end + forces.resistance * torque_end / forces.kt) / forces.kt  # (N, n)
+    jacobian = np.zeros((len(twists), 3, 3))
+    jacobian[:, 0, 1] = -twists[:, 2]
+    jacobian[:, 0, 2] = -twists[:, 1]
+    jacobian[:, 1, 0] = twists[:, 2]
+    jacobian[:, 1, 2] = twists[:, 0]
+    turned = np.einsum("knj,kji->kni", e_e, jacobian)
+    grad_now = (np.einsum("kn,knj->kj", torque_end / (forces.kv * forces.kt), e_w)
+                + np.einsum("kn,knj->kj", through, e_d / times[:, :, None] + turned))
+    grad_before = -np.einsum("kn,knj->kj", through, e_d) / times
+    return _Sag(scale=scale, slope=slope, grad_now=grad_now, grad_before=grad_before,
+                v_end=v_end, v_start=v_start)
 
 
 def bus_voltages(open_circuit: float, resistance: float, power: FloatArray) -> FloatArray:
