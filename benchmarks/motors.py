@@ -38,7 +38,9 @@ import numpy as np
 
 from benchmarks.runner import machine
 from benchmarks.scenarios import Parser, ScenarioError, choose
+from benchmarks.scenarios import reference as scenario_reference
 from mpc import Controller
+from mpc.arrays import FloatArray
 from mpc.robots import (
     PRESETS,
     Robot,
@@ -223,6 +225,37 @@ def table(rows: list[dict[str, Any]], controllers: list[str]) -> str:
     return "\n".join(lines)
 
 
+def perf(layouts: list[str], ticks: int, repeats: int, horizon: int = 20,
+         log: Any = print) -> list[dict[str, Any]]:
+    """Tick times of the daqp fast path with and without the motor rows, per layout, on
+    ``mpc-bench perf``'s scenario (figure-eight at 0.8 x the wheel speed limit, fixed
+    heading, dt 0.05 s, ideal plant), the two runs interleaved ``repeats`` times so that
+    their ratio is measured under the same load."""
+    rows = []
+    for layout in layouts:
+        robot = motor_preset(layout)
+        kinematic = robot.with_dynamics(None)
+        reference = scenario_reference("figure8", "fixed", kinematic, 0.8)
+        samples: dict[str, list[FloatArray]] = {"kinematic": [], "motors": []}
+        for _ in range(repeats):
+            for label, which in (("kinematic", kinematic), ("motors", robot)):
+                control = Controller(which, reference, horizon, 0.05)
+                result = simulate(control, ticks * 0.05)
+                samples[label].append(result.tick_time[min(10, ticks // 5):])
+        row: dict[str, Any] = {"layout": layout}
+        for label, parts in samples.items():
+            times = np.concatenate(parts)
+            row[f"{label}_p50"] = float(np.median(times))
+            row[f"{label}_p99"] = float(np.percentile(times, 99))
+        row["rows"] = Controller(robot, reference, horizon, 0.05).solver.limits.rows  # type: ignore[attr-defined]
+        rows.append(row)
+        log(f"{layout:8s} kinematic p50 {row['kinematic_p50'] * 1e3:.3f} p99 "
+            f"{row['kinematic_p99'] * 1e3:.3f} ms   motors p50 {row['motors_p50'] * 1e3:.3f} "
+            f"p99 {row['motors_p99'] * 1e3:.3f} ms   p50 ratio "
+            f"{row['motors_p50'] / row['kinematic_p50']:.2f}  rows/stage {row['rows']}")
+    return rows
+
+
 def main(argv: list[str]) -> int:
     parser = Parser(prog="mpc-bench motors", description=__doc__.split("\n")[0])
     parser.add_argument("--layouts", help=f"comma list of {', '.join(PRESETS)} (default: all)")
@@ -238,12 +271,30 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--skip", type=float, default=2.0,
                         help="seconds left out of the errors (2.0)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--perf", action="store_true",
+                        help="instead: tick times with and without the motor rows per layout "
+                             "(mpc-bench perf's scenario, runs interleaved)")
+    parser.add_argument("--ticks", type=int, default=400, help="--perf: ticks per run (400)")
+    parser.add_argument("--repeats", type=int, default=3,
+                        help="--perf: interleaved runs of each (3)")
     parser.add_argument("--out", default="bench-out", metavar="DIR",
                         help="writes motors.json here")
     args = parser.parse_args(argv)
     if not (args.ratio > 0 and args.size > 0 and args.laps > 0 and args.skip >= 0):
         raise ScenarioError("--ratio, --size and --laps must be > 0, --skip >= 0")
     layouts = choose("layout", args.layouts, PRESETS)
+    if args.perf:
+        if args.ticks < 20 or args.repeats < 1:
+            raise ScenarioError("--ticks must be >= 20 and --repeats >= 1")
+        measured = perf(layouts, args.ticks, args.repeats,
+                        log=lambda line: print(line, flush=True))
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "motors-perf.json").write_text(json.dumps(
+            {"command": " ".join(["mpc-bench", "motors", *argv]), "machine": machine(),
+             "rows": measured}, indent=1))
+        print(f"wrote {out / 'motors-perf.json'}")
+        return 0
     trajectories = choose("trajectory", args.trajectories, TRAJECTORIES)
     controllers = choose("controller", args.controllers, CONTROLLERS, DEFAULT_CONTROLLERS)
     started = time.perf_counter()

@@ -253,13 +253,15 @@ def test_sag_rows_against_finite_differences() -> None:
     assert isinstance(limits, MotorStageLimits) and limits.motor is not None
     previous = np.vstack([last, guess[:-1]])
 
-    def scale(twists: np.ndarray, before: np.ndarray) -> np.ndarray:
-        sag = _sag(limits.forces, twists, before, times, coriolis(twists),  # type: ignore[arg-type]
-                   coriolis(before), limits.directions, limits.motor)  # type: ignore[arg-type]
-        return sag.scale
+    forces = limits.forces
+    assert forces is not None
 
-    sag = _sag(limits.forces, guess, previous, times, coriolis(guess),  # type: ignore[arg-type]
-               coriolis(previous), limits.directions, limits.motor)
+    def scale(twists: np.ndarray, before: np.ndarray) -> np.ndarray:
+        return _sag(forces, twists, before, times, coriolis(twists), coriolis(before),
+                    limits.directions).scale
+
+    sag = _sag(forces, guess, previous, times, coriolis(guess), coriolis(previous),
+               limits.directions)
     h = 1e-5
     for j in range(3):
         step = np.zeros((2, 3))

@@ -40,6 +40,7 @@ The first command is kept within the same limits by the clamp
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -109,7 +110,7 @@ class MotorRows:
     def rows(self) -> int:
         return int(self.bound.size)
 
-    @property
+    @functools.cached_property
     def moving(self) -> bool:
         """Whether some row's direction changes with the plan (steered wheels, balls)."""
         return bool(np.any(self.direction != _FIXED))
@@ -206,6 +207,8 @@ class MotorStageLimits(StageLimits):
     base_now: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
     base_before: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
     g: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    g_end: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 2)))
+    g_start: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 2)))
     coef: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
     first_moving: int = 0  # the motor rows from this one on turn with the plan
 
@@ -291,23 +294,25 @@ def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
     if rows.moving:
         _turn_rows(limits, forces, guess, previous, steer_angles)
         _fill_rows(limits, limits.first_moving)
-    g = limits.g
-    end = rows.end
+    if rows.moving or limits.g_end.shape[0] == 0:
+        limits.g_end = limits.g[:, :, :2] * rows.end[None, :, None]
+        limits.g_start = limits.g[:, :, :2] * ~rows.end[None, :, None]
+    g_end, g_start = limits.g_end, limits.g_start  # (N, m, 2): each row's end's own
     # g . coriolis at each row's end of the change (N, m_motor)
-    offset = np.where(end, np.einsum("kmj,kj->km", g, turn_end),
-                      np.einsum("kmj,kj->km", g, turn_start))
+    offset = (g_end[:, :, 0] * turn_end[:, 0:1] + g_end[:, :, 1] * turn_end[:, 1:2]
+              + g_start[:, :, 0] * turn_start[:, 0:1] + g_start[:, :, 1] * turn_start[:, 1:2])
     if LINEARISE_CORIOLIS:
         # coriolis(u) ~ J u - coriolis(ubar), J its Jacobian at ubar: g J on the end's
         # twist (u_k for the end's rows, u_{k-1} for the start's); the offset turns sign.
-        coef = limits.coef
-        for twists, out, base, mask in ((guess, limits.now, limits.base_now, end),
-                                        (previous, limits.before, limits.base_before, ~end)):
+        for twists, out, base, side in ((guess, limits.now, limits.base_now, g_end),
+                                        (previous, limits.before, limits.base_before,
+                                         g_start)):
             omega, vx, vy = twists[:, 2:3], twists[:, 0:1], twists[:, 1:2]
-            gx, gy = g[:, :, 0] * mask, g[:, :, 1] * mask
-            np.multiply(gy, omega, out=coef[:, :, 0])
-            np.multiply(gx, -omega, out=coef[:, :, 1])
-            coef[:, :, 2] = gy * vx - gx * vy
-            np.add(base, coef, out=out[:, m:])
+            gx, gy = side[:, :, 0], side[:, :, 1]
+            target = out[:, m:]
+            np.add(base[:, :, 0], gy * omega, out=target[:, :, 0])
+            np.subtract(base[:, :, 1], gx * omega, out=target[:, :, 1])
+            np.add(base[:, :, 2], gy * vx - gx * vy, out=target[:, :, 2])
         np.negative(offset, out=offset)
         limits.changed = True
     elif rows.moving:
@@ -318,23 +323,21 @@ def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
     if forces.dynamics.battery_resistance > 0.0:
         # the bus sags with the plan's power: the voltage rows' bound keep B(P) / E,
         # linearised around the guess (Newton: a bound read off the guess alone lags the
-        # plan and swings between too loose and too tight)
+        # plan and swings between too loose and too tight). The voltage rows are the first
+        # 2 n motor rows: each wheel's at the change's end, then at its start.
         sag = _sag(forces, guess, previous, limits.change_times, turn_end, turn_start,
-                   limits.directions, rows)
-        voltage = rows.voltage
-        bound[:, voltage] = sag.scale[:, None] * rows.bound[voltage]
-        sign = np.where(rows.end[voltage], np.sign(sag.v_end[:, rows.index[voltage]]),
-                        np.sign(sag.v_start[:, rows.index[voltage]]))
+                   limits.directions)
+        volts = slice(0, 2 * robot.n_wheels)
+        keep = rows.bound[volts]
+        bound[:, volts] = sag.scale[:, None] * keep
+        sign = np.sign(np.concatenate([sag.v_end, sag.v_start], axis=1))
         sign[sign == 0.0] = 1.0
-        weight = -sign * rows.bound[voltage] * sag.slope[:, None]  # (N, rows)
-        add_now = weight[:, :, None] * sag.grad_now[:, None, :]
-        add_before = weight[:, :, None] * sag.grad_before[:, None, :]
-        columns = m + np.flatnonzero(voltage)
-        limits.now[:, columns] += add_now
-        limits.before[:, columns] += add_before
-        shift = (np.einsum("kmj,kj->km", add_now, guess)
-                 + np.einsum("kmj,kj->km", add_before, previous))
-        offset[:, voltage] -= shift
+        weight = -sign * keep * sag.slope[:, None]  # (N, 2 n)
+        limits.now[:, m:m + 2 * robot.n_wheels] += weight[:, :, None] * sag.grad_now[:, None]
+        limits.before[:, m:m + 2 * robot.n_wheels] += (weight[:, :, None]
+                                                       * sag.grad_before[:, None])
+        at_guess = (sag.grad_now * guess).sum(axis=1) + (sag.grad_before * previous).sum(axis=1)
+        offset[:, volts] -= weight * at_guess[:, None]
         limits.changed = True
     np.subtract(bound, offset, out=limits.upper[:, m:])
     np.subtract(-bound, offset, out=limits.lower[:, m:])
@@ -402,29 +405,33 @@ class _Sag:
 
 
 def _sag(forces: ForceMap, twists: FloatArray, previous: FloatArray, change_times: FloatArray,
-         turn_end: FloatArray, turn_start: FloatArray, directions: FloatArray,
-         rows: MotorRows) -> _Sag:
-    """:class:`_Sag` of the plan ``twists`` (power at each change's end: ``sum V T / kt``)."""
+         turn_end: FloatArray, turn_start: FloatArray, directions: FloatArray) -> _Sag:
+    """:class:`_Sag` of the plan ``twists`` (power at each change's end: ``sum V T / kt``);
+    steered wheels drive along the directions of their voltage rows (the first ``n`` motor
+    rows of ``directions``)."""
     dyn = forces.dynamics
     robot = forces.robot
-    n, d = robot.n_wheels, robot.wheel_dim
+    n = robot.n_wheels
     times = change_times[:, None]
-    if d == 2:  # each wheel's drive direction, as its voltage rows have it
-        first = np.flatnonzero(rows.voltage & rows.end)
-        e = np.zeros((len(twists), n, 2))
-        e[:, rows.index[first]] = directions[:, first]
-    else:
-        e = np.ones((len(twists), n, 1))
-    blocks, drive, effort = robot.wheel_blocks, forces.drive_map, forces.effort_map
-    e_w = np.einsum("knd,ndj->knj", e, blocks)
-    e_d = np.einsum("knd,ndj->knj", e, drive)
-    e_e = np.einsum("knd,ndj->knj", e, effort)
     change = (twists - previous) / times
-    speed_end = np.einsum("knj,kj->kn", e_w, twists)
-    speed_start = np.einsum("knj,kj->kn", e_w, previous)
-    torque_base = np.einsum("knj,kj->kn", e_d, change)
-    torque_end = torque_base + np.einsum("knj,kj->kn", e_e, turn_end)
-    torque_start = torque_base + np.einsum("knj,kj->kn", e_e, turn_start)
+    if robot.wheel_dim == 2:  # along each wheel's drive direction, as its rows have it
+        e = directions[:, :n]  # (N, n, 2)
+        speed_map = np.einsum("knd,ndj->knj", e, robot.wheel_blocks)
+        drive_map = np.einsum("knd,ndj->knj", e, forces.drive_map)
+        effort_map = np.einsum("knd,ndj->knj", e, forces.effort_map)
+
+        def apply(maps: FloatArray, twist: FloatArray) -> FloatArray:
+            return np.matmul(maps, twist[:, :, None])[:, :, 0]
+    else:
+        speed_map, drive_map = robot.wheel_blocks[:, 0], forces.drive_map[:, 0]
+        effort_map = forces.effort_map[:, 0]
+
+        def apply(maps: FloatArray, twist: FloatArray) -> FloatArray:
+            return twist @ maps.T
+    speed_end, speed_start = apply(speed_map, twists), apply(speed_map, previous)
+    torque_base = apply(drive_map, change)
+    torque_end = torque_base + apply(effort_map, turn_end)
+    torque_start = torque_base + apply(effort_map, turn_start)
     v_end = forces.voltage(torque_end, speed_end)
     v_start = forces.voltage(torque_start, speed_start)
     power = (v_end * torque_end).sum(axis=1) / forces.kt
@@ -436,15 +443,19 @@ def _sag(forces: ForceMap, twists: FloatArray, previous: FloatArray, change_time
     # dP = sum_j (T_j / kv ds_j + (V_j + R T_j / kt) dT_j) / kt, with ds = e W du_k and
     # dT = e D (du_k - du_{k-1}) / dt + e E J(ubar_k) du_k (J: the Coriolis Jacobian)
     through = (v_end + forces.resistance * torque_end / forces.kt) / forces.kt  # (N, n)
-    jacobian = np.zeros((len(twists), 3, 3))
-    jacobian[:, 0, 1] = -twists[:, 2]
-    jacobian[:, 0, 2] = -twists[:, 1]
-    jacobian[:, 1, 0] = twists[:, 2]
-    jacobian[:, 1, 2] = twists[:, 0]
-    turned = np.einsum("knj,kji->kni", e_e, jacobian)
-    grad_now = (np.einsum("kn,knj->kj", torque_end / (forces.kv * forces.kt), e_w)
-                + np.einsum("kn,knj->kj", through, e_d / times[:, :, None] + turned))
-    grad_before = -np.einsum("kn,knj->kj", through, e_d) / times
+    by_speed = torque_end / (forces.kv * forces.kt)
+    if robot.wheel_dim == 2:
+        speed_grad = np.matmul(by_speed[:, None, :], speed_map)[:, 0]
+        drive_grad = np.matmul(through[:, None, :], drive_map)[:, 0]
+        effort_grad = np.matmul(through[:, None, :], effort_map)[:, 0]
+    else:
+        speed_grad, drive_grad = by_speed @ speed_map, through @ drive_map
+        effort_grad = through @ effort_map
+    omega, vx, vy = twists[:, 2], twists[:, 0], twists[:, 1]
+    turned = np.stack([effort_grad[:, 1] * omega, -effort_grad[:, 0] * omega,
+                       effort_grad[:, 1] * vx - effort_grad[:, 0] * vy], axis=1)
+    grad_now = speed_grad + drive_grad / times + turned
+    grad_before = -drive_grad / times
     return _Sag(scale=scale, slope=slope, grad_now=grad_now, grad_before=grad_before,
                 v_end=v_end, v_start=v_start)
 

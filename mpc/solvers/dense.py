@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import daqp
 import numpy as np
-from scipy.linalg import solve_triangular
+from scipy.linalg import lapack
 
 from mpc.arrays import FloatArray
 from mpc.model.buffered import BufferedFunction
@@ -232,12 +232,13 @@ class DenseSolver:
         """:meth:`_update` in whitened steps ``y = L' d``: Hessian the identity, rows
         ``A L^{-T}``, gradient ``L^{-1} g``."""
         if hessian is not None:
-            try:
-                factor = np.linalg.cholesky(hessian)
-            except np.linalg.LinAlgError:  # not positive definite: daqp would refuse it too
-                factor = np.linalg.cholesky(hessian + 1e-9 * np.trace(hessian)
-                                            * np.eye(hessian.shape[0]))
-            self._unwhiten = solve_triangular(factor, np.eye(factor.shape[0]), lower=True).T
+            # LAPACK directly: numpy's and scipy's wrappers cost several times the work
+            factor, info = lapack.dpotrf(hessian, lower=1, clean=1)
+            if info != 0:  # not positive definite (daqp would refuse it too): regularise
+                factor, info = lapack.dpotrf(hessian + 1e-9 * np.trace(hessian)
+                                             * np.eye(hessian.shape[0]), lower=1, clean=1)
+            inverse, info = lapack.dtrtri(factor, lower=1)
+            self._unwhiten = np.ascontiguousarray(inverse.T)
         if hessian is not None or rows_changed:
             self._whiten_rows()
         whitened_gradient = self._unwhiten.T @ gradient
