@@ -130,7 +130,7 @@ TRAJECTORY = Circle(1.0, 12.0)
     [
         ({"solver": "gurobi"}, r"unknown solver 'gurobi'.*'osqp'.*'ipopt'"),
         ({"horizon": 0}, "horizon must be an integer >= 1"),
-        ({"horizon": 2.5}, "horizon must be an integer >= 1"),
+        ({"horizon": 2.5}, "horizon must be an integer in 1..1000"),
         ({"dt": 0.0}, r"dt \[s\] must be a finite number > 0"),
         ({"dt": -0.05}, r"dt \[s\] must be a finite number > 0"),
         ({"dt": math.nan}, r"dt \[s\] must be a finite number > 0"),

@@ -22,16 +22,22 @@ from mpc.model.tracking import TrackingModel
 from mpc.model.weights import Weights, make_weights
 from mpc.profiling import TickProfile
 from mpc.robots.base import Robot
-from mpc.solvers import DenseSolver, NlpSolver, QpSolver, TrackingSolver
+from mpc.solvers import DenseSolver, NlpSolver, QpSolver, SolveResult, TrackingSolver
 from mpc.validation import (
+    MAX_COORDINATE,
+    MAX_DELAY_TICKS,
+    MAX_HORIZON,
+    MAX_ITERATIONS,
+    MAX_POLYGON_SIDES,
+    MAX_TIME,
     flag,
-    integer_at_least,
+    integer_in,
     is_finite_number,
     is_integer,
     non_negative,
     positive,
 )
-from trajectories import Trajectory
+from trajectories import Trajectory, TrajectoryError
 
 #: Valid ``solver=`` names: the fast paths (daqp on the condensed QP, OSQP on the sparse
 #: QP) and the exact IPOPT path.
@@ -120,9 +126,10 @@ class Controller:
             raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
         _check_trajectory(trajectory)
         self.robot = robot
-        self.horizon = integer_at_least("horizon", horizon, 1, ControllerError)
+        self.horizon = integer_in("horizon", horizon, 1, MAX_HORIZON, ControllerError)
         self.dt = positive("dt [s]", dt, ControllerError)
-        self.delay_ticks = integer_at_least("delay_ticks", delay_ticks, 0, ControllerError)
+        self.delay_ticks = integer_in("delay_ticks", delay_ticks, 0, MAX_DELAY_TICKS,
+                                      ControllerError)
         self.mode = _check_mode(mode, time_scaling)
         self.stage_dt = _check_stage_dt(stage_dt, self.dt, self.mode)
         rate = positive("max_progress_rate", max_progress_rate, ControllerError)
@@ -198,13 +205,52 @@ class Controller:
         if profile is not None:
             profile.start()
         x0 = self._delay.predict(_check_pose(pose))
-        if not is_finite_number(t):
-            raise ControllerError(f"t must be a finite time in seconds, got {t!r}")
+        if not is_finite_number(t) or abs(t) > MAX_TIME:  # type: ignore[arg-type]
+            raise ControllerError(f"t must be a finite time in seconds within +-{MAX_TIME:g}, "
+                                  f"got {t!r}")
         tick = self._tick
         t_plan = float(t) + self.delay_ticks * self.dt
         if profile is not None:
             profile.mark("check and predict")
-        reference_time = self._timing.fill(float(t), t_plan, float(x0[2]))
+        try:
+            reference_time = self._timing.fill(float(t), t_plan, float(x0[2]))
+        except TrajectoryError as error:  # the reference, not the caller: fall back
+            reference_time, result = t_plan, self._unplanned(f"reference failed: {error}")
+        else:
+            result = self._solve(x0)
+        if result.success:
+            status, target, plan = Status.SOLVED, result.twists[0], result.poses
+            self._fallback.succeeded(result.twists)
+            self._warm.store(result.poses, result.twists)
+            self._timing.solved(result.progress)
+        else:
+            self._warm.reset()
+            self.solver.reset()
+            self._timing.solved(None)
+            status, target = self._fallback.failed(tick.twists_ref[0])
+            plan = tick.poses_ref.copy()
+            if not math.isfinite(float(plan.sum())):
+                plan[:] = x0
+        twist, clamped = clamp_command(self.robot, target, self._last, self.dt, self._steer)
+        speeds, self._steer = self.robot.wheel_commands(twist, self._steer, target, self.dt)
+        if self._steer is not None:  # steered wheels at rest: the twist the wheels will drive
+            twist = self.robot.forward_kinematics(speeds, self._steer)
+        self._last = twist
+        self._delay.sent(twist)
+        if profile is not None:
+            profile.mark("clamp and commands")
+        return Command(
+            wheel_speeds=speeds, twist=twist, steer_angles=self._steer,
+            predicted_poses=plan, status=status, solver_status=result.status,
+            solve_time=result.solve_time, tick_time=time.perf_counter() - start,
+            iterations=result.iterations, consecutive_failures=self._fallback.failures,
+            clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time)
+
+
+    def _solve(self, x0: FloatArray) -> SolveResult:
+        """Plan from ``x0`` on the reference the tick holds (warm started; path mode: solved
+        again while the progress settles after a reset)."""
+        tick, profile = self._tick, self._profile
         tick.pose[:] = x0
         tick.last_twist[:] = self._last
         if tick.steer_angles is not None and self._steer is not None:
@@ -222,31 +268,16 @@ class Controller:
             result = self.solver.solve(tick)
         if profile is not None:
             profile.mark("solve (rest)")
-        if result.success:
-            status, target, plan = Status.SOLVED, result.twists[0], result.poses
-            self._fallback.succeeded(result.twists)
-            self._warm.store(result.poses, result.twists)
-            self._timing.solved(result.progress)
-        else:
-            self._warm.reset()
-            self.solver.reset()
-            self._timing.solved(None)
-            status, target = self._fallback.failed(tick.twists_ref[0])
-            plan = tick.poses_ref.copy()
-        twist, clamped = clamp_command(self.robot, target, self._last, self.dt, self._steer)
-        speeds, self._steer = self.robot.wheel_commands(twist, self._steer, target, self.dt)
-        if self._steer is not None:  # steered wheels at rest: the twist the wheels will drive
-            twist = self.robot.forward_kinematics(speeds, self._steer)
-        self._last = twist
-        self._delay.sent(twist)
-        if profile is not None:
-            profile.mark("clamp and commands")
-        return Command(
-            wheel_speeds=speeds, twist=twist, steer_angles=self._steer,
-            predicted_poses=plan, status=status, solver_status=result.status,
-            solve_time=result.solve_time, tick_time=time.perf_counter() - start,
-            iterations=result.iterations, consecutive_failures=self._fallback.failures,
-            clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time)
+        return result
+
+    def _unplanned(self, status: str) -> SolveResult:
+        """A failed solve that never ran (``status`` says why); the reference in the tick is
+        not to be trusted, so the fallback skips its feedforward."""
+        self._tick.twists_ref[:] = np.nan
+        self._tick.poses_ref[:] = np.nan
+        n = self.horizon
+        return SolveResult(success=False, status=status, poses=np.full((n + 1, 3), np.nan),
+                           twists=np.full((n, 3), np.nan), solve_time=0.0, iterations=0)
 
 
 def _check_mode(mode: object, time_scaling: object) -> str:
@@ -289,6 +320,10 @@ def _check_pose(pose: ArrayLike) -> FloatArray:
         raise ControllerError(f"pose must have shape (3,) as (x, y, theta), got shape {x0.shape}")
     if not (math.isfinite(x0[0]) and math.isfinite(x0[1]) and math.isfinite(x0[2])):
         raise ControllerError(f"pose must be finite, got {x0.tolist()}")
+    if not (abs(x0[0]) <= MAX_COORDINATE and abs(x0[1]) <= MAX_COORDINATE
+            and abs(x0[2]) <= MAX_COORDINATE):
+        raise ControllerError(f"pose must lie within +-{MAX_COORDINATE:g} (m, m, rad), "
+                              f"got {x0.tolist()}")
     return x0
 
 
@@ -296,8 +331,8 @@ def _make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
                  max_iter: int | None, time_limit: float) -> TrackingSolver:
     if name not in SOLVERS:
         raise ControllerError(f"unknown solver {name!r}; expected one of {list(SOLVERS)}")
-    iterations = None if max_iter is None else integer_at_least("max_iter", max_iter, 1,
-                                                                ControllerError)
+    iterations = None if max_iter is None else integer_in("max_iter", max_iter, 1,
+                                                          MAX_ITERATIONS, ControllerError)
     limit = non_negative("time_limit [s]", time_limit, ControllerError)
     if name == "ipopt":
         if polygon_sides is not None:
@@ -307,6 +342,7 @@ def _make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
     sides = DEFAULT_POLYGON_SIDES if polygon_sides is None else polygon_sides
     if not is_integer(sides) or sides < 4 or sides % 2:
         raise ControllerError(f"polygon_sides must be an even integer >= 4, got {sides!r}")
+    integer_in("polygon_sides", sides, 4, MAX_POLYGON_SIDES, ControllerError)
     if name == "daqp":
         return DenseSolver(model, polygon_sides=int(sides), max_iter=iterations or 1000,
                            time_limit=limit)

@@ -1,13 +1,16 @@
 """What to command when the solver fails: the fallback policy, in order.
 
 1. the previous plan, read at the time since it was made, while it lasts;
-2. the reference feedforward scaled into the wheel limits (as many ticks again);
+2. the reference feedforward scaled into the wheel limits (as many ticks again; skipped
+   when the reference itself failed);
 3. a stop ramp (zero twist; the clamp keeps the deceleration within the limits).
 
 The state is one count of failures in a row and the last successful plan.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -50,6 +53,6 @@ class FallbackPolicy:
         self.failures += 1
         if self._plan is not None and self.failures < self.horizon:
             return Status.PREVIOUS_PLAN, self._plan[self._stages[self.failures]]
-        if self.failures < 2 * self.horizon:
+        if self.failures < 2 * self.horizon and math.isfinite(float(feedforward.sum())):
             return Status.FEEDFORWARD, self.robot.desaturate(feedforward)
         return Status.STOPPING, np.zeros(3)

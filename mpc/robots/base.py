@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 from mpc.arrays import BoolArray, FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.limits import SpeedRows, StageLimits, linear_stage_limits
-from mpc.validation import is_finite_number, is_integer
+from mpc.validation import MAX_WHEELS, is_finite_number, is_integer
 
 
 class WheelCommands(NamedTuple):
@@ -101,6 +101,9 @@ class Robot(abc.ABC):
         """Checks shared by every layout; subclasses call it last in ``__post_init__``."""
         if not isinstance(self.name, str):
             raise RobotError(f"name must be a string, got {self.name!r}")
+        if self.n_wheels > MAX_WHEELS:
+            raise RobotError(f"a robot has at most {MAX_WHEELS} wheels (a bound of this "
+                             f"library), got {self.n_wheels}")
         flat = self.wheel_blocks.reshape(-1, 3)
         check_holonomic(flat, f"robot {self.name!r}")
         object.__setattr__(self, "_flat_pinv", readonly(np.linalg.pinv(flat)))

@@ -26,6 +26,7 @@ from typing import Any
 from mpc.errors import RobotError
 from mpc.robots.base import Robot
 from mpc.robots.registry import robot_type
+from mpc.validation import file_text
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -59,13 +60,7 @@ def from_dict(description: Mapping[str, Any], source: str = "robot description")
 def load(path: str | Path) -> Robot:
     """Load a robot from a TOML file (see the module docstring for the keys)."""
     file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8-sig")
-    except OSError as error:
-        raise RobotError(f"cannot read robot file {str(file)!r}: {error.strerror}") from None
-    except UnicodeDecodeError as error:
-        raise RobotError(f"robot file {str(file)!r} is not UTF-8 text: {error.reason} "
-                         f"at byte {error.start}") from None
+    text = file_text(file, "robot", RobotError)
     try:
         description = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:

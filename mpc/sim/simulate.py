@@ -14,7 +14,7 @@ from mpc.robots.base import Robot
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.sim.recorder import Recorder
 from mpc.sim.result import SimResult
-from mpc.validation import finite_vector, is_finite_number
+from mpc.validation import MAX_SIMULATION_TICKS, finite_vector, is_finite_number
 from trajectories import Trajectory
 
 
@@ -59,6 +59,9 @@ def simulate(
     config = _plant_config(plant)
     dt = controller.dt
     ticks = max(1, round(duration / dt))
+    if ticks > MAX_SIMULATION_TICKS:
+        raise SimulationError(f"duration {duration!r} s is {ticks} ticks of {dt} s; at most "
+                              f"{MAX_SIMULATION_TICKS} ticks are simulated at once")
     trajectory = controller.trajectory
     if initial_pose is None:
         start = trajectory.sample(0.0).pose
