@@ -146,6 +146,8 @@ class Controller:
         self._warm = WarmStart(self._tick, self.model.offsets, self.dt)
         self._fallback = FallbackPolicy(robot, self.model.offsets, self.dt)
         self._delay = DelayCompensator(self.delay_ticks, self.dt)
+        self._last = np.zeros(3)  # the last command's twist; reset() sets these
+        self._steer: FloatArray | None = None  # steered wheels' commanded angles [rad]
         self._set_reference(trajectory)
         self.reset()
 
@@ -177,16 +179,22 @@ class Controller:
         present motion is kept)."""
         _check_trajectory(trajectory)
         self._set_reference(trajectory)
+        steer = self._steer
         self.reset(self._last)
+        self._steer = steer  # the modules are where they were
 
     def reset(self, last_twist: ArrayLike | None = None) -> None:
         """Forget the plan, warm start, failures and timing; the robot is at rest unless
-        ``last_twist`` (the body twist it is executing now [m/s, m/s, rad/s]) says."""
+        ``last_twist`` (the body twist it is executing now [m/s, m/s, rad/s]) says (steered
+        wheels then point along it, flip rule from straight ahead)."""
         last = np.zeros(3) if last_twist is None else np.array(last_twist, dtype=float)
         if last.shape != (3,) or not np.all(np.isfinite(last)):
             raise ControllerError(f"last_twist must be a finite (3,) twist, got {last_twist!r}")
         self._last = last
-        self._steer = self.robot.initial_steer_angles()
+        steer: FloatArray | None = self.robot.initial_steer_angles()
+        if steer is not None and last.any():
+            steer = self.robot.wheel_commands(last, steer)[1]
+        self._steer = steer
         self._delay.reset(last)
         self._warm.reset()
         self._fallback.reset()
