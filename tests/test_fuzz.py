@@ -44,4 +44,5 @@ def test_swerve_reset_points_the_modules_along_the_twist_and_a_new_reference_kee
     after = controller.step([1.0, 0.0, 0.0], 0.05).steer_angles
     assert after is not None
     turn = np.abs(np.mod(after - before + np.pi / 2, np.pi) - np.pi / 2)
-    assert np.all(turn <= robot.max_steer_rate * 0.05 + 1e-9)
+    assert robot.max_steer_rates is not None
+    assert np.all(turn <= robot.max_steer_rates * 0.05 + 1e-9)
