@@ -5,6 +5,7 @@ Closed-loop tracking (acceptance) is in test_acceptance.py.
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Callable
@@ -351,3 +352,26 @@ def test_profile_marks_every_phase_of_every_tick(solver: str) -> None:
                for name, values in phases.items())
     with pytest.raises(ControllerError, match="TickProfile"):
         controller.profile = "yes"  # type: ignore[assignment]
+
+
+# Logging -------------------------------------------------------------------------------
+
+
+def test_fallbacks_are_logged_when_they_start_and_end_not_per_tick(
+        monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    robot, trajectory = preset("mecanum"), Circle(1.0, 12.0, heading=0.0)
+    controller = Controller(robot, trajectory, horizon=10)
+    loop = Loop(controller, trajectory.sample(0.0).pose)
+    solve = controller.solver.solve
+    with caplog.at_level(logging.INFO, logger="mpc"):
+        for _ in range(3):
+            loop.step()
+        assert not caplog.records
+        monkeypatch.setattr(controller.solver, "solve", lambda *a, **k: failed_result(10))
+        for _ in range(5):
+            loop.step()
+        monkeypatch.setattr(controller.solver, "solve", solve)
+        loop.step()
+    messages = [(r.levelname, r.getMessage()) for r in caplog.records]
+    assert messages == [("WARNING", "falling back: injected failure"),
+                        ("INFO", "solved again after 5 failed ticks")]

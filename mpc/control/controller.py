@@ -235,7 +235,7 @@ class Controller:
             self._warm.reset()
             self.solver.reset()
             self._timing.solved(None)
-            status, target = self._fallback.failed(tick.twists_ref[0])
+            status, target = self._fallback.failed(tick.twists_ref[0], result.status)
             plan = tick.poses_ref.copy()
             if not math.isfinite(float(plan.sum())):
                 plan[:] = x0
