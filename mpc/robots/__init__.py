@@ -11,6 +11,7 @@ presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel).
 """
 
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
+from mpc.robots.caster import CasterRobot, caster
 from mpc.robots.files import PRESETS, from_dict, load, preset
 from mpc.robots.mobility import (
     Mobility,
@@ -27,6 +28,7 @@ from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
 from mpc.robots.swerve import SwerveRobot, swerve, wrap_angle
 
 __all__ = [
+    "CasterRobot",
     "MOTOR_PRESETS",
     "Mobility",
     "PRESETS",
@@ -40,6 +42,7 @@ __all__ = [
     "SysIdMotor",
     "WheelCommands",
     "WheelSpec",
+    "caster",
     "from_dict",
     "load",
     "mecanum",
