@@ -248,9 +248,12 @@ class Controller:
                 measured, result.twists if result.success else np.tile(twist, (self.horizon, 1)),
                 self.model.durations)
         else:
+            previous = self._steer
             speeds, self._steer = self.robot.wheel_commands(twist, self._steer, target, self.dt)
             if self._steer is not None:  # steered wheels at rest: the twist they will drive
-                twist = self.robot.forward_kinematics(speeds, self._steer)
+                turning = None if previous is None else (
+                    np.mod(self._steer - previous + math.pi, 2.0 * math.pi) - math.pi) / self.dt
+                twist = self.robot.steering_forward_kinematics(speeds, self._steer, turning)
         self._last = twist
         self._delay.sent(twist)
         if profile is not None:

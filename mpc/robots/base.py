@@ -197,6 +197,12 @@ class Robot(abc.ABC):
             steer_angles: steer angles [rad], shape (n,), for steered wheels; else None.
         """
 
+    def steering_forward_kinematics(self, wheel_speeds: FloatArray, steer_angles: FloatArray,
+                                    steer_rates: FloatArray | None) -> FloatArray:
+        """:meth:`forward_kinematics` while steered wheels turn at ``steer_rates`` [rad/s]
+        (modules whose wheel moves as they steer, e.g. an axle offset, override it)."""
+        return self.forward_kinematics(wheel_speeds, steer_angles)
+
     # ------------------------------------------------------------ commands
     def wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None,
                        aim: FloatArray | None = None, dt: float | None = None) -> WheelCommands:

@@ -270,17 +270,25 @@ class CasterRobot(Robot):
 
     def forward_kinematics(self, wheel_speeds: FloatArray,
                            steer_angles: FloatArray | None) -> FloatArray:
-        """The twist of drive rates at the steer angles with the casters not steering
-        (:meth:`twist` with zero steer rates)."""
+        """The steady-state (trailing) view: each axis moving at ``r phidot`` along its steer
+        angle, least squares over the axes (the inverse of :meth:`wheel_commands`). The
+        joint-state map is :meth:`twist`."""
         angles = np.zeros(self.n_wheels) if steer_angles is None else steer_angles
-        return self.joint_twist(wheel_speeds, np.zeros(self.n_wheels), angles)
+        velocities = np.empty(2 * self.n_wheels)
+        velocities[0::2] = wheel_speeds * np.cos(angles)
+        velocities[1::2] = wheel_speeds * np.sin(angles)
+        return self._flat_pinv @ velocities
 
     def commands_from_velocities(self, velocities: FloatArray,
                                  steer_angles: FloatArray | None) -> WheelCommands:
-        """Drive rates for axis velocities / r (n, 2) at the present angles (kept)."""
-        angles = np.zeros(self.n_wheels) if steer_angles is None else steer_angles
-        speeds = velocities[:, 0] * np.cos(angles) + velocities[:, 1] * np.sin(angles)
-        return WheelCommands(speeds, angles.copy())
+        """The steady-state (trailing) view: drive rates ``|v(P)| / r`` and steer angles
+        along each axis's velocity (axis velocities / r, (n, 2)); an axis at rest keeps its
+        angle. The joint rates at measured angles are :meth:`joint_rates`."""
+        current = np.zeros(self.n_wheels) if steer_angles is None else steer_angles
+        speeds = np.hypot(velocities[:, 0], velocities[:, 1])
+        moving = speeds * self.radii > 1e-9
+        angles = np.where(moving, np.arctan2(velocities[:, 1], velocities[:, 0]), current)
+        return WheelCommands(np.where(moving, speeds, 0.0), angles)
 
     # ------------------------------------------------------------ limits for the solvers
     def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:

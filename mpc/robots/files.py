@@ -33,7 +33,7 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 #: Names of the shipped presets, usable with :func:`preset`.
-PRESETS: tuple[str, ...] = ("omni3", "omni4", "mecanum", "swerve", "ball3")
+PRESETS: tuple[str, ...] = ("omni3", "omni4", "mecanum", "swerve", "ball3", "caster4", "mpo700")
 
 
 def from_dict(description: Mapping[str, Any], source: str = "robot description") -> Robot:

@@ -124,14 +124,21 @@ class Plant:
             grip = 1.0 - self.rng.uniform(0.0, 2.0 * config.slip, size=self.robot.n_wheels)
         else:
             grip = np.ones(self.robot.n_wheels)
-        if self.robot.steer_states:
+        if self.robot.steer_states and target_rates is not None:
             self._joint_tick(target_speeds, target_rates, grip, keep, h)
             return self.wheel_speeds * grip
         for _ in range(config.substeps):
             self.wheel_speeds = keep * self.wheel_speeds + (1.0 - keep) * target_speeds
+            turning = None
             if self.steer_angles is not None and target_angles is not None:
+                before = self.steer_angles
                 self._steer(target_angles, h)
-            twist = self.robot.forward_kinematics(self.wheel_speeds * grip, self.steer_angles)
+                turning = wrap_angle(self.steer_angles - before) / h
+            if turning is None or self.steer_angles is None:
+                twist = self.robot.forward_kinematics(self.wheel_speeds * grip, self.steer_angles)
+            else:
+                twist = self.robot.steering_forward_kinematics(
+                    self.wheel_speeds * grip, self.steer_angles, turning)
             self._integrate(twist, h)
         return self.wheel_speeds * grip
 
