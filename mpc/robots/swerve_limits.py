@@ -2,7 +2,8 @@
 
 For module ``i`` with velocity ``v = W_i u`` [rad/s] (ground velocity / r):
 
-- speed: ``|v_k| <= max_wheel_speed`` (axle offset ``L``: ``|v_k| + L |omega_k| / r``); acceleration: ``|v_k - v_{k-1}| <= max_wheel_accel dt``;
+- speed: ``|v_k| <= max_wheel_speed`` (axle offset ``L``: ``|v_k| + L |omega_k| / r``);
+  acceleration: ``|v_k - v_{k-1}| <= max_wheel_accel dt``;
 - steering: the module turns at most ``max_steer_rate dt`` a tick. With the flip rule a
   module may reverse instead of turning, so what is bounded is the turn modulo a half
   turn: ``|v_k x v_{k-1}| <= sin(max_steer_rate dt) |v_k| |v_{k-1}|``.

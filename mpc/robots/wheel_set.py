@@ -71,7 +71,7 @@ def wheel_set(
     if kind in ("caster", "steered", "axle_offset") and max_steer_rate is None:
         raise RobotError(f"wheels: {kind} wheels need max_steer_rate [rad/s]")
     if kind == "caster":
-        return caster(positions=positions, offset=[spec.offset for spec in specs],
+        return caster(positions=positions, offset=[spec.offset or 0.0 for spec in specs],
                       wheel_radius=wheel_radius, max_wheel_speed=max_wheel_speed,
                       max_steer_rate=_given(max_steer_rate), max_wheel_accel=max_wheel_accel,
                       name=name)
