@@ -9,8 +9,8 @@ The joint rates are linear in the twist for given steer angles (see
 and the angles follow the motion: ``d beta_i / dt = S_i(beta_i) xi``. Over a plan of
 twists ``u_0 .. u_{N-1}`` (``u_k`` held for ``h_k``) the angles at the stages' starts
 ``beta_0 .. beta_{N-1}`` come from the measured ones ``beta_0`` by integrating that
-ODE (RK4, :func:`substeps` steps a stage, fine enough for the caster's own time
-constant ``d / |v(P)|``).
+ODE (RK4, :func:`substeps` steps a stage: at most one of the caster's fastest time
+constants ``d / |v(P)|`` a step for the fast path's prediction, 2.5 in the NLP).
 
 - **Exact path** (IPOPT, :func:`nlp_stage_limits`): the angles are integrated
   symbolically from the measured ones (a parameter), and every stage's drive rate,
@@ -68,17 +68,26 @@ def _symbolic_rows(robot: CasterRobot, angle: ca.SX, i: int) -> tuple[ca.SX, ca.
     return drive, steer
 
 
-def substeps(robot: CasterRobot, duration: float) -> int:
-    """RK4 steps over ``duration`` [s]: the caster's fastest rate of alignment,
-    ``(r max_wheel_speed + d max_steer_rate) / d`` [1/s], times a step stays below 1."""
+#: RK4 step of the angle flow, in the caster's fastest time constant: for the fast path's
+#: prediction (numbers: cheap) and for the NLP (symbolic: each step deepens every later
+#: stage's expressions; 1.0 there made IPOPT ~9x slower a tick for ~1e-2 rad less error
+#: in the worst case, a leading caster swinging round at full speed).
+PREDICTION_STEP = 1.0
+NLP_STEP = 2.5
+
+
+def substeps(robot: CasterRobot, duration: float, step: float = PREDICTION_STEP) -> int:
+    """RK4 steps over ``duration`` [s] such that the caster's fastest rate of alignment,
+    ``(r max_wheel_speed + d max_steer_rate) / d`` [1/s], times a step stays <= ``step``."""
     rates = (robot.radii * robot.nominal_max_wheel_speed + robot.offsets * robot.max_steer_rates
              ) / robot.offsets
-    return max(1, math.ceil(duration * float(rates.max()) / 2.5))
+    return max(1, math.ceil(duration * float(rates.max()) / step))
 
 
-def _flow(robot: CasterRobot, angles: ca.SX, twist: ca.SX, duration: float) -> ca.SX:
+def _flow(robot: CasterRobot, angles: ca.SX, twist: ca.SX, duration: float,
+          step: float = PREDICTION_STEP) -> ca.SX:
     """The angles (n) after ``twist`` is held for ``duration`` [s] (RK4, symbolic)."""
-    count = substeps(robot, duration)
+    count = substeps(robot, duration, step)
     h = duration / count
 
     def rate(beta: ca.SX) -> ca.SX:
@@ -195,7 +204,7 @@ def nlp_stage_limits(robot: CasterRobot, twists: ca.SX, last: ca.SX,
             lower.append(-bound)
             upper.append(bound)
         if k + 1 < horizon:
-            beta = _flow(robot, beta, u, float(change_times[k + 1]))
+            beta = _flow(robot, beta, u, float(change_times[k + 1]), NLP_STEP)
     return values, lower, upper
 
 
