@@ -133,7 +133,8 @@ class Plant:
             if self.steer_angles is not None and target_angles is not None:
                 before = self.steer_angles
                 self._steer(target_angles, h)
-                turning = wrap_angle(self.steer_angles - before) / h
+                if config.steer_rate_limited:  # a snap (not rate limited) moves no wheel
+                    turning = wrap_angle(self.steer_angles - before) / h
             if turning is None or self.steer_angles is None:
                 twist = self.robot.forward_kinematics(self.wheel_speeds * grip, self.steer_angles)
             else:
