@@ -11,7 +11,9 @@ checked against what a robot may be told:
 - every wheel within its speed limit;
 - every wheel's change since the last command within its acceleration limit over one tick
   (speed and acceleration as the robot measures them: the velocity vector for swerve);
-- every swerve module turning at most ``max_steer_rate dt`` from its last commanded angle.
+- every swerve module turning at most ``max_steer_rate dt`` from its last commanded angle;
+- casters: drive rates and steer rates within their limits (their steer angles, states,
+  are fed back as measured: the angles the last command ends the tick at).
 
 IPOPT gets a small share of the ticks (it is ~30x slower). The summary counts ticks,
 fallbacks and violations per configuration; the exit code is 1 if any command was unsafe.
@@ -105,6 +107,15 @@ def check(robot: Robot, command: Command, last: np.ndarray, last_steer: np.ndarr
     if np.any(speeds > robot.max_wheel_speed * (1 + 1e-6) + 1e-9):
         tally.speed += 1
         tally.worst = f"speed {speeds.tolist()} over {robot.max_wheel_speed.tolist()}"
+    if robot.steer_states:  # casters: drive and steer rates held over the tick
+        rates, limit = command.steer_rates, robot.max_steer_rates
+        if rates is None or limit is None or not np.all(np.isfinite(rates)):
+            tally.non_finite += 1
+            tally.worst = f"caster command without finite steer rates {command}"
+        elif np.any(np.abs(rates) > limit * (1 + 1e-6) + 1e-9):
+            tally.steering += 1
+            tally.worst = f"steer rates {rates.tolist()} over {limit.tolist()}"
+        return
     accel = robot.max_wheel_accel
     if accel is not None:
         change = robot.wheel_magnitudes(command.twist - last)
@@ -133,6 +144,7 @@ def run(robot_name: str, configuration: tuple[str, str, dict[str, Any], float], 
     t = 0.0
     last = np.zeros(3)
     last_steer = robot.initial_steer_angles()
+    angles = last_steer if robot.steer_states else None  # measured caster angles
     for _ in range(ticks):
         event = rng.random()
         if event < 0.01:
@@ -144,13 +156,15 @@ def run(robot_name: str, configuration: tuple[str, str, dict[str, Any], float], 
         elif event < 0.03:
             controller.reset(last)
         measured = pose + rng.normal(0.0, [0.002, 0.002, 0.002])
-        command = controller.step(measured, t)
+        command = controller.step(measured, t, steer_angles=angles)
         check(robot, command, last, last_steer, tally)
         tally.ticks += 1
         tally.statuses[command.status.value] = tally.statuses.get(command.status.value, 0) + 1
         if command.status is not Status.SOLVED and not tally.worst:
             tally.worst = f"{command.status.value}: {command.solver_status}"
         last, last_steer = command.twist, command.steer_angles
+        if angles is not None and command.steer_angles is not None:
+            angles = command.steer_angles
         if np.all(np.isfinite(command.twist)):
             pose = integrate(pose, command.twist, DT)
         t += DT

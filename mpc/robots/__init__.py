@@ -1,16 +1,20 @@
-"""Robot descriptions: Swedish-wheel (omni, Mecanum), swerve and driven-ball layouts.
+"""Robot descriptions: Swedish-wheel (omni, Mecanum), swerve (centred or axle-offset modules),
+driven-ball and powered-caster layouts, and wheel sets by type (refused unless
+omnidirectional).
 
 Conventions: REP-103 body frame (x forward, y left, yaw counter-clockwise),
 twists ``(vx, vy, omega)`` in m/s and rad/s, wheel speeds in rad/s. Wheel
 orders: Mecanum FL, FR, RL, RR; omni counter-clockwise from
 ``first_wheel_angle``; swerve as ``module_positions`` lists them; driven
-balls ball by ball, the actuator about +x then the one about +y. A new
+balls ball by ball, the actuator about +x then the one about +y; casters as ``positions``
+lists them (steer angles measured each tick: they are states). A new
 wheel type is a :class:`Robot` subclass plus a factory passed to
 :func:`register`. Motors: :class:`DCMotor` (WPILib's DC motor model and
 presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel).
 """
 
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
+from mpc.robots.caster import CasterRobot, caster
 from mpc.robots.files import PRESETS, from_dict, load, preset
 from mpc.robots.mobility import (
     Mobility,
@@ -25,8 +29,10 @@ from mpc.robots.registry import register, robot_types
 from mpc.robots.spherical import SphericalRobot, spherical
 from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
 from mpc.robots.swerve import SwerveRobot, swerve, wrap_angle
+from mpc.robots.wheel_set import wheel_set
 
 __all__ = [
+    "CasterRobot",
     "MOTOR_PRESETS",
     "Mobility",
     "PRESETS",
@@ -40,6 +46,7 @@ __all__ = [
     "SysIdMotor",
     "WheelCommands",
     "WheelSpec",
+    "caster",
     "from_dict",
     "load",
     "mecanum",
@@ -53,5 +60,6 @@ __all__ = [
     "robot_types",
     "spherical",
     "swerve",
+    "wheel_set",
     "wrap_angle",
 ]

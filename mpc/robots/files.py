@@ -12,7 +12,12 @@ arguments of its factory::
     max_wheel_accel = 40.0      # [rad/s^2], optional
 
 ``type = "swedish"`` takes ``[[wheels]]`` tables with the fields of
-:class:`~mpc.robots.swedish.SwedishWheel`. Unknown keys are an error.
+:class:`~mpc.robots.swedish.SwedishWheel`; ``type = "caster"`` the arguments of
+:func:`~mpc.robots.caster.caster` (``positions``, ``offset``, ``max_steer_rate``, ...);
+``type = "swerve"`` an optional ``axle_offset`` [m]; ``type = "wheels"`` a wheel set by
+the mobility analysis's types (:mod:`mpc.robots.wheel_set`), refused with a one-line
+error naming its degree of mobility and steerability when it cannot follow an arbitrary
+pose trajectory. Unknown keys are an error.
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 #: Names of the shipped presets, usable with :func:`preset`.
-PRESETS: tuple[str, ...] = ("omni3", "omni4", "mecanum", "swerve", "ball3")
+PRESETS: tuple[str, ...] = ("omni3", "omni4", "mecanum", "swerve", "ball3", "caster4", "mpo700")
 
 
 def from_dict(description: Mapping[str, Any], source: str = "robot description") -> Robot:
