@@ -10,7 +10,7 @@ import pytest
 
 from benchmarks.fuzz import main
 from benchmarks.scenarios import ScenarioError
-from mpc import Controller
+from mpc import Controller, ControllerError
 from mpc.robots import preset
 from trajectories import Circle
 
@@ -46,3 +46,24 @@ def test_swerve_reset_points_the_modules_along_the_twist_and_a_new_reference_kee
     turn = np.abs(np.mod(after - before + np.pi / 2, np.pi) - np.pi / 2)
     assert robot.max_steer_rates is not None
     assert np.all(turn <= robot.max_steer_rates * 0.05 + 1e-9)
+
+
+def test_a_reset_at_rest_keeps_the_module_angles_unless_told() -> None:
+    """The modules stay where they were commanded when the controller forgets its plan
+    (a reset at rest used to assume they point straight ahead: the fuzz caught a command
+    turning them faster than their motors); reset(steer_angles=...) overrides."""
+    robot = preset("swerve")
+    controller = Controller(robot, Circle(1.0, 12.0))
+    controller.reset([0.0, 0.5, 0.0])
+    pointing = controller.step([1.0, 0.0, 0.0], 0.0).steer_angles
+    assert pointing is not None
+    controller.reset()  # at rest now
+    after = controller.step([1.0, 0.0, 0.0], 0.05).steer_angles
+    assert after is not None and robot.max_steer_rates is not None
+    turn = np.abs(np.mod(after - pointing + np.pi / 2, np.pi) - np.pi / 2)
+    assert np.all(turn <= robot.max_steer_rates * 0.05 + 1e-9)
+    controller.reset(steer_angles=np.zeros(4))
+    with pytest.raises(ControllerError, match="steer_angles"):
+        controller.reset(steer_angles=[0.0, 0.0])
+    with pytest.raises(ControllerError, match="swerve robots only"):
+        Controller(preset("mecanum"), Circle(1.0, 12.0)).reset(steer_angles=np.zeros(4))

@@ -30,6 +30,7 @@ from mpc.validation import (
     MAX_ITERATIONS,
     MAX_POLYGON_SIDES,
     MAX_TIME,
+    finite_vector,
     flag,
     integer_in,
     is_finite_number,
@@ -179,19 +180,27 @@ class Controller:
         present motion is kept)."""
         _check_trajectory(trajectory)
         self._set_reference(trajectory)
-        steer = self._steer
         self.reset(self._last)
-        self._steer = steer  # the modules are where they were
 
-    def reset(self, last_twist: ArrayLike | None = None) -> None:
+    def reset(self, last_twist: ArrayLike | None = None,
+              steer_angles: ArrayLike | None = None) -> None:
         """Forget the plan, warm start, failures and timing; the robot is at rest unless
-        ``last_twist`` (the body twist it is executing now [m/s, m/s, rad/s]) says (steered
-        wheels then point along it, flip rule from straight ahead)."""
+        ``last_twist`` (the body twist it is executing now [m/s, m/s, rad/s]) says.
+
+        Swerve modules are where the controller last commanded them (straight ahead at
+        first) unless ``steer_angles`` [rad] (n,) says; a moving module points along
+        ``last_twist`` (flip rule from there)."""
         last = np.zeros(3) if last_twist is None else np.array(last_twist, dtype=float)
         if last.shape != (3,) or not np.all(np.isfinite(last)):
             raise ControllerError(f"last_twist must be a finite (3,) twist, got {last_twist!r}")
         self._last = last
-        steer: FloatArray | None = self.robot.initial_steer_angles()
+        steer = self._steer if self._steer is not None else self.robot.initial_steer_angles()
+        if steer_angles is not None:
+            if steer is None or self.robot.steer_states:
+                raise ControllerError(f"steer_angles apply to swerve robots only, not "
+                                      f"{self.robot.name!r}")
+            steer = finite_vector("steer_angles", steer_angles, self.robot.n_wheels,
+                                  "[rad], one a module", ControllerError)
         if steer is not None and last.any() and not self.robot.steer_states:
             steer = self.robot.wheel_commands(last, steer)[1]
         self._steer = steer
