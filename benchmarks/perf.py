@@ -70,6 +70,8 @@ FAST = "daqp"
 #: A scenario's tick p99 above this is flagged [s].
 P99_LIMIT = 1e-3
 SECTIONS: tuple[str, ...] = ("profile", "horizons", "scenarios", "peers")
+#: Environment variables that set how many threads NumPy's BLAS uses (kept in perf.json).
+THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 #: Errors leave out up to this much of a run's start [s].
 ERROR_SKIP = 2.0
 
@@ -459,6 +461,8 @@ def _targets(summary: dict[str, Any]) -> dict[str, dict[str, Any]]:
 
 
 def _print_summary(summary: dict[str, Any], say: Printer) -> None:
+    if set(summary) == {"targets"} and not summary["targets"]:
+        return  # nothing was compared (the profile alone)
     say("summary (ratios of tick p50 within this run unless named):")
     if f"{FAST}_tick_over_solve_N20" in summary:
         say(f"  {FAST} N=20: tick p50 {summary[f'{FAST}_tick_p50_N20'] * 1e6:.1f} us, "
@@ -579,6 +583,8 @@ def main(argv: list[str]) -> int:
         if value < 20:
             raise ScenarioError(f"{flag} must be >= 20, got {value}")
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ScenarioError(f"--out must be a folder, {str(out)!r} is a file")
     out.mkdir(parents=True, exist_ok=True)
 
     say = Printer()
@@ -620,7 +626,9 @@ def main(argv: list[str]) -> int:
     document = {
         "command": command,
         "machine": {**machine(), "load_average_start": load_start,
-                    "load_average_end": os.getloadavg() if hasattr(os, "getloadavg") else None},
+                    "load_average_end": os.getloadavg() if hasattr(os, "getloadavg") else None,
+                    # BLAS threads: the condensed QP's dense algebra runs in NumPy's BLAS
+                    "thread_env": {name: os.environ.get(name) for name in THREAD_VARIABLES}},
         "settings": {"dt": DT, "ticks": ticks, "ipopt_ticks": ipopt_ticks,
                      "horizons": horizons, "profile_horizons": profile_horizons,
                      "solvers": solvers, "layouts": layouts,

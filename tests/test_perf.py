@@ -51,7 +51,8 @@ def test_quick_run_writes_every_section_and_skips_an_absent_peer(
     assert {"command", "machine", "settings", "profiles", "rows", "peers", "summary",
             "wall_time"} <= set(document)
     assert document["command"] == f"mpc-bench perf --quick --out {tmp_path}"
-    assert {"cpu_count", "python", "processor", "load_average_start"} <= set(document["machine"])
+    assert {"cpu_count", "python", "processor", "load_average_start",
+            "thread_env"} <= set(document["machine"])
     assert document["settings"]["horizons"] == [10, 20]
 
     (profile,) = document["profiles"]
@@ -113,10 +114,11 @@ def test_sections_and_profile_horizons_are_chosen(tmp_path: Path) -> None:
     (["--profile-horizons", "0"], "--profile-horizons must list integers >= 1"),
     (["--ticks", "5"], "--ticks must be >= 20"),
     (["--ipopt-ticks", "3"], "--ipopt-ticks must be >= 20"),
+    (["--out", __file__], "--out must be a folder"),
 ])
 def test_bad_flags_are_one_line_errors(argv: list[str], message: str, tmp_path: Path,
                                        capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["perf", *argv, "--out", str(tmp_path)]) == 2
+    assert main(["perf", "--out", str(tmp_path), *argv]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1
 
