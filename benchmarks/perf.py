@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -114,9 +115,10 @@ class _CpuTimed:
         self.control.reset()
         self.cpu.clear()
 
-    def step(self, pose: ArrayLike, t: float) -> Command:
+    def step(self, pose: ArrayLike, t: float, *args: Any, **kwargs: Any) -> Command:
+        """The controller's step (measured steer angles and the like passed on)."""
         started = time.process_time()
-        command = self.control.step(pose, t)
+        command = self.control.step(pose, t, *args, **kwargs)
         self.cpu.append(time.process_time() - started)
         return command
 
@@ -520,6 +522,21 @@ def _integers(flag: str, text: str) -> list[int]:
     return sorted(set(values))
 
 
+def _commit() -> str | None:
+    """The git commit of the code measured (with ``+dirty`` for uncommitted changes), or
+    None outside a git checkout."""
+    folder = Path(__file__).resolve().parents[1]
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=folder, capture_output=True,
+                              text=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                               cwd=folder, capture_output=True, text=True, timeout=10,
+                               check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head + ("+dirty" if dirty else "")
+
+
 def _choose(flag: str, kind: str, requested: str | None, valid: tuple[str, ...] | list[str],
             default: tuple[str, ...] | list[str] | None = None) -> list[str]:
     """:func:`~benchmarks.scenarios.choose`, its error naming the flag."""
@@ -625,6 +642,7 @@ def main(argv: list[str]) -> int:
     rows = [*(horizon_rows or []), *(scenario_rows or []), *((peer or {}).get("rows", []))]
     document = {
         "command": command,
+        "commit": _commit(),
         "machine": {**machine(), "load_average_start": load_start,
                     "load_average_end": os.getloadavg() if hasattr(os, "getloadavg") else None,
                     # BLAS threads: the condensed QP's dense algebra runs in NumPy's BLAS

@@ -48,7 +48,7 @@ def test_quick_run_writes_every_section_and_skips_an_absent_peer(
         assert header in out
 
     document = json.loads((tmp_path / "perf.json").read_text())
-    assert {"command", "machine", "settings", "profiles", "rows", "peers", "summary",
+    assert {"command", "commit", "machine", "settings", "profiles", "rows", "peers", "summary",
             "wall_time"} <= set(document)
     assert document["command"] == f"mpc-bench perf --quick --out {tmp_path}"
     assert {"cpu_count", "python", "processor", "load_average_start",
