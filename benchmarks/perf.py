@@ -523,13 +523,14 @@ def _integers(flag: str, text: str) -> list[int]:
 
 
 def _commit() -> str | None:
-    """The git commit of the code measured (with ``+dirty`` for uncommitted changes), or
-    None outside a git checkout."""
+    """The git commit of the code measured (``+dirty``: the library or the benchmark has
+    uncommitted changes; results folders do not count), or None outside a git checkout."""
     folder = Path(__file__).resolve().parents[1]
     try:
         head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=folder, capture_output=True,
                               text=True, timeout=10, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--",
+                                "mpc", "trajectories", "benchmarks", ":!benchmarks/results"],
                                cwd=folder, capture_output=True, text=True, timeout=10,
                                check=True).stdout.strip()
     except (OSError, subprocess.SubprocessError):
@@ -608,6 +609,7 @@ def main(argv: list[str]) -> int:
     command = " ".join(["mpc-bench", "perf", *argv])
     started = time.perf_counter()
     load_start = os.getloadavg() if hasattr(os, "getloadavg") else None
+    commit = _commit()
     say(f"{command}: sections {', '.join(sections)}; {ticks} ticks a run (IPOPT and peers "
         f"{ipopt_ticks}), dt {DT} s, ideal plant")
     profile = horizon_rows = scenario_rows = peer = drift = None
@@ -642,7 +644,7 @@ def main(argv: list[str]) -> int:
     rows = [*(horizon_rows or []), *(scenario_rows or []), *((peer or {}).get("rows", []))]
     document = {
         "command": command,
-        "commit": _commit(),
+        "commit": commit,
         "machine": {**machine(), "load_average_start": load_start,
                     "load_average_end": os.getloadavg() if hasattr(os, "getloadavg") else None,
                     # BLAS threads: the condensed QP's dense algebra runs in NumPy's BLAS
