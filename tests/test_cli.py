@@ -126,7 +126,8 @@ def test_bad_arguments_are_one_line_and_exit_2(argv: list[str], message: str,
 
 
 def test_perf_and_soak_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["perf", "--horizons", "5,10", "--ticks", "40", "--ipopt-ticks", "20",
+    assert main(["perf", "--sections", "horizons", "--horizons", "5,10", "--ticks", "40",
+                 "--ipopt-ticks", "20",
                  "--out", str(tmp_path)]) == 0
     perf = json.loads((tmp_path / "perf.json").read_text())
     assert {row["horizon"] for row in perf["rows"] if row["solver"] == "osqp"} == {5, 10}
