@@ -185,6 +185,7 @@ def profile_run(horizon: int, ticks: int) -> tuple[dict[str, Any], list[str]]:
         if k == settle - 1:
             order.extend(profile.samples)
             profile.samples.clear()
+            profile.ticks.clear()
 
     run = _run(control, ticks, forget_cold_start)
     kept = ticks - settle
