@@ -153,8 +153,9 @@ def run(robot_name: str, configuration: tuple[str, str, dict[str, Any], float], 
             t += float(rng.uniform(-5.0, 5.0))  # the clock jumps
         elif event < 0.025:
             controller.trajectory = pool[int(rng.integers(len(pool)))]
-        elif event < 0.03:
-            controller.reset(last)
+        elif event < 0.03:  # as a user would: the motion and the modules' angles
+            steered = last_steer if robot.steered and not robot.steer_states else None
+            controller.reset(last, steer_angles=steered)
         measured = pose + rng.normal(0.0, [0.002, 0.002, 0.002])
         command = controller.step(measured, t, steer_angles=angles)
         check(robot, command, last, last_steer, tally)

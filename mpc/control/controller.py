@@ -180,16 +180,16 @@ class Controller:
         present motion is kept)."""
         _check_trajectory(trajectory)
         self._set_reference(trajectory)
-        self.reset(self._last)
+        self.reset(self._last, self._steer if not self.robot.steer_states else None)
 
     def reset(self, last_twist: ArrayLike | None = None,
               steer_angles: ArrayLike | None = None) -> None:
         """Forget the plan, warm start, failures and timing; the robot is at rest unless
         ``last_twist`` (the body twist it is executing now [m/s, m/s, rad/s]) says.
 
-        Swerve modules are where the controller last commanded them (straight ahead at
-        first) unless ``steer_angles`` [rad] (n,) says; a moving module points along
-        ``last_twist`` (flip rule from there)."""
+        Swerve modules are at ``steer_angles`` [rad] (n,) if given; else a module moving
+        in ``last_twist`` points along it (flip rule from its last commanded angle) and one
+        at rest where it was last commanded (straight ahead at first)."""
         last = np.zeros(3) if last_twist is None else np.array(last_twist, dtype=float)
         if last.shape != (3,) or not np.all(np.isfinite(last)):
             raise ControllerError(f"last_twist must be a finite (3,) twist, got {last_twist!r}")
@@ -201,7 +201,7 @@ class Controller:
                                       f"{self.robot.name!r}")
             steer = finite_vector("steer_angles", steer_angles, self.robot.n_wheels,
                                   "[rad], one a module", ControllerError)
-        if steer is not None and last.any() and not self.robot.steer_states:
+        elif steer is not None and last.any() and not self.robot.steer_states:
             steer = self.robot.wheel_commands(last, steer)[1]
         self._steer = steer
         self._delay.reset(last)

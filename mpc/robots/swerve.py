@@ -47,11 +47,13 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
 from mpc.robots.registry import register
-from mpc.robots.swerve_limits import nlp_stage_limits, steering_fraction, turns
+from mpc.robots.swerve_limits import (
+    STOPPED_MODULE_SPEED,
+    nlp_stage_limits,
+    steering_fraction,
+    turns,
+)
 from mpc.validation import integer_at_least, non_negative, positive
-
-#: Below this module speed [m/s] a module keeps its previous steer angle.
-STOPPED_MODULE_SPEED = 1e-6
 
 
 def wrap_angle(angle: ArrayLike) -> FloatArray:

@@ -72,12 +72,21 @@ def nlp_stage_limits(robot: SwerveRobot, twists: ca.SX, last: ca.SX, steer_angle
     return values, lower, upper
 
 
+#: Below this module speed [m/s] a module is at rest and keeps its steer angle.
+STOPPED_MODULE_SPEED = 1e-6
+
+#: The steering limits count a module as moving a little below that speed: rounding
+#: between the limit's check and the command's own computation can then only make the
+#: command keep an angle the limit allowed to change, never the reverse.
+_MOVING = STOPPED_MODULE_SPEED * (1.0 - 1e-3)
+
+
 def turns(robot: SwerveRobot, velocities: FloatArray, steer_angles: FloatArray) -> FloatArray:
     """How far each module must turn [rad] to drive ``velocities`` (n, 2) from its present
     angle, with the flip rule (so in [0, pi / 2]); 0 for a module at rest."""
     angle = np.arctan2(velocities[:, 1], velocities[:, 0])
     turn = np.abs(np.mod(angle - steer_angles + math.pi / 2, math.pi) - math.pi / 2)
-    moving = np.hypot(velocities[:, 0], velocities[:, 1]) * robot.wheel_radius > 1e-6
+    moving = np.hypot(velocities[:, 0], velocities[:, 1]) * robot.wheel_radius > _MOVING
     return np.where(moving, turn, 0.0)
 
 
@@ -130,7 +139,8 @@ def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
         velocities = start[None] + fractions[:, None, None] * change[None]  # (K, n, 2)
         angle = np.arctan2(velocities[..., 1], velocities[..., 0])
         turn = np.abs(np.mod(angle - steer_angles + math.pi / 2, math.pi) - math.pi / 2)
-        moving = np.hypot(velocities[..., 0], velocities[..., 1]) * robot.wheel_radius > 1e-6
+        moving = (np.hypot(velocities[..., 0], velocities[..., 1]) * robot.wheel_radius
+                  > _MOVING)
         return np.all(~moving | (turn <= reach), axis=1)
 
     ends = fits(np.array([0.0, 1.0]))
@@ -140,7 +150,7 @@ def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
         return 0.0
     # The roots a hair inside the limits, so that rounding cannot push them out.
     roots = _turn_roots(start, change, steer_angles, reach * (1.0 - 1e-7),
-                        1e-6 / robot.wheel_radius * (1.0 - 1e-6))
+                        _MOVING / robot.wheel_radius * (1.0 - 1e-6))
     points = np.unique(np.concatenate(([0.0, 1.0], roots[(roots > 0.0) & (roots < 1.0)])))
     middles = 0.5 * (points[:-1] + points[1:])
     order = np.empty(2 * points.size - 1)
