@@ -21,9 +21,11 @@ from typing import Any
 from benchmarks import motors, perf, soak
 from benchmarks.runner import build_scenarios, results_document, run_all, summary_table, write_csv
 from benchmarks.scenarios import (
+    ALL_TRAJECTORIES,
     CONTROLLERS,
     DEFAULT_CONTROLLERS,
     DEFAULT_HEADINGS,
+    DEFAULT_LAYOUTS,
     HEADINGS,
     PRESETS,
     TRAJECTORIES,
@@ -46,9 +48,11 @@ def _parser() -> argparse.ArgumentParser:
         description="Benchmark MPC tracking against feedforward + P baselines on holonomic "
                     "robots. Subcommands: 'report RESULTS', 'perf', 'soak' (see --help of each).",
     )
-    parser.add_argument("--layouts", help=f"comma list of {', '.join(PRESETS)} (default: all)")
+    parser.add_argument("--layouts", help=f"comma list of {', '.join(PRESETS)} "
+                                          f"(default: {', '.join(DEFAULT_LAYOUTS)})")
     parser.add_argument("--trajectories",
-                        help=f"comma list of {', '.join(TRAJECTORIES)} (default: all)")
+                        help=f"comma list of {', '.join(ALL_TRAJECTORIES)} "
+                             f"(default: {', '.join(TRAJECTORIES)})")
     parser.add_argument("--speeds", help="comma list of inside (peak wheel speed 0.8 x limit), "
                                          "beyond (1.3 x) or peak ratios like 1.1 (default: both)")
     parser.add_argument("--controllers",
@@ -97,12 +101,12 @@ def run(argv: list[str]) -> int:
         raise ScenarioError(
             f"--polygon-sides must be an even integer >= 4, got {args.polygon_sides}"
         )
-    layouts = choose("layout", args.layouts, PRESETS)
+    layouts = choose("layout", args.layouts, PRESETS, DEFAULT_LAYOUTS)
     chosen_robots = robots(layouts, args.robot)
     if args.plant == "motor":  # a motor plant drives robots with motors: the motor presets
         chosen_robots = {name: motor_preset(name) if name in layouts else robot
                          for name, robot in chosen_robots.items()}
-    trajectories = choose("trajectory", args.trajectories, TRAJECTORIES)
+    trajectories = choose("trajectory", args.trajectories, ALL_TRAJECTORIES, TRAJECTORIES)
     controllers = choose("controller", args.controllers, CONTROLLERS, DEFAULT_CONTROLLERS)
     headings = choose("heading", args.heading, HEADINGS, DEFAULT_HEADINGS)
     speeds = parse_speeds(args.speeds)

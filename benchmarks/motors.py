@@ -42,7 +42,7 @@ from benchmarks.scenarios import reference as scenario_reference
 from mpc import Controller
 from mpc.arrays import FloatArray
 from mpc.robots import (
-    PRESETS,
+    MOTOR_ROBOT_PRESETS,
     Robot,
     SphericalRobot,
     SwedishRobot,
@@ -258,7 +258,8 @@ def perf(layouts: list[str], ticks: int, repeats: int, horizon: int = 20,
 
 def main(argv: list[str]) -> int:
     parser = Parser(prog="mpc-bench motors", description=__doc__.split("\n")[0])
-    parser.add_argument("--layouts", help=f"comma list of {', '.join(PRESETS)} (default: all)")
+    parser.add_argument("--layouts",
+                        help=f"comma list of {', '.join(MOTOR_ROBOT_PRESETS)} (default: all)")
     parser.add_argument("--trajectories", help="comma list of circle, figure8 (default: both)")
     parser.add_argument("--controllers",
                         help=f"comma list of {', '.join(CONTROLLERS)} "
@@ -282,7 +283,7 @@ def main(argv: list[str]) -> int:
     args = parser.parse_args(argv)
     if not (args.ratio > 0 and args.size > 0 and args.laps > 0 and args.skip >= 0):
         raise ScenarioError("--ratio, --size and --laps must be > 0, --skip >= 0")
-    layouts = choose("layout", args.layouts, PRESETS)
+    layouts = choose("layout", args.layouts, MOTOR_ROBOT_PRESETS)
     if args.perf:
         if args.ticks < 20 or args.repeats < 1:
             raise ScenarioError("--ticks must be >= 20 and --repeats >= 1")

@@ -1,93 +1,670 @@
-"""``mpc-bench perf``: tick time against horizon for both solver paths.
+"""``mpc-bench perf``: where a tick's time goes, how it scales, and against a peer, in one run.
 
-Mecanum, figure-eight inside the limits (peak wheel speed 0.8 x limit), fixed
-heading, dt 0.05 s, ideal plant. Every figure is a median over the run's
-ticks, and the comparisons are ratios within this one run, because the
-machines are shared and noisy. ``solve`` is the solver's own time (OSQP: the
-KKT refactorisation done by ``update`` plus the iterations; IPOPT: its wall
-time); ``overhead`` is the rest of ``step()``: Python, NumPy and CasADi.
+Every comparison is a ratio between runs of this one invocation, because the machines
+are shared and noisy; absolute times are what this machine did while it ran. Sections
+(``--sections`` picks some):
+
+1. ``profile``: one tick of the fast path (daqp) split into its phases by
+   :class:`mpc.profiling.TickProfile` (median and p99 per phase) on the reference
+   scenario: Mecanum, figure-eight at 0.8 x the wheel limits, fixed heading, N = 20,
+   dt = 0.05 s, ideal plant. Written to ``tick_profile.txt`` and ``tick_profile.json``.
+2. ``horizons``: the reference scenario at every ``--horizons`` for every ``--solvers``
+   (IPOPT over fewer ticks): tick p50/p99, the solver's own time, the rest of ``step()``
+   (overhead), iterations, RMS position error, and how the tick grows with N.
+3. ``scenarios``: every ``--layouts`` x ``--modes`` (time, path) x ``--speeds`` (inside
+   0.8 x, beyond 1.3 x the limits) at N = 20 with daqp: tick p50/p99/max, flagging a
+   p99 above 1 ms.
+4. ``peers``: do-mpc (the ``peers`` extra) on the same problem (:mod:`benchmarks.peers`),
+   next to the project's daqp and IPOPT paths on the same plant and ticks, inside and
+   beyond the limits: tick p50 ratios and tracking errors (agreeing errors show the two
+   NLPs are the same problem). Skipped with one line when do-mpc is not installed.
+
+Times [s] in ``perf.json``, printed in ms or us. ``tick`` is the whole ``step()``
+(``Command.tick_time``); ``solve`` the solver's own time (daqp and OSQP: their reported
+solve time; IPOPT: its wall time); ``overhead`` their difference (Python, NumPy, CasADi).
+Timing statistics leave out each run's first ticks (cold start, ``settle`` in the JSON);
+``tick max`` covers every tick. Tracking errors leave out the first 2 s (half the run
+if shorter).
 """
 
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from benchmarks import peers
 from benchmarks.runner import machine
-from benchmarks.scenarios import Parser, ScenarioError, reference
-from mpc import Controller
+from benchmarks.scenarios import (
+    HEADINGS,
+    PRESETS,
+    SPEEDS,
+    TRAJECTORIES,
+    Parser,
+    ScenarioError,
+    choose,
+    parse_speeds,
+    reference,
+)
+from mpc import SOLVERS, Command, Controller
+from mpc.arrays import FloatArray
+from mpc.control.controller import MODES
+from mpc.profiling import TickProfile
 from mpc.robots import preset
-from mpc.sim import simulate
+from mpc.sim import SimResult, TrackingController, simulate
+from trajectories import Trajectory
+
+#: The reference scenario: Mecanum, figure-eight inside the limits, fixed heading, N = 20.
+REFERENCE_LAYOUT, REFERENCE_SHAPE, REFERENCE_HEADING = "mecanum", "figure8", "fixed"
+REFERENCE_HORIZON = 20
+DT = 0.05  # control tick [s]
+#: The fast path every ratio is taken against.
+FAST = "daqp"
+#: A scenario's tick p99 above this is flagged [s].
+P99_LIMIT = 1e-3
+SECTIONS: tuple[str, ...] = ("profile", "horizons", "scenarios", "peers")
+#: Environment variables that set how many threads NumPy's BLAS uses (kept in perf.json).
+THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+#: Errors leave out up to this much of a run's start [s].
+ERROR_SKIP = 2.0
+
+#: Issue 12's targets for the fast path, checked against this run (absolute times are
+#: this machine's).
+TARGET_TICK_P50 = 100e-6  # [s], reference scenario
+TARGET_TICK_P99 = 300e-6  # [s], reference scenario
+TARGET_OVER_DO_MPC = 100.0  # do-mpc tick / daqp tick at least
+TARGET_OVER_IPOPT = 50.0  # IPOPT-path tick / daqp tick at least
+TARGET_RMS_VS_IPOPT = 0.10  # daqp RMS error within 10% of IPOPT's, inside the limits
 
 
-def measure(solver: str, horizon: int, ticks: int, dt: float = 0.05) -> dict[str, Any]:
-    """Median tick, solve and overhead times [s] of one closed-loop run."""
-    robot = preset("mecanum")
-    trajectory = reference("figure8", "fixed", robot, 0.8)
-    control = Controller(robot, trajectory, horizon=horizon, dt=dt, solver=solver)
-    result = simulate(control, ticks * dt)
-    settle = min(10, ticks // 5)  # the first ticks converge from a cold start
-    tick, solve = result.tick_time[settle:], result.solve_time[settle:]
+def _settle(ticks: int) -> int:
+    """Ticks left out of the timing statistics: the cold start."""
+    return min(10, ticks // 5)
+
+
+class Run(NamedTuple):
+    """One closed-loop run: the simulation's record and each tick's process CPU time [s]."""
+
+    result: SimResult
+    cpu: FloatArray
+
+
+class _CpuTimed:
+    """Wraps a controller and keeps the process CPU time of every ``step()`` [s]: the
+    computation alone, without the time the scheduler gave other processes (on a shared
+    machine the wall-clock p99 is mostly that)."""
+
+    def __init__(self, control: TrackingController) -> None:
+        self.control = control
+        self.robot, self.dt = control.robot, control.dt
+        self.cpu: list[float] = []
+
+    @property
+    def trajectory(self) -> Trajectory:
+        return self.control.trajectory
+
+    def reset(self) -> None:
+        self.control.reset()
+        self.cpu.clear()
+
+    def step(self, pose: ArrayLike, t: float, *args: Any, **kwargs: Any) -> Command:
+        """The controller's step (measured steer angles and the like passed on)."""
+        started = time.process_time()
+        command = self.control.step(pose, t, *args, **kwargs)
+        self.cpu.append(time.process_time() - started)
+        return command
+
+
+def _run(control: TrackingController, ticks: int,
+         on_tick: Callable[[int, int], None] | None = None) -> Run:
+    timed = _CpuTimed(control)
+    result = simulate(timed, ticks * control.dt, on_tick=on_tick)
+    return Run(result, np.asarray(timed.cpu))
+
+
+def _row(run: Run, settle: int, **labels: Any) -> dict[str, Any]:
+    """One run's timing and tracking numbers (times [s], errors [m])."""
+    result = run.result
+    tick, solve, cpu = result.tick_time[settle:], result.solve_time[settle:], run.cpu[settle:]
+    duration = len(result.tick_time) * result.dt
+    metrics = result.metrics(skip=min(ERROR_SKIP, 0.5 * duration))
     return {
-        "solver": solver, "horizon": horizon, "ticks": len(tick),
+        **labels,
+        "ticks": len(tick), "settle": settle,
         "tick_p50": float(np.median(tick)), "tick_p99": float(np.percentile(tick, 99)),
+        "tick_max": float(result.tick_time.max()),
+        "cpu_p50": float(np.median(cpu)), "cpu_p99": float(np.percentile(cpu, 99)),
         "solve_p50": float(np.median(solve)),
         "overhead_p50": float(np.median(tick - solve)),
         "iterations_p50": float(np.median(result.iterations[settle:])),
-        "rms_position_error": result.metrics(skip=2.0 if ticks * dt > 4 else 0.0)[
-            "rms_position_error"],
+        "rms_position_error": metrics["rms_position_error"],
+        "max_position_error": metrics["max_position_error"],
+        "limit_violations": metrics["limit_violations"],
+        "accel_violations": metrics["accel_violations"],
+        "failures": metrics["failures"],
     }
 
 
-def main(argv: list[str]) -> int:
-    parser = Parser(prog="mpc-bench perf", description=__doc__.split("\n")[0])
-    parser.add_argument("--horizons", default="10,20,50,100",
-                        help="OSQP horizons (10,20,50,100)")
-    parser.add_argument("--ticks", type=int, default=400, help="ticks per OSQP run (400)")
-    parser.add_argument("--ipopt-ticks", type=int, default=120, help="ticks per IPOPT run (120)")
-    parser.add_argument("--out", default="bench-out", metavar="DIR", help="writes perf.json here")
-    args = parser.parse_args(argv)
-    try:
-        horizons = [int(h) for h in args.horizons.split(",")]
-    except ValueError:
-        raise ScenarioError(
-            f"--horizons must be a comma list of integers, got {args.horizons!r}") from None
-    if not horizons or min(horizons) < 1 or args.ticks < 20 or args.ipopt_ticks < 20:
-        raise ScenarioError("horizons must be >= 1 and --ticks, --ipopt-ticks >= 20")
+def _ms(seconds: float) -> str:
+    return f"{seconds * 1e3:9.3f}"
 
+
+class Printer:
+    """Prints lines as they come (flushed: progress) and keeps them for ``perf.txt``."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+
+    def __call__(self, line: str = "") -> None:
+        line = line.rstrip()
+        print(line, flush=True)
+        self.lines.append(line)
+
+
+# ----------------------------------------------------------------------------- 1. profile
+def profile_run(horizon: int, ticks: int) -> tuple[dict[str, Any], list[str]]:
+    """The reference scenario's tick at ``horizon`` split into its phases (daqp): the
+    document and its text table."""
+    robot = preset(REFERENCE_LAYOUT)
+    trajectory = reference(REFERENCE_SHAPE, REFERENCE_HEADING, robot, SPEEDS["inside"])
+    control = Controller(robot, trajectory, horizon=horizon, dt=DT, solver=FAST)
+    profile = TickProfile()
+    control.profile = profile
+    settle = _settle(ticks)
+    order: list[str] = []
+
+    def forget_cold_start(k: int, _ticks: int) -> None:
+        if k == settle - 1:
+            order.extend(profile.samples)
+            profile.samples.clear()
+            profile.ticks.clear()
+
+    run = _run(control, ticks, forget_cold_start)
+    kept = ticks - settle
+    rows: list[dict[str, Any]] = []
+    for phase in dict.fromkeys([*order, *profile.samples]):
+        values = np.asarray(profile.samples.get(phase, []))
+        if values.size:
+            rows.append({"phase": phase, "runs": int(values.size),
+                         "p50": float(np.median(values)),
+                         "p99": float(np.percentile(values, 99)),
+                         "mean_per_tick": float(values.sum() / kept)})
+    timing = _row(run, settle)
+    document = {
+        "scenario": {"layout": REFERENCE_LAYOUT, "trajectory": REFERENCE_SHAPE,
+                     "heading": REFERENCE_HEADING, "speed": "inside",
+                     "peak_ratio": SPEEDS["inside"], "horizon": horizon, "dt": DT,
+                     "solver": FAST, "plant": "ideal"},
+        "ticks": kept, "settle": settle, "phases": rows,
+        "sum_of_medians": float(sum(row["p50"] for row in rows)),
+        "sum_of_means": float(sum(row["mean_per_tick"] for row in rows)),
+        **{key: timing[key] for key in ("tick_p50", "tick_p99", "cpu_p50", "cpu_p99")},
+    }
+    lines = [
+        f"tick split: {REFERENCE_LAYOUT} {REFERENCE_SHAPE} {REFERENCE_HEADING} heading, "
+        f"inside ({SPEEDS['inside']:g} x limits), N={horizon}, dt {DT} s, {FAST}, ideal "
+        f"plant; {kept} ticks after {settle} settling",
+        f"{'phase':24s} {'runs':>5s} {'p50 [us]':>9s} {'p99 [us]':>9s} {'mean/tick [us]':>15s}",
+    ]
+    for row in rows:
+        lines.append(f"{row['phase']:24s} {row['runs']:5d} {row['p50'] * 1e6:9.1f} "
+                     f"{row['p99'] * 1e6:9.1f} {row['mean_per_tick'] * 1e6:15.1f}")
+    lines += [
+        f"{'sum':24s} {'':5s} {document['sum_of_medians'] * 1e6:9.1f} {'':9s} "
+        f"{document['sum_of_means'] * 1e6:15.1f}",
+        f"whole step(), same ticks: p50 {timing['tick_p50'] * 1e6:.1f} us, p99 "
+        f"{timing['tick_p99'] * 1e6:.1f} us (wall, Command.tick_time); p50 "
+        f"{timing['cpu_p50'] * 1e6:.1f} us, p99 {timing['cpu_p99'] * 1e6:.1f} us (process CPU)",
+    ]
+    return document, lines
+
+
+PROFILE_NOTE = ("runs: ticks in which the phase ran; a phase that runs on some ticks only "
+                "(a Hessian rebuild) has its p50/p99 over those, and mean/tick spreads it over "
+                "every tick. Phase times are wall clock: a p99 holds the ticks on which the "
+                "scheduler ran another process.")
+
+
+def profile_section(horizons: list[int], ticks: int, out: Path, command: str,
+                    say: Printer) -> list[dict[str, Any]]:
+    """:func:`profile_run` at each horizon; writes ``tick_profile.txt`` and ``.json``."""
+    documents, text = [], [f"$ {command}", ""]
+    for horizon in horizons:
+        document, lines = profile_run(horizon, ticks)
+        documents.append(document)
+        for line in lines:
+            say(line)
+        text += [*lines, ""]
+    say(PROFILE_NOTE)
+    text.append(PROFILE_NOTE)
+    (out / "tick_profile.txt").write_text("\n".join(text) + "\n")
+    (out / "tick_profile.json").write_text(
+        json.dumps({"command": command, "machine": machine(), "profiles": documents},
+                   indent=1) + "\n")
+    say(f"wrote {out / 'tick_profile.txt'} and {out / 'tick_profile.json'}")
+    return documents
+
+
+# ---------------------------------------------------------------------------- 2. horizons
+def horizons_section(solvers: list[str], horizons: list[int], ticks: int, ipopt_ticks: int,
+                     say: Printer) -> list[dict[str, Any]]:
+    """The reference scenario for every solver and horizon."""
+    robot = preset(REFERENCE_LAYOUT)
+    trajectory = reference(REFERENCE_SHAPE, REFERENCE_HEADING, robot, SPEEDS["inside"])
+    say(f"{'solver':6s} {'N':>4s} {'tick p50':>9s} {'tick p99':>9s} {'cpu p99':>9s} "
+        f"{'solve p50':>9s} {'overhead':>9s} {'iters':>6s} {'rms err':>9s} {'wall':>6s}")
+    say(f"{'':6s} {'':>4s} {'[ms]':>9s} {'[ms]':>9s} {'[ms]':>9s} {'[ms]':>9s} {'[ms]':>9s} "
+        f"{'':>6s} {'[mm]':>9s} {'[s]':>6s}")
     rows = []
-    print(f"{'solver':6s} {'N':>4s} {'tick p50':>9s} {'solve p50':>9s} {'overhead':>9s} "
-          f"{'tick/solve':>10s} {'iters':>6s} {'rms err':>9s}")
-    print(f"{'':6s} {'':>4s} {'[ms]':>9s} {'[ms]':>9s} {'[ms]':>9s} {'':>10s} {'':>6s} "
-          f"{'[mm]':>9s}")
-    plan = [("osqp", h, args.ticks) for h in horizons] + [("ipopt", 20, args.ipopt_ticks)]
-    for solver, horizon, ticks in plan:
-        row = measure(solver, horizon, ticks)
-        rows.append(row)
-        print(f"{solver:6s} {horizon:4d} {row['tick_p50'] * 1e3:9.3f} "
-              f"{row['solve_p50'] * 1e3:9.3f} "
-              f"{row['overhead_p50'] * 1e3:9.3f} {row['tick_p50'] / row['solve_p50']:10.2f} "
-              f"{row['iterations_p50']:6.0f} {row['rms_position_error'] * 1e3:9.4f}", flush=True)
-    osqp = {r["horizon"]: r for r in rows if r["solver"] == "osqp"}
-    ipopt = next(r for r in rows if r["solver"] == "ipopt")
+    for solver in solvers:
+        count = ipopt_ticks if solver == "ipopt" else ticks
+        for horizon in horizons:
+            started = time.perf_counter()
+            control = Controller(robot, trajectory, horizon=horizon, dt=DT, solver=solver)
+            row = _row(_run(control, count), _settle(count), section="horizons",
+                       layout=REFERENCE_LAYOUT, mode="time", speed="inside", solver=solver,
+                       horizon=horizon)
+            rows.append(row)
+            say(f"{solver:6s} {horizon:4d} {_ms(row['tick_p50'])} {_ms(row['tick_p99'])} "
+                f"{_ms(row['cpu_p99'])} {_ms(row['solve_p50'])} {_ms(row['overhead_p50'])} "
+                f"{row['iterations_p50']:6.0f} {row['rms_position_error'] * 1e3:9.4f} "
+                f"{time.perf_counter() - started:6.1f}")
+    say(f"rms err: each run's own ticks after {ERROR_SKIP:g} s (IPOPT runs are shorter; "
+        f"section 4 compares errors over the same ticks)")
+    return rows
+
+
+def growth(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Per solver: tick p50 at the largest horizon over the smallest, against their ratio."""
+    found: dict[str, dict[str, Any]] = {}
+    for solver in dict.fromkeys(row["solver"] for row in rows):
+        by_horizon = {row["horizon"]: row for row in rows if row["solver"] == solver}
+        low, high = min(by_horizon), max(by_horizon)
+        if high > low:
+            ratio = by_horizon[high]["tick_p50"] / by_horizon[low]["tick_p50"]
+            found[solver] = {"from": low, "to": high, "horizon_ratio": high / low,
+                             "tick_ratio": ratio, "at_most_linear": ratio <= high / low}
+    return found
+
+
+# --------------------------------------------------------------------------- 3. scenarios
+def scenarios_section(layouts: list[str], modes: list[str], speeds: dict[str, float],
+                      trajectories: list[str], headings: list[str], ticks: int,
+                      say: Printer) -> list[dict[str, Any]]:
+    """Every layout x trajectory x heading x mode x speed at N = 20 with daqp; a tick p99
+    above :data:`P99_LIMIT` is flagged, wall clock and process CPU apart."""
+    say(f"{'layout':8s} {'shape':8s} {'heading':8s} {'mode':5s} {'speed':7s} "
+        f"{'tick p50':>9s} {'tick p99':>9s} {'cpu p99':>9s} {'tick max':>9s} {'iters':>6s} "
+        f"{'rms err':>9s}  p99 > {P99_LIMIT * 1e3:g} ms")
+    say(f"{'':8s} {'':8s} {'':8s} {'':5s} {'':7s} {'[ms]':>9s} {'[ms]':>9s} {'[ms]':>9s} "
+        f"{'[ms]':>9s} {'':>6s} {'[mm]':>9s}")
+    rows = []
+    for layout in layouts:
+        robot = preset(layout)
+        for shape in trajectories:
+            for heading in headings:
+                for speed, ratio in speeds.items():
+                    trajectory = reference(shape, heading, robot, ratio)
+                    for mode in modes:
+                        control = Controller(robot, trajectory, horizon=REFERENCE_HORIZON,
+                                             dt=DT, solver=FAST, mode=mode)
+                        row = _row(_run(control, ticks), _settle(ticks), section="scenarios",
+                                   layout=layout, trajectory=shape, heading=heading,
+                                   mode=mode, speed=speed, peak_ratio=ratio, solver=FAST,
+                                   horizon=REFERENCE_HORIZON)
+                        row["over_p99_limit"] = row["tick_p99"] > P99_LIMIT
+                        row["cpu_over_p99_limit"] = row["cpu_p99"] > P99_LIMIT
+                        rows.append(row)
+                        flag = " ".join(name for name, over in
+                                        (("wall", row["over_p99_limit"]),
+                                         ("cpu", row["cpu_over_p99_limit"])) if over)
+                        say(f"{layout:8s} {shape:8s} {heading:8s} {mode:5s} {speed:7s} "
+                            f"{_ms(row['tick_p50'])} {_ms(row['tick_p99'])} "
+                            f"{_ms(row['cpu_p99'])} {_ms(row['tick_max'])} "
+                            f"{row['iterations_p50']:6.0f} "
+                            f"{row['rms_position_error'] * 1e3:9.4f}  {flag}")
+    return rows
+
+
+# ------------------------------------------------------------------------------- 4. peers
+def peers_section(ticks: int, say: Printer) -> dict[str, Any]:
+    """daqp, the IPOPT path and (when installed) do-mpc on the reference scenario, inside
+    and beyond the limits, over the same ticks on the same plant."""
+    robot = preset(REFERENCE_LAYOUT)
+    names = [f"mpc-{FAST}", "mpc-ipopt"]
+    if peers.available():
+        names.append("do-mpc")
+        say(f"do-mpc {peers.version()}: IPOPT inside do-mpc, exact SE(2) integral (no "
+            f"collocation), the project's grid, weights and wheel limits; {ticks} ticks each")
+    else:
+        say(peers.INSTALL_HINT)
+    say(f"{'speed':7s} {'controller':10s} {'tick p50':>9s} {'solve p50':>9s} {'iters':>6s} "
+        f"{'rms err':>11s} {'max err':>11s} {'failures':>8s} {'build':>6s}")
+    say(f"{'':7s} {'':10s} {'[ms]':>9s} {'[ms]':>9s} {'':>6s} {'[mm]':>11s} {'[mm]':>11s} "
+        f"{'':>8s} {'[s]':>6s}")
+    rows = []
+    for speed in ("inside", "beyond"):
+        trajectory: Trajectory = reference(REFERENCE_SHAPE, REFERENCE_HEADING, robot,
+                                           SPEEDS[speed])
+        for name in names:
+            started = time.perf_counter()
+            control: TrackingController
+            peer = None
+            if name == "do-mpc":
+                ours = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT)
+                peer = peers.DoMpcController(robot, trajectory, horizon=REFERENCE_HORIZON,
+                                             dt=DT, stage_dt=ours.stage_dt,
+                                             weights=ours.weights)
+                control = peer
+            else:
+                control = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT,
+                                     solver=name.removeprefix("mpc-"))
+            built = time.perf_counter() - started
+            row = _row(_run(control, ticks), _settle(ticks), section="peers",
+                       layout=REFERENCE_LAYOUT, mode="time", speed=speed,
+                       peak_ratio=SPEEDS[speed], solver=name, horizon=REFERENCE_HORIZON,
+                       build_time=built)
+            if peer is not None:
+                row["failures"] = peer.failures  # IPOPT reported no success (no fallback)
+            rows.append(row)
+            say(f"{speed:7s} {name:10s} {_ms(row['tick_p50'])} {_ms(row['solve_p50'])} "
+                f"{row['iterations_p50']:6.0f} {row['rms_position_error'] * 1e3:11.6f} "
+                f"{row['max_position_error'] * 1e3:11.6f} {row['failures']:8d} {built:6.1f}")
+    return {"status": "measured" if "do-mpc" in names else "do-mpc not installed",
+            "version": peers.version(), "rows": rows,
+            "integration": "exact SE(2) integral of the body twist over each stage "
+                           "(discrete do-mpc model, no collocation)"}
+
+
+# ------------------------------------------------------------------------------- summary
+def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, Any]],
+              peer: dict[str, Any] | None, drift: dict[str, Any] | None) -> dict[str, Any]:
+    """Ratios within this run, and issue 12's targets checked against them."""
     summary: dict[str, Any] = {}
-    if 20 in osqp:
-        summary["osqp_tick_over_solve_N20"] = osqp[20]["tick_p50"] / osqp[20]["solve_p50"]
-        summary["ipopt_over_osqp_tick_N20"] = ipopt["tick_p50"] / osqp[20]["tick_p50"]
-    low, high = min(osqp), max(osqp)
-    if high > low:
-        summary["tick_growth"] = {"from": low, "to": high,
-                                  "horizon_ratio": high / low,
-                                  "tick_ratio": osqp[high]["tick_p50"] / osqp[low]["tick_p50"]}
-    print()
-    for key, value in summary.items():
-        print(f"{key}: {value if isinstance(value, dict) else round(value, 2)}")
+    at = {(row["solver"], row["horizon"]): row for row in horizon_rows}
+    fast = at.get((FAST, REFERENCE_HORIZON))
+    if fast is not None:
+        summary[f"{FAST}_tick_p50_N20"] = fast["tick_p50"]
+        summary[f"{FAST}_tick_p99_N20"] = fast["tick_p99"]
+        summary[f"{FAST}_cpu_p99_N20"] = fast["cpu_p99"]
+        summary[f"{FAST}_tick_over_solve_N20"] = fast["tick_p50"] / fast["solve_p50"]
+        for solver in SOLVERS:
+            other = at.get((solver, REFERENCE_HORIZON))
+            if solver != FAST and other is not None:
+                summary[f"{solver}_over_{FAST}_tick_N20"] = other["tick_p50"] / fast["tick_p50"]
+    if horizon_rows:
+        summary["growth"] = growth(horizon_rows)
+    if scenario_rows:
+        summary["scenario_count"] = len(scenario_rows)
+        summary["scenario_tick_p99_max"] = max(row["tick_p99"] for row in scenario_rows)
+        summary["scenario_cpu_p99_max"] = max(row["cpu_p99"] for row in scenario_rows)
+        for key, flag in (("scenarios_over_p99_limit", "over_p99_limit"),
+                          ("scenarios_cpu_over_p99_limit", "cpu_over_p99_limit")):
+            summary[key] = [f"{row['layout']} {row['trajectory']} {row['heading']} "
+                            f"{row['mode']} {row['speed']}" for row in scenario_rows if row[flag]]
+    if peer is not None and peer["rows"]:
+        by = {(row["speed"], row["solver"]): row for row in peer["rows"]}
+        for speed in ("inside", "beyond"):
+            mine, ipopt = by[(speed, f"mpc-{FAST}")], by[(speed, "mpc-ipopt")]
+            item = {f"ipopt_over_{FAST}_tick": ipopt["tick_p50"] / mine["tick_p50"],
+                    f"{FAST}_rms_over_ipopt_rms":
+                        mine["rms_position_error"] / ipopt["rms_position_error"]}
+            other = by.get((speed, "do-mpc"))
+            if other is not None:
+                item.update({
+                    f"do_mpc_over_{FAST}_tick": other["tick_p50"] / mine["tick_p50"],
+                    "do_mpc_over_ipopt_tick": other["tick_p50"] / ipopt["tick_p50"],
+                    "do_mpc_rms_over_ipopt_rms":
+                        other["rms_position_error"] / ipopt["rms_position_error"]})
+            summary[f"same_ticks_{speed}"] = item
+    if drift is not None:
+        summary["drift"] = drift
+    summary["targets"] = _targets(summary)
+    return summary
+
+
+def _targets(summary: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """Issue 12's "done when", each with the measured value and whether it is met."""
+    checks: dict[str, dict[str, Any]] = {}
+
+    def check(name: str, value: float | None, limit: float, at_most: bool) -> None:
+        if value is not None:
+            met = value <= limit if at_most else value >= limit
+            checks[name] = {"measured": value, "limit": limit,
+                            "at_most" if at_most else "at_least": True, "met": bool(met)}
+
+    check(f"{FAST}_tick_p50_N20", summary.get(f"{FAST}_tick_p50_N20"), TARGET_TICK_P50, True)
+    check(f"{FAST}_tick_p99_N20", summary.get(f"{FAST}_tick_p99_N20"), TARGET_TICK_P99, True)
+    check(f"{FAST}_cpu_p99_N20", summary.get(f"{FAST}_cpu_p99_N20"), TARGET_TICK_P99, True)
+    inside = summary.get("same_ticks_inside")
+    if inside is not None:
+        if f"do_mpc_over_{FAST}_tick" in inside:
+            check(f"do_mpc_over_{FAST}_tick", inside[f"do_mpc_over_{FAST}_tick"],
+                  TARGET_OVER_DO_MPC, False)
+        check(f"ipopt_over_{FAST}_tick", inside[f"ipopt_over_{FAST}_tick"],
+              TARGET_OVER_IPOPT, False)
+        check(f"{FAST}_rms_over_ipopt_rms_inside", inside[f"{FAST}_rms_over_ipopt_rms"],
+              1.0 + TARGET_RMS_VS_IPOPT, True)
+    if "scenario_tick_p99_max" in summary:
+        check("scenario_tick_p99_max", summary["scenario_tick_p99_max"], P99_LIMIT, True)
+        check("scenario_cpu_p99_max", summary["scenario_cpu_p99_max"], P99_LIMIT, True)
+    fast_growth = summary.get("growth", {}).get(FAST)
+    if fast_growth is not None:
+        check(f"{FAST}_tick_growth", fast_growth["tick_ratio"], fast_growth["horizon_ratio"],
+              True)
+    return checks
+
+
+def _print_summary(summary: dict[str, Any], say: Printer) -> None:
+    if set(summary) == {"targets"} and not summary["targets"]:
+        return  # nothing was compared (the profile alone)
+    say("summary (ratios of tick p50 within this run unless named):")
+    if f"{FAST}_tick_over_solve_N20" in summary:
+        say(f"  {FAST} N=20: tick p50 {summary[f'{FAST}_tick_p50_N20'] * 1e6:.1f} us, "
+            f"p99 {summary[f'{FAST}_tick_p99_N20'] * 1e6:.1f} us (CPU p99 "
+            f"{summary[f'{FAST}_cpu_p99_N20'] * 1e6:.1f} us), tick / solve "
+            f"{summary[f'{FAST}_tick_over_solve_N20']:.2f}")
+    for solver in SOLVERS:
+        key = f"{solver}_over_{FAST}_tick_N20"
+        if key in summary:
+            say(f"  {solver} / {FAST} at N=20: {summary[key]:.1f}")
+    for solver, item in summary.get("growth", {}).items():
+        verdict = "at most linear" if item["at_most_linear"] else "MORE than linear"
+        say(f"  growth {solver}: tick(N={item['to']}) / tick(N={item['from']}) = "
+            f"{item['tick_ratio']:.2f} against {item['horizon_ratio']:g}: {verdict}")
+    if "scenario_tick_p99_max" in summary:
+        over, cpu = summary["scenarios_over_p99_limit"], summary["scenarios_cpu_over_p99_limit"]
+        say(f"  scenarios: worst tick p99 {summary['scenario_tick_p99_max'] * 1e3:.3f} ms wall "
+            f"({len(over)} of {summary['scenario_count']} over 1 ms), "
+            f"{summary['scenario_cpu_p99_max'] * 1e3:.3f} ms CPU ({len(cpu)} over 1 ms"
+            + (f": {', '.join(cpu)}" if cpu else "") + ")")
+    for speed in ("inside", "beyond"):
+        item = summary.get(f"same_ticks_{speed}")
+        if item is None:
+            continue
+        line = (f"  same ticks, {speed}: IPOPT path / {FAST} {item[f'ipopt_over_{FAST}_tick']:.1f}"
+                f"; RMS error {FAST} / IPOPT path {item[f'{FAST}_rms_over_ipopt_rms']:.4f}")
+        if f"do_mpc_over_{FAST}_tick" in item:
+            line += (f"; do-mpc / {FAST} {item[f'do_mpc_over_{FAST}_tick']:.1f}, do-mpc / IPOPT"
+                     f" path {item['do_mpc_over_ipopt_tick']:.2f}; RMS error do-mpc / IPOPT "
+                     f"path {item['do_mpc_rms_over_ipopt_rms']:.4f}")
+        say(line)
+    if "drift" in summary:
+        drift = summary["drift"]
+        say(f"  drift: {FAST} N=20 tick p50 measured again at the end / at the start "
+            f"{drift['end_over_start']:.2f} (the machine's noise over this run)")
+    targets = summary["targets"]
+    if targets:
+        say("issue 12 targets on this machine:")
+        for name, item in targets.items():
+            sign = "<=" if item.get("at_most") else ">="
+            value, limit = item["measured"], item["limit"]
+            shown = (f"{value * 1e6:.1f} us {sign} {limit * 1e6:.0f} us" if limit < 0.01
+                     else f"{value:.2f} {sign} {limit:g}")
+            say(f"  {name}: {shown}: {'met' if item['met'] else 'NOT met'}")
+
+
+# ---------------------------------------------------------------------------------- main
+def _integers(flag: str, text: str) -> list[int]:
+    try:
+        values = [int(item) for item in text.split(",") if item.strip()]
+    except ValueError:
+        raise ScenarioError(f"{flag} must be a comma list of integers, got {text!r}") from None
+    if not values or min(values) < 1:
+        raise ScenarioError(f"{flag} must list integers >= 1, got {text!r}")
+    return sorted(set(values))
+
+
+def _commit() -> str | None:
+    """The git commit of the code measured (``+dirty``: the library or the benchmark has
+    uncommitted changes; results folders do not count), or None outside a git checkout."""
+    folder = Path(__file__).resolve().parents[1]
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=folder, capture_output=True,
+                              text=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--",
+                                "mpc", "trajectories", "benchmarks", ":!benchmarks/results"],
+                               cwd=folder, capture_output=True, text=True, timeout=10,
+                               check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head + ("+dirty" if dirty else "")
+
+
+def _choose(flag: str, kind: str, requested: str | None, valid: tuple[str, ...] | list[str],
+            default: tuple[str, ...] | list[str] | None = None) -> list[str]:
+    """:func:`~benchmarks.scenarios.choose`, its error naming the flag."""
+    try:
+        return choose(kind, requested, valid, default)
+    except ScenarioError as error:
+        raise ScenarioError(f"{flag}: {error}") from None
+
+
+def _parser() -> Parser:
+    parser = Parser(prog="mpc-bench perf", description=__doc__.split("\n")[0])
+    parser.add_argument("--sections", help=f"comma list of {', '.join(SECTIONS)} (default: all)")
+    parser.add_argument("--horizons", help="horizons of the horizons section (10,20,50,100)")
+    parser.add_argument("--profile-horizons",
+                        help="horizons the tick is split into phases at (20)")
+    parser.add_argument("--solvers", help=f"comma list of {', '.join(SOLVERS)} (default: all)")
+    parser.add_argument("--layouts", help=f"scenarios: comma list of {', '.join(PRESETS)} "
+                                          "(default: all)")
+    parser.add_argument("--modes", help=f"scenarios: comma list of {', '.join(MODES)} "
+                                        "(default: both)")
+    parser.add_argument("--speeds", help="scenarios: inside (0.8 x limits), beyond (1.3 x) or "
+                                         "peak ratios like 1.1 (default: inside,beyond)")
+    parser.add_argument("--trajectories", help=f"scenarios: comma list of "
+                                               f"{', '.join(TRAJECTORIES)} (default: figure8)")
+    parser.add_argument("--headings", help=f"scenarios: comma list of {', '.join(HEADINGS)} "
+                                           "(default: fixed)")
+    parser.add_argument("--ticks", type=int, help="ticks per run (400; --quick 40)")
+    parser.add_argument("--ipopt-ticks", type=int,
+                        help="ticks per IPOPT run and per peers run (120; --quick 20)")
+    parser.add_argument("--out", default="bench-out", metavar="DIR",
+                        help="writes perf.json, perf.txt and tick_profile.txt/.json here "
+                             "(bench-out)")
+    parser.add_argument("--quick", action="store_true",
+                        help="smoke run in seconds: horizons 10,20, 40 ticks (IPOPT 20), "
+                             "scenarios on mecanum only")
+    return parser
+
+
+def main(argv: list[str]) -> int:
+    args = _parser().parse_args(argv)
+    sections = _choose("--sections", "section", args.sections, SECTIONS)
+    horizons = _integers("--horizons", args.horizons or ("10,20" if args.quick
+                                                         else "10,20,50,100"))
+    profile_horizons = _integers("--profile-horizons",
+                                 args.profile_horizons or str(REFERENCE_HORIZON))
+    solvers = _choose("--solvers", "solver", args.solvers, list(SOLVERS))
+    layouts = _choose("--layouts", "layout", args.layouts or ("mecanum" if args.quick else None),
+                      PRESETS)
+    modes = _choose("--modes", "mode", args.modes, list(MODES))
+    try:
+        speeds = parse_speeds(args.speeds)
+    except ScenarioError as error:
+        raise ScenarioError(f"--speeds: {error}") from None
+    trajectories = _choose("--trajectories", "trajectory", args.trajectories, TRAJECTORIES,
+                           [REFERENCE_SHAPE])
+    headings = _choose("--headings", "heading", args.headings, HEADINGS, [REFERENCE_HEADING])
+    ticks = args.ticks if args.ticks is not None else (40 if args.quick else 400)
+    ipopt_ticks = (args.ipopt_ticks if args.ipopt_ticks is not None
+                   else (20 if args.quick else 120))
+    for flag, value in (("--ticks", ticks), ("--ipopt-ticks", ipopt_ticks)):
+        if value < 20:
+            raise ScenarioError(f"{flag} must be >= 20, got {value}")
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ScenarioError(f"--out must be a folder, {str(out)!r} is a file")
     out.mkdir(parents=True, exist_ok=True)
-    (out / "perf.json").write_text(json.dumps({"machine": machine(), "rows": rows,
-                                               "summary": summary}, indent=1))
-    print(f"wrote {out / 'perf.json'}")
+
+    say = Printer()
+    command = " ".join(["mpc-bench", "perf", *argv])
+    started = time.perf_counter()
+    load_start = os.getloadavg() if hasattr(os, "getloadavg") else None
+    commit = _commit()
+    say(f"{command}: sections {', '.join(sections)}; {ticks} ticks a run (IPOPT and peers "
+        f"{ipopt_ticks}), dt {DT} s, ideal plant")
+    profile = horizon_rows = scenario_rows = peer = drift = None
+    if "profile" in sections:
+        say("\n== 1. tick split (TickProfile) ==")
+        profile = profile_section(profile_horizons, ticks, out, command, say)
+    if "horizons" in sections:
+        say(f"\n== 2. horizons: {REFERENCE_LAYOUT} {REFERENCE_SHAPE} inside, solvers "
+            f"{', '.join(solvers)} ==")
+        horizon_rows = horizons_section(solvers, horizons, ticks, ipopt_ticks, say)
+    if "scenarios" in sections:
+        say(f"\n== 3. scenarios at N={REFERENCE_HORIZON}, {FAST} (p99 flagged above "
+            f"{P99_LIMIT * 1e3:g} ms) ==")
+        scenario_rows = scenarios_section(layouts, modes, speeds, trajectories, headings,
+                                          ticks, say)
+    if "peers" in sections:
+        say(f"\n== 4. peers: {FAST}, the IPOPT path and do-mpc on the same problem and ticks ==")
+        peer = peers_section(ipopt_ticks, say)
+    first = next((row for row in horizon_rows or []
+                  if row["solver"] == FAST and row["horizon"] == REFERENCE_HORIZON), None)
+    if first is not None:  # the same run again: how much the machine moved meanwhile
+        robot = preset(REFERENCE_LAYOUT)
+        again = _row(_run(Controller(robot, reference(REFERENCE_SHAPE, REFERENCE_HEADING,
+                                                      robot, SPEEDS["inside"]),
+                                     horizon=REFERENCE_HORIZON, dt=DT, solver=FAST), ticks),
+                     _settle(ticks))
+        drift = {"start_tick_p50": first["tick_p50"], "end_tick_p50": again["tick_p50"],
+                 "end_over_start": again["tick_p50"] / first["tick_p50"]}
+    summary = summarise(horizon_rows or [], scenario_rows or [], peer, drift)
+    say()
+    _print_summary(summary, say)
+    rows = [*(horizon_rows or []), *(scenario_rows or []), *((peer or {}).get("rows", []))]
+    document = {
+        "command": command,
+        "commit": commit,
+        "machine": {**machine(), "load_average_start": load_start,
+                    "load_average_end": os.getloadavg() if hasattr(os, "getloadavg") else None,
+                    # BLAS threads: the condensed QP's dense algebra runs in NumPy's BLAS
+                    "thread_env": {name: os.environ.get(name) for name in THREAD_VARIABLES}},
+        "settings": {"dt": DT, "ticks": ticks, "ipopt_ticks": ipopt_ticks,
+                     "horizons": horizons, "profile_horizons": profile_horizons,
+                     "solvers": solvers, "layouts": layouts,
+                     "modes": modes, "speeds": speeds, "trajectories": trajectories,
+                     "headings": headings, "sections": sections, "plant": "ideal",
+                     "p99_limit": P99_LIMIT},
+        "profiles": profile,
+        "rows": rows,
+        "peers": None if peer is None else {key: value for key, value in peer.items()
+                                            if key != "rows"},
+        "summary": summary,
+        "wall_time": time.perf_counter() - started,
+    }
+    (out / "perf.json").write_text(json.dumps(document, indent=1) + "\n")
+    say(f"wrote {out / 'perf.json'} ({document['wall_time']:.0f} s)")
+    (out / "perf.txt").write_text("\n".join(say.lines) + "\n")
+    sys.stdout.flush()
     return 0

@@ -136,6 +136,11 @@ def _violations(metrics: dict[str, Any]) -> int:
                    ("limit_violations", "accel_violations", "steer_violations")))
 
 
+def _ratio(value: object) -> str:
+    """A peak ratio in 6 characters, ``-`` when there is none."""
+    return f"{value:6.3f}" if isinstance(value, (int, float)) else f"{'-':>6s}"
+
+
 def run_pace(run: dict[str, Any]) -> float | None:
     """A run's steady lap time over the fastest lap it could keep (1 = as fast as the
     wheels and the reference's own timing allow); None without a lap or a yardstick."""
@@ -143,6 +148,15 @@ def run_pace(run: dict[str, Any]) -> float | None:
     if not isinstance(lap, (int, float)) or not isinstance(target, (int, float)):
         return None
     return float(lap) / float(target)
+
+
+def _steer_series(result: SimResult) -> dict[str, Any]:
+    """Steered wheels' commanded angles [rad], rates [rad/s] and rate limits, if any."""
+    rates, limit = result.steer_rates(), result.steer_rate_limit
+    if rates is None or limit is None or result.steer_command is None:
+        return {}
+    return {"steer_angle": _list(result.steer_command), "steer_rate": _list(rates),
+            "steer_rate_limit": _list(limit)}
 
 
 def _robot_info(robot: Robot) -> dict[str, Any]:
@@ -174,6 +188,7 @@ def pack_run(scenario: Scenario, name: str, metrics: dict[str, Any],
             "wheel_limit": _list(result.wheel_limit), "tick_time": _list(result.tick_time, 8),
             "solve_time": _list(result.solve_time, 8), "status": list(result.status),
             "lag": _list(result.time - result.reference_time), "dt": result.dt,
+            **_steer_series(result),
         },
         "robot": _robot_info(scenario.robot),
     }
@@ -195,7 +210,7 @@ CSV_METRICS = ("rms_position_error", "max_position_error", "rms_cross_track_erro
                "max_wheel_speed_ratio", "limit_violations", "accel_violations", "control_effort",
                "tick_time_p50", "tick_time_p95", "tick_time_p99", "tick_time_max",
                "solve_time_p50", "solve_time_p99", "deadline_misses", "failures",
-               "steer_violations", "lap_time",
+               "steer_violations", "max_steer_rate_ratio", "lap_time",
                "max_lag", "mean_lag")
 
 
@@ -218,11 +233,13 @@ def write_csv(runs: list[dict[str, Any]], path: Path) -> None:
 def summary_table(runs: list[dict[str, Any]]) -> str:
     """A fixed-width text table of the headline numbers (columns sized to the names)."""
     width = max([14] + [len(str(run["controller"])) for run in runs])
-    head = (("layout", 8, "", "s"), ("traj", 8, "", "s"), ("heading", 7, "", "s"),
+    traj = max([8] + [len(str(run["trajectory"])) for run in runs])
+    head = (("layout", 8, "", "s"), ("traj", traj, "", "s"), ("heading", 7, "", "s"),
             ("speed", 7, "", "s"), ("controller", width, "", "s"), ("rms pos", 9, "[mm]", ">"),
             ("max path", 9, "[mm]", ">"), ("rms head", 8, "[deg]", ">"),
             ("lap/target", 10, "", ">"), ("max lag", 8, "[s]", ">"), ("peak", 6, "[lim]", ">"),
-            ("viol", 4, "", ">"), ("fail", 4, "", ">"), ("tick p50", 9, "[ms]", ">"),
+            ("steer", 6, "[lim]", ">"), ("viol", 4, "", ">"), ("fail", 4, "", ">"),
+            ("tick p50", 9, "[ms]", ">"),
             ("tick p99", 9, "[ms]", ">"))
     header = " ".join(f"{title:{align if align != 's' else '<'}{size}}"
                       for title, size, _, align in head)
@@ -233,11 +250,12 @@ def summary_table(runs: list[dict[str, Any]]) -> str:
         m = run["metrics"]
         pace = run_pace(run)
         lines.append(
-            f"{run['layout']:8s} {run['trajectory']:8s} {run['heading']:7s} {run['speed']:7s} "
+            f"{run['layout']:8s} {run['trajectory']:{traj}s} {run['heading']:7s} {run['speed']:7s} "
             f"{run['controller']:{width}s} {m['rms_position_error'] * 1e3:9.3g} "
             f"{m['max_cross_track_error'] * 1e3:9.3g} {math.degrees(m['rms_heading_error']):8.3g} "
             f"{'-' if pace is None else f'{pace:.3f}':>10s} {m['max_lag']:8.3f} "
-            f"{m['max_wheel_speed_ratio']:6.3f} {_violations(m):4d} "
+            f"{m['max_wheel_speed_ratio']:6.3f} {_ratio(m.get('max_steer_rate_ratio'))} "
+            f"{_violations(m):4d} "
             f"{m['failures']:4d} {m['tick_time_p50'] * 1e3:9.3f} {m['tick_time_p99'] * 1e3:9.3f}"
         )
     return "\n".join(lines)

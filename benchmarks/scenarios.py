@@ -20,11 +20,27 @@ from mpc import Controller
 from mpc.errors import MpcError
 from mpc.robots import PRESETS, Robot, load, preset
 from mpc.sim import FeedforwardPController, FeedforwardPSetpointController, TrackingController
-from trajectories import Circle, FigureEight, SpinHeading, Trajectory, Waypoints, feasibility
+from trajectories import (
+    Circle,
+    FigureEight,
+    OutAndBack,
+    SpinHeading,
+    Trajectory,
+    Waypoints,
+    feasibility,
+)
 
 #: Named speeds: the reference's peak wheel speed / limit.
 SPEEDS: dict[str, float] = {"inside": 0.8, "beyond": 1.3}
 TRAJECTORIES: tuple[str, ...] = ("circle", "figure8")
+#: Every trajectory the benchmark knows; ``out-and-back`` (2 m out along x, back 0.2 m to
+#: the left: every caster swings round at each end) runs on request.
+ALL_TRAJECTORIES: tuple[str, ...] = (*TRAJECTORIES, "out-and-back")
+#: Layouts run by default: the Swedish, swerve and ball presets. The caster and MPO-700
+#: presets run on request (``--layouts caster4,mpo700``): their IPOPT path is 5-40x
+#: slower a tick than the others' and would double the default run.
+DEFAULT_LAYOUTS: tuple[str, ...] = tuple(name for name in PRESETS
+                                         if name not in ("caster4", "mpo700"))
 #: Every controller the benchmark knows: this project in time mode (the daqp fast path,
 #: the OSQP fast path, the exact IPOPT path) and in path mode, and the baselines a user
 #: would otherwise pick (feedforward + P with per-wheel clipping, WPILib-style
@@ -114,6 +130,9 @@ def _shape(name: str, heading: str) -> Callable[[float], Trajectory]:
         spec = _heading(heading, period)
         if name == "circle":
             return Circle(SHAPE_SIZE, period, heading=spec)  # type: ignore[arg-type]
+        if name == "out-and-back":
+            return OutAndBack(2.0 * SHAPE_SIZE, period, width=0.2 * SHAPE_SIZE,
+                              heading=spec)  # type: ignore[arg-type]
         return FigureEight(SHAPE_SIZE, period, heading=spec)  # type: ignore[arg-type]
 
     return make
@@ -162,12 +181,14 @@ _MPC: dict[str, tuple[str, str]] = {
 
 
 def applies(name: str, robot: Robot) -> bool:
-    """Whether controller ``name`` can drive ``robot`` (the setpoint generator: swerve)."""
-    return name not in STEERED_ONLY or robot.steered
+    """Whether controller ``name`` can drive ``robot`` (the setpoint generator: swerve, not
+    casters, whose steer angles are states)."""
+    return name not in STEERED_ONLY or (robot.steered and not robot.steer_states)
 
 
 __all__ = [
-    "CONTROLLERS", "DEFAULT_CONTROLLERS", "DEFAULT_HEADINGS", "HEADINGS", "PRESETS", "SPEEDS",
-    "TRAJECTORIES", "Parser", "ScenarioError", "Settings", "applies", "choose", "controller",
-    "csv_reference", "parse_speeds", "reference", "robots",
+    "ALL_TRAJECTORIES", "CONTROLLERS", "DEFAULT_CONTROLLERS", "DEFAULT_HEADINGS",
+    "DEFAULT_LAYOUTS", "HEADINGS", "PRESETS", "SPEEDS", "TRAJECTORIES", "Parser",
+    "ScenarioError", "Settings", "applies", "choose", "controller", "csv_reference",
+    "parse_speeds", "reference", "robots",
 ]

@@ -15,9 +15,14 @@ The names below load on first use, so ``import mpc.errors`` (which the
 from __future__ import annotations
 
 import importlib
+import logging
 from typing import TYPE_CHECKING, Any
 
 from mpc.errors import ControllerError, MpcError, RobotError, SimulationError, TrajectoryError
+
+# The library's log (fallbacks starting and ending, never per tick): silent unless the
+# application configures logging.
+logging.getLogger("mpc").addHandler(logging.NullHandler())
 
 if TYPE_CHECKING:
     from mpc.control import SOLVERS, Command, Controller, Status

@@ -75,3 +75,63 @@ def finite_vector(name: str, value: ArrayLike, length: int, what: str,
     if not math.isfinite(float(np.abs(array).max(initial=0.0))):
         raise error(f"{name} must be finite, got {array.tolist()}")
     return array
+
+
+# Bounds on every size a user controls: checked before anything is allocated, so that a
+# typo (a horizon of a million) fails at once with a clear message instead of exhausting
+# memory or hanging. Each is far beyond any real use.
+
+#: Wheels (or modules) on one robot.
+MAX_WHEELS = 64
+#: Stages in a plan (``horizon``).
+MAX_HORIZON = 1000
+#: Ticks of known command delay (``delay_ticks``).
+MAX_DELAY_TICKS = 1000
+#: Sides of a swerve module's QP polygon (``polygon_sides``).
+MAX_POLYGON_SIDES = 256
+#: Solver iterations per tick (``max_iter``).
+MAX_ITERATIONS = 1_000_000
+#: Ticks in one simulation (``duration / dt``).
+MAX_SIMULATION_TICKS = 5_000_000
+#: Bytes in a robot, reference or results file read as text.
+MAX_FILE_BYTES = 64 * 1024 * 1024
+#: Largest coordinate of a pose [m] (and heading [rad]): well past UTM's, far from overflow.
+MAX_COORDINATE = 1e9
+#: Largest time a controller is stepped at [s] (ROS epoch stamps are about 1.8e9 s; at
+#: 1e10 s a double still resolves 2 us).
+MAX_TIME = 1e10
+
+
+def integer_in(name: str, value: object, low: int, high: int,
+               error: type[MpcError] = MpcError) -> int:
+    """``value`` as an int, or ``error`` unless it is an integer in ``[low, high]`` (the
+    message names the bound)."""
+    if not is_integer(value):
+        raise error(f"{name} must be an integer in {low}..{high}, got {value!r}")
+    number = int(value)  # type: ignore[call-overload]
+    if number < low:
+        raise error(f"{name} must be an integer >= {low}, got {value!r}")
+    if number > high:
+        raise error(f"{name} must be at most {high} (a bound of this library), got {value!r}")
+    return number
+
+
+def file_text(path: object, what: str, error: type[MpcError] = MpcError) -> str:
+    """The UTF-8 text of the file at ``path`` (a byte-order mark allowed), or ``error`` naming
+    the file: missing, a folder, larger than :data:`MAX_FILE_BYTES`, or not UTF-8."""
+    from pathlib import Path
+
+    try:
+        file = Path(path)  # type: ignore[arg-type]
+        size = file.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise error(f"{what} file {str(file)!r} is {size} bytes; at most "
+                        f"{MAX_FILE_BYTES} are read")
+        return file.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise error(f"{what} file {str(path)!r} is not UTF-8 text (byte {exc.start})") from None
+    except FileNotFoundError:
+        raise error(f"{what} file {str(path)!r} does not exist") from None
+    except (OSError, TypeError, ValueError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise error(f"cannot read {what} file {str(path)!r}: {reason}") from None

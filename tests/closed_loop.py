@@ -5,13 +5,18 @@ from __future__ import annotations
 import numpy as np
 
 from mpc import Command, Status
-from mpc.robots import Robot
+from mpc.robots import PRESETS, Robot, preset
 from mpc.sim import Plant, PlantConfig, SimResult, TrackingController
 from trajectories import Circle, FigureEight, Trajectory
 
 DT = 0.05  # [s] control tick of every test loop
 START_OFFSET = np.array([0.2, 0.0, 0.3])  # [m, m, rad] acceptance runs start this far off
 SETTLE = 2.0  # [s] tracking errors are measured after this
+#: Presets whose steer angles are not states: the caster preset's acceptance criteria (its
+#: steer angles measured, mm-level tracking) are in test_caster.py.
+JOINT_FREE_PRESETS = tuple(name for name in PRESETS if not preset(name).steer_states)
+#: Presets with acceleration limits (the caster and MPO-700 presets have none).
+ACCEL_PRESETS = tuple(name for name in PRESETS if preset(name).max_wheel_accel is not None)
 
 
 def inside_limits() -> dict[str, Trajectory]:

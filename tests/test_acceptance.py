@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from closed_loop import (
     DT,
+    JOINT_FREE_PRESETS,
     SETTLE,
     Loop,
     assert_within_limits,
@@ -25,7 +26,7 @@ from closed_loop import (
 )
 
 from mpc import Controller
-from mpc.robots import PRESETS, preset
+from mpc.robots import preset
 from mpc.sim import PlantConfig, simulate
 from trajectories import Circle, feasibility
 
@@ -39,7 +40,7 @@ HEADING_TOLERANCE = 1e-3
 
 
 @pytest.mark.parametrize("trajectory_name", inside_limits().keys())
-@pytest.mark.parametrize("robot_name", PRESETS)
+@pytest.mark.parametrize("robot_name", JOINT_FREE_PRESETS)
 @pytest.mark.parametrize("solver", ["daqp", "osqp", "ipopt"])
 def test_tracks_inside_the_limits(solver: str, robot_name: str, trajectory_name: str) -> None:
     robot, trajectory = preset(robot_name), inside_limits()[trajectory_name]

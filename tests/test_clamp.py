@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from closed_loop import ACCEL_PRESETS
 
 from mpc.control.clamp import clamp_command
 from mpc.robots import PRESETS, Robot, SwedishRobot, SwedishWheel, preset
@@ -49,7 +50,7 @@ def segment_fraction(start: np.ndarray, end: np.ndarray, point: np.ndarray) -> t
     return fraction, float(np.linalg.norm(start + fraction * direction - point))
 
 
-@pytest.mark.parametrize("robot_name", PRESETS)
+@pytest.mark.parametrize("robot_name", ACCEL_PRESETS)
 def test_clamp_respects_speed_and_acceleration_and_moves_along_the_segment(
     robot_name: str,
 ) -> None:
@@ -75,7 +76,7 @@ def test_clamp_respects_speed_and_acceleration_and_moves_along_the_segment(
         assert changed == (not np.array_equal(result, target))
 
 
-@pytest.mark.parametrize("robot_name", PRESETS)
+@pytest.mark.parametrize("robot_name", ACCEL_PRESETS)
 def test_clamp_returns_a_feasible_target_unchanged(robot_name: str) -> None:
     robot = preset(robot_name)
     rng = np.random.default_rng(7)

@@ -104,7 +104,8 @@ def test_robot_file_and_csv_trajectory(tmp_path: Path) -> None:
         (["--heading", "sideways"], "unknown heading sideways; valid: fixed, tangent, spin"),
         (["--trajectories", "square"], "unknown trajectory square; valid: circle, figure8"),
         (["--speeds", "fast"], "unknown speed 'fast'"),
-        (["--robot", "/no/such/robot.toml", "--quick"], "cannot read robot file"),
+        (["--robot", "/no/such/robot.toml", "--quick"],
+         "robot file '/no/such/robot.toml' does not exist"),
         (["--trajectory-csv", "/no/such/path.csv", "--quick"], "path.csv"),
         (["report", "/no/such/results.json"], "not found"),
         (["--horizon", "0"], "--horizon must be >= 1"),
@@ -125,7 +126,8 @@ def test_bad_arguments_are_one_line_and_exit_2(argv: list[str], message: str,
 
 
 def test_perf_and_soak_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["perf", "--horizons", "5,10", "--ticks", "40", "--ipopt-ticks", "20",
+    assert main(["perf", "--sections", "horizons", "--horizons", "5,10", "--ticks", "40",
+                 "--ipopt-ticks", "20",
                  "--out", str(tmp_path)]) == 0
     perf = json.loads((tmp_path / "perf.json").read_text())
     assert {row["horizon"] for row in perf["rows"] if row["solver"] == "osqp"} == {5, 10}

@@ -5,6 +5,7 @@ Closed-loop tracking (acceptance) is in test_acceptance.py.
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Callable
@@ -130,7 +131,7 @@ TRAJECTORY = Circle(1.0, 12.0)
     [
         ({"solver": "gurobi"}, r"unknown solver 'gurobi'.*'osqp'.*'ipopt'"),
         ({"horizon": 0}, "horizon must be an integer >= 1"),
-        ({"horizon": 2.5}, "horizon must be an integer >= 1"),
+        ({"horizon": 2.5}, "horizon must be an integer in 1..1000"),
         ({"dt": 0.0}, r"dt \[s\] must be a finite number > 0"),
         ({"dt": -0.05}, r"dt \[s\] must be a finite number > 0"),
         ({"dt": math.nan}, r"dt \[s\] must be a finite number > 0"),
@@ -342,7 +343,7 @@ def test_profile_marks_every_phase_of_every_tick(solver: str) -> None:
             assert len(phases[phase]) == ticks
     recorded = sum(sum(values) for values in phases.values())
     assert 0.0 < recorded <= elapsed
-    assert "sum of medians" in profile.table()
+    assert "mean tick" in profile.table()
     controller.profile = None
     assert controller.solver.profile is None
     for _ in range(2):
@@ -351,3 +352,26 @@ def test_profile_marks_every_phase_of_every_tick(solver: str) -> None:
                for name, values in phases.items())
     with pytest.raises(ControllerError, match="TickProfile"):
         controller.profile = "yes"  # type: ignore[assignment]
+
+
+# Logging -------------------------------------------------------------------------------
+
+
+def test_fallbacks_are_logged_when_they_start_and_end_not_per_tick(
+        monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    robot, trajectory = preset("mecanum"), Circle(1.0, 12.0, heading=0.0)
+    controller = Controller(robot, trajectory, horizon=10)
+    loop = Loop(controller, trajectory.sample(0.0).pose)
+    solve = controller.solver.solve
+    with caplog.at_level(logging.INFO, logger="mpc"):
+        for _ in range(3):
+            loop.step()
+        assert not caplog.records
+        monkeypatch.setattr(controller.solver, "solve", lambda *a, **k: failed_result(10))
+        for _ in range(5):
+            loop.step()
+        monkeypatch.setattr(controller.solver, "solve", solve)
+        loop.step()
+    messages = [(r.levelname, r.getMessage()) for r in caplog.records]
+    assert messages == [("WARNING", "falling back: injected failure"),
+                        ("INFO", "solved again after 5 failed ticks")]

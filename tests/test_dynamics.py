@@ -11,7 +11,7 @@ import pytest
 
 from mpc.errors import RobotError
 from mpc.robots import (
-    PRESETS,
+    MOTOR_ROBOT_PRESETS,
     DCMotor,
     RobotDynamics,
     SwedishRobot,
@@ -111,15 +111,15 @@ battery_resistance = 0.02
 
 
 def test_motor_presets_share_the_layouts_and_run_at_free_speed() -> None:
-    for name in PRESETS:
+    for name in MOTOR_ROBOT_PRESETS:
         robot, kinematic = motor_preset(name), preset(name)
         assert robot.dynamics is not None and robot.kind == kinematic.kind
         np.testing.assert_allclose(robot.wheel_positions, kinematic.wheel_positions)
         np.testing.assert_allclose(robot.max_wheel_speed, robot.dynamics.free_speed,
                                    rtol=1e-12)
         assert robot.max_wheel_accel is None  # the motor rows bound acceleration
-    with pytest.raises(RobotError, match="unknown robot preset 'hexapod'"):
-        motor_preset("hexapod")
+    with pytest.raises(RobotError, match="no motor preset 'caster4'"):
+        motor_preset("caster4")
 
 
 def test_with_dynamics_checks_its_argument_and_the_loads() -> None:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mpc import Command, Status
-from mpc.robots import PRESETS, Robot, motor_preset, omni
+from mpc.robots import MOTOR_ROBOT_PRESETS, Robot, motor_preset, omni
 from mpc.robots.dynamics import GRAVITY, dynamics
 from mpc.robots.force_map import coriolis, force_map
 from mpc.robots.motor_limits import first_step_feedforward
@@ -27,7 +27,7 @@ def contact_points(robot: Robot) -> np.ndarray:
     return points
 
 
-@pytest.mark.parametrize("name", PRESETS)
+@pytest.mark.parametrize("name", MOTOR_ROBOT_PRESETS)
 def test_contact_forces_obey_newton_euler(name: str) -> None:
     """Sum of the contact forces = m a, their moment about the origin = I alpha: computed
     from the contact points and forces alone, not from the wheel maps."""
@@ -48,7 +48,7 @@ def test_contact_forces_obey_newton_euler(name: str) -> None:
                                    forces.mass_matrix @ accel, atol=1e-9)
 
 
-@pytest.mark.parametrize("name", PRESETS)
+@pytest.mark.parametrize("name", MOTOR_ROBOT_PRESETS)
 def test_efforts_are_the_minimum_norm_split(name: str) -> None:
     robot = motor_preset(name)
     forces = force_map(robot)

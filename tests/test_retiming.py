@@ -16,8 +16,9 @@ import math
 
 import numpy as np
 import pytest
+from closed_loop import ACCEL_PRESETS
 
-from mpc.robots import PRESETS, Robot, omni, preset
+from mpc.robots import Robot, omni, preset
 from trajectories import (
     Circle,
     FigureEight,
@@ -222,7 +223,7 @@ def _accel_demand(retimed: Trajectory, robot: Robot, times: np.ndarray) -> np.nd
 
 @pytest.mark.parametrize("heading", HEADINGS)
 @pytest.mark.parametrize("shape", SHAPES)
-@pytest.mark.parametrize("robot_name", PRESETS)
+@pytest.mark.parametrize("robot_name", ACCEL_PRESETS)
 def test_lap_time_agrees_with_phase_plane_integration(robot_name: str, shape: str,
                                                       heading: str) -> None:
     retimed = _retimed(robot_name, shape, heading)
@@ -235,7 +236,7 @@ def test_lap_time_agrees_with_phase_plane_integration(robot_name: str, shape: st
 
 @pytest.mark.parametrize("heading", HEADINGS)
 @pytest.mark.parametrize("shape", SHAPES)
-@pytest.mark.parametrize("robot_name", PRESETS)
+@pytest.mark.parametrize("robot_name", ACCEL_PRESETS)
 def test_timed_trajectory_is_within_every_limit_between_grid_points(
         robot_name: str, shape: str, heading: str) -> None:
     robot = preset(robot_name)

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from closed_loop import ACCEL_PRESETS
 
 from mpc.control.timing import ReferenceWindow
 from mpc.model import TickInput, TrackingModel, Weights
@@ -106,7 +107,7 @@ def test_converged_rti_matches_nlp_with_active_limits(robot_name: str) -> None:
     np.testing.assert_allclose(tight.poses, exact.poses, atol=2e-5)
 
 
-@pytest.mark.parametrize("robot_name", PRESETS)
+@pytest.mark.parametrize("robot_name", ACCEL_PRESETS)
 def test_converged_rti_matches_nlp_with_inactive_limits(robot_name: str) -> None:
     problem = Problem(robot_name, NEAR, last="feedforward")
     exact = problem.solve(NlpSolver(problem.model), problem.guess())

@@ -43,7 +43,7 @@ from .path import PathDerivatives, TimedPath
 from .retiming import PhaseGrid, RetimedTrajectory, RetimingInfo, RetimingRobot, time_optimal
 from .rosbag import bag_topics, odometry_reference, path_reference, read_bag_reference
 from .sampled import SampledTrajectory
-from .shapes import Circle, FigureEight
+from .shapes import Circle, FigureEight, OutAndBack
 from .waypoints import Waypoints, read_waypoint_csv
 
 __all__ = [
@@ -61,6 +61,7 @@ __all__ = [
     "HeadingSpec",
     "PathDerivatives",
     "PhaseGrid",
+    "OutAndBack",
     "RetimedTrajectory",
     "RetimingInfo",
     "RetimingRobot",

@@ -11,6 +11,7 @@ counter-clockwise), and the reference body twist the controller tracks:
 from __future__ import annotations
 
 import abc
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -152,7 +153,23 @@ class Trajectory(abc.ABC):
         velocity[..., 2] = rate
         acceleration[..., :2] = path.acceleration
         acceleration[..., 2] = accel
+        # One sum is finite iff every entry is (and no sum overflows): a reference whose
+        # numbers overflow (extreme sizes, waypoints 1e-300 s apart) fails here, named.
+        if not math.isfinite(float(pose.sum() + velocity.sum() + acceleration.sum())):
+            self._not_finite(times, pose, velocity, acceleration)
         return TrajectorySample(pose, velocity, acceleration)
+
+    def _not_finite(self, times: FloatArray, *arrays: FloatArray) -> None:
+        """Raise the error for a sample that is not finite (or whose sum overflows)."""
+        for name, array in zip(("pose", "velocity", "acceleration"), arrays, strict=True):
+            bad = ~np.isfinite(array).all(axis=-1)
+            if bad.any():
+                where = float(np.broadcast_to(times, bad.shape)[bad].flat[0])
+                raise TrajectoryError(
+                    f"{type(self).__name__} reference gives a non-finite {name} at "
+                    f"t = {where!r} s: its sizes or timing overflow double precision")
+        raise TrajectoryError(f"{type(self).__name__} reference gives numbers too large to "
+                              "add up (over 1e308): its sizes or timing overflow")
 
     def body_twist(self, t: npt.ArrayLike) -> FloatArray:
         """Reference body twist (vx, vy, omega) [m/s, m/s, rad/s] at times t, (..., 3)."""

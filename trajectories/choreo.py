@@ -48,6 +48,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mpc.errors import MpcError
+from mpc.validation import file_text
 
 from ._validation import FloatArray
 from .errors import TrajectoryError
@@ -204,13 +205,9 @@ class _File:
         return TrajectoryError(f"choreo file {str(self.path)!r}: {where}: {text}")
 
     def load(self) -> dict[str, Any]:
+        text = file_text(self.path, "choreo", TrajectoryError)
         try:
-            document = json.loads(self.path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise TrajectoryError(f"choreo file {str(self.path)!r} does not exist") from None
-        except (OSError, UnicodeDecodeError) as error:
-            raise TrajectoryError(f"choreo file {str(self.path)!r}: cannot read: "
-                                  f"{error}") from None
+            document = json.loads(text)
         except json.JSONDecodeError as error:
             raise TrajectoryError(f"choreo file {str(self.path)!r}: not JSON: {error}") from None
         if not isinstance(document, dict):

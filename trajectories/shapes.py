@@ -10,6 +10,7 @@ import numpy.typing as npt
 
 from ._validation import FloatArray, finite_number, point2, positive_number
 from .base import Trajectory
+from .errors import TrajectoryError
 from .heading import HeadingSpec
 from .path import PathDerivatives
 
@@ -189,4 +190,66 @@ class FigureEight(Trajectory):
         return (
             f"FigureEight(amplitude={self._amplitude!r}, period={self._period!r}, "
             f"center={tuple(self._center.tolist())!r}, heading={self.heading!r})"
+        )
+
+
+class OutAndBack(Trajectory):
+    """Out along x and back, periodic: a flat ellipse, or a straight line for width 0.
+
+    p(t) = center + (length / 2 * sin(w t), width / 2 * (1 - cos(w t))), w = 2 pi / period:
+    from ``center`` out along +x to ``length / 2``, back ``width`` [m] to the left (+y),
+    past the centre to ``-length / 2`` and back to the start. With ``width > 0`` the
+    direction of travel turns through 180 degrees at each end (at the rate
+    ``length / width * w`` [rad/s] there, the path speed down to ``width / 2 * w``): every
+    caster of a powered-caster robot must swing round. With ``width = 0`` the robot stops
+    at each end and reverses. ``heading`` as for :class:`Circle` (default fixed at 0).
+    """
+
+    def __init__(
+        self,
+        length: float,
+        period: float,
+        width: float = 0.0,
+        center: npt.ArrayLike = (0.0, 0.0),
+        heading: HeadingSpec = 0.0,
+    ) -> None:
+        self._length = positive_number("length [m]", length)
+        self._period = positive_number("period [s]", period)
+        self._width = finite_number("width [m]", width)
+        if self._width < 0.0:
+            raise TrajectoryError(f"width [m] must be >= 0, got {width!r}")
+        self._center = point2("center", center)
+        self._omega = 2.0 * math.pi / self._period
+        # x = L/2 sin(w t), y = W/2 + W/2 sin(w t - pi/2)
+        self._sinusoids = _SinusoidPath(
+            np.array([self._omega, self._omega]),
+            np.array([0.0, -0.5 * math.pi]),
+            np.array([0.5 * self._length, 0.5 * self._width]),
+            self._center + np.array([0.0, 0.5 * self._width]),
+        )
+        super().__init__(heading)
+
+    @property
+    def length(self) -> float:
+        """Length of the run [m]."""
+        return self._length
+
+    @property
+    def width(self) -> float:
+        """Distance between the way out and the way back [m]."""
+        return self._width
+
+    @property
+    def period(self) -> float:
+        """Time for one out-and-back [s]."""
+        return self._period
+
+    def _path(self, t: FloatArray) -> PathDerivatives:
+        return self._sinusoids(t)
+
+    def __repr__(self) -> str:
+        return (
+            f"OutAndBack(length={self._length!r}, period={self._period!r}, "
+            f"width={self._width!r}, center={tuple(self._center.tolist())!r}, "
+            f"heading={self.heading!r})"
         )

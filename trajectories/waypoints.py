@@ -13,6 +13,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.interpolate import CubicSpline
 
+from mpc.validation import file_text
+
 from ._validation import FloatArray, shown
 from .base import Trajectory
 from .errors import TrajectoryError
@@ -235,12 +237,7 @@ def read_waypoint_csv(path: str | os.PathLike[str]) -> tuple[FloatArray, FloatAr
     the line.
     """
     file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise TrajectoryError(f"waypoint file {str(file)!r} does not exist") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise TrajectoryError(f"cannot read waypoint file {str(file)!r}: {error}") from error
+    text = file_text(file, "waypoint", TrajectoryError)
     reader = csv.reader(io.StringIO(text))
     header: list[str] | None = None
     for row in reader:

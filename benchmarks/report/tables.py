@@ -31,6 +31,8 @@ _METRIC_COLUMNS = (
     _Column("max wheel ratio", "max_wheel_speed_ratio"),
     _Column("limit viol.", "limit_violations"),
     _Column("accel viol.", "accel_violations"),
+    _Column("max steer-rate ratio", "max_steer_rate_ratio"),
+    _Column("steer viol.", "steer_violations"),
     _Column("failures", "failures"),
     _Column("tick p50 [ms]", "tick_time_p50", 1e3),
     _Column("tick p99 [ms]", "tick_time_p99", 1e3),

@@ -43,10 +43,17 @@ def clamp_command(
        (:meth:`~mpc.robots.Robot.steering_fraction`); a wheel that must turn
        before it can drive waits at rest while it turns.
 
+    Robots whose limits depend on measured steer angles (casters) clamp at those angles
+    themselves (:meth:`~mpc.robots.Robot.clamp_joints`) instead of steps 1-3.
+
     Returns the clamped twist and whether it differs from ``target``. If
     ``last`` itself breaks a speed limit (the limits were just derated),
     acceleration and motor limits cannot be honoured as well; the speed limits win.
     """
+    if steer_angles is not None:
+        own = robot.clamp_joints(target, last, dt, steer_angles)  # casters: at these angles
+        if own is not None:
+            return own, bool(own is not target and not np.array_equal(own, target))
     safe = target
     if robot.rest_projector is not None:
         safe = robot.rest_projector @ safe

@@ -33,7 +33,9 @@ class Command:
         wheel_speeds: wheel speeds to send [rad/s], shape (n,); within the
             limits always. Swerve: signed, after the flip rule.
         twist: the commanded body twist (vx, vy, omega) [m/s, m/s, rad/s].
-        steer_angles: swerve module steer angles [rad] in (-pi, pi], else None.
+        steer_angles: swerve module steer angles [rad] in (-pi, pi]; casters: the angles
+            the command turns them to by the end of the tick (measured + steer rate * dt);
+            else None.
         predicted_poses: the plan's poses (N+1, 3) [m, m, rad].
         status: how the command was obtained (:class:`Status`).
         solver_status: the solver's own status text.
@@ -46,6 +48,10 @@ class Command:
             (plus the known delay) in time mode, the progress along the path in path mode.
         lag: how far ``reference_time`` trails ``t`` plus the known delay [s] (0 in time
             mode; in path mode, > 0 while the robot is behind the reference's timing).
+        steer_rates: casters (robots whose steer angles are states): the steer rates to
+            send [rad/s], shape (n,), within their limits; else None.
+        predicted_steer_angles: casters: the steer angles along the plan (N+1, n) [rad],
+            from the measured ones; else None.
         wheel_forces: robots with dynamics, the first step's planned drive force of each
             wheel at the floor [N] (n,), signed like ``wheel_speeds``; else None.
         motor_torques: the torque of each of a wheel's motors at its shaft [N m] (n,)
@@ -67,6 +73,8 @@ class Command:
     clamped: bool
     reference_time: float
     lag: float = 0.0
+    steer_rates: FloatArray | None = None
+    predicted_steer_angles: FloatArray | None = None
     wheel_forces: FloatArray | None = None
     motor_torques: FloatArray | None = None
     motor_currents: FloatArray | None = None

@@ -23,16 +23,23 @@ from mpc.model.weights import Weights, make_weights
 from mpc.profiling import TickProfile
 from mpc.robots.base import Robot
 from mpc.robots.motor_limits import first_step_feedforward
-from mpc.solvers import DenseSolver, NlpSolver, QpSolver, TrackingSolver
+from mpc.solvers import DenseSolver, NlpSolver, QpSolver, SolveResult, TrackingSolver
 from mpc.validation import (
+    MAX_COORDINATE,
+    MAX_DELAY_TICKS,
+    MAX_HORIZON,
+    MAX_ITERATIONS,
+    MAX_POLYGON_SIDES,
+    MAX_TIME,
+    finite_vector,
     flag,
-    integer_at_least,
+    integer_in,
     is_finite_number,
     is_integer,
     non_negative,
     positive,
 )
-from trajectories import Trajectory
+from trajectories import Trajectory, TrajectoryError
 
 #: Valid ``solver=`` names: the fast paths (daqp on the condensed QP, OSQP on the sparse
 #: QP) and the exact IPOPT path.
@@ -121,9 +128,10 @@ class Controller:
             raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
         _check_trajectory(trajectory)
         self.robot = robot
-        self.horizon = integer_at_least("horizon", horizon, 1, ControllerError)
+        self.horizon = integer_in("horizon", horizon, 1, MAX_HORIZON, ControllerError)
         self.dt = positive("dt [s]", dt, ControllerError)
-        self.delay_ticks = integer_at_least("delay_ticks", delay_ticks, 0, ControllerError)
+        self.delay_ticks = integer_in("delay_ticks", delay_ticks, 0, MAX_DELAY_TICKS,
+                                      ControllerError)
         self.mode = _check_mode(mode, time_scaling)
         self.stage_dt = _check_stage_dt(stage_dt, self.dt, self.mode)
         rate = positive("max_progress_rate", max_progress_rate, ControllerError)
@@ -140,6 +148,8 @@ class Controller:
         self._warm = WarmStart(self._tick, self.model.offsets, self.dt)
         self._fallback = FallbackPolicy(robot, self.model.offsets, self.dt)
         self._delay = DelayCompensator(self.delay_ticks, self.dt)
+        self._last = np.zeros(3)  # the last command's twist; reset() sets these
+        self._steer: FloatArray | None = None  # steered wheels' commanded angles [rad]
         self._set_reference(trajectory)
         self.reset()
 
@@ -171,41 +181,121 @@ class Controller:
         present motion is kept)."""
         _check_trajectory(trajectory)
         self._set_reference(trajectory)
-        self.reset(self._last)
+        self.reset(self._last, self._steer if not self.robot.steer_states else None)
 
-    def reset(self, last_twist: ArrayLike | None = None) -> None:
+    def reset(self, last_twist: ArrayLike | None = None,
+              steer_angles: ArrayLike | None = None) -> None:
         """Forget the plan, warm start, failures and timing; the robot is at rest unless
-        ``last_twist`` (the body twist it is executing now [m/s, m/s, rad/s]) says."""
+        ``last_twist`` (the body twist it is executing now [m/s, m/s, rad/s]) says.
+
+        Swerve modules are at ``steer_angles`` [rad] (n,) if given; else a module moving
+        in ``last_twist`` points along it (flip rule from its last commanded angle) and one
+        at rest where it was last commanded (straight ahead at first)."""
         last = np.zeros(3) if last_twist is None else np.array(last_twist, dtype=float)
         if last.shape != (3,) or not np.all(np.isfinite(last)):
             raise ControllerError(f"last_twist must be a finite (3,) twist, got {last_twist!r}")
         self._last = last
-        self._steer = self.robot.initial_steer_angles()
+        steer = self._steer if self._steer is not None else self.robot.initial_steer_angles()
+        if steer_angles is not None:
+            if steer is None or self.robot.steer_states:
+                raise ControllerError(f"steer_angles apply to swerve robots only, not "
+                                      f"{self.robot.name!r}")
+            steer = finite_vector("steer_angles", steer_angles, self.robot.n_wheels,
+                                  "[rad], one a module", ControllerError)
+        elif steer is not None and last.any() and not self.robot.steer_states:
+            steer = self.robot.wheel_commands(last, steer)[1]
+        self._steer = steer
         self._delay.reset(last)
         self._warm.reset()
         self._fallback.reset()
         self._timing.reset()
         self.solver.reset()
 
-    def step(self, pose: ArrayLike, t: float) -> Command:
+    def step(self, pose: ArrayLike, t: float, steer_angles: ArrayLike | None = None) -> Command:
         """Plan from the measured pose at time ``t`` and return this tick's command.
 
         Args:
             pose: measured world pose (x, y, theta) [m, m, rad], shape (3,).
             t: the current time on the trajectory's clock [s].
+            steer_angles: robots whose steer angles are states (casters, required): the
+                measured steer angles [rad], shape (n,). Other robots: must be None (swerve
+                modules follow the controller's own commanded angles).
         """
         start = time.perf_counter()
         profile = self._profile
         if profile is not None:
             profile.start()
         x0 = self._delay.predict(_check_pose(pose))
-        if not is_finite_number(t):
-            raise ControllerError(f"t must be a finite time in seconds, got {t!r}")
+        if not is_finite_number(t) or abs(t) > MAX_TIME:  # type: ignore[arg-type]
+            raise ControllerError(f"t must be a finite time in seconds within +-{MAX_TIME:g}, "
+                                  f"got {t!r}")
+        measured = _check_steer_angles(self.robot, steer_angles)
+        if measured is not None:
+            self._steer = measured
         tick = self._tick
         t_plan = float(t) + self.delay_ticks * self.dt
         if profile is not None:
             profile.mark("check and predict")
-        reference_time = self._timing.fill(float(t), t_plan, float(x0[2]))
+        try:
+            reference_time = self._timing.fill(float(t), t_plan, float(x0[2]))
+        except TrajectoryError as error:  # the reference, not the caller: fall back
+            reference_time, result = t_plan, self._unplanned(f"reference failed: {error}")
+        else:
+            result = self._solve(x0)
+        if result.success:
+            status, target, plan = Status.SOLVED, result.twists[0], result.poses
+            self._fallback.succeeded(result.twists)
+            self._warm.store(result.poses, result.twists)
+            self._timing.solved(result.progress)
+        else:
+            self._warm.reset()
+            self.solver.reset()
+            self._timing.solved(None)
+            status, target = self._fallback.failed(tick.twists_ref[0], result.status)
+            plan = tick.poses_ref.copy()
+            if not math.isfinite(float(plan.sum())):
+                plan[:] = x0
+        twist, clamped = clamp_command(self.robot, target, self._last, self.dt, self._steer)
+        twist, speeds, steer_rates, predicted_steer = self._wheel_commands(
+            twist, target, measured, result)
+        feedforward = first_step_feedforward(self.robot, self._last, twist, self.dt, self._steer)
+        self._last = twist
+        self._delay.sent(twist)
+        if profile is not None:
+            profile.mark("clamp and commands")
+        return Command(
+            wheel_speeds=speeds, twist=twist, steer_angles=self._steer,
+            predicted_poses=plan, status=status, solver_status=result.status,
+            solve_time=result.solve_time, tick_time=time.perf_counter() - start,
+            iterations=result.iterations, consecutive_failures=self._fallback.failures,
+            clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time,
+            steer_rates=steer_rates, predicted_steer_angles=predicted_steer,
+            **_feedforward(feedforward))
+
+    def _wheel_commands(self, twist: FloatArray, target: FloatArray, measured: FloatArray | None,
+                        result: SolveResult) -> tuple[FloatArray, FloatArray, FloatArray | None,
+                                                      FloatArray | None]:
+        """What the wheels are told for the clamped ``twist``: (the twist they will drive,
+        wheel speeds, caster steer rates, caster steer angles predicted along the plan);
+        updates the steer angles the controller believes in."""
+        if measured is not None:  # casters: joint rates held over the tick
+            speeds, steer_rates = _tick_rates(self.robot, twist, measured, self.dt)
+            self._steer = measured + steer_rates * self.dt
+            planned = result.twists if result.success else np.tile(twist, (self.horizon, 1))
+            predicted = self.robot.predict_steer_angles(measured, planned, self.model.durations)
+            return twist, speeds, steer_rates, predicted
+        previous = self._steer
+        speeds, self._steer = self.robot.wheel_commands(twist, self._steer, target, self.dt)
+        if self._steer is not None:  # steered wheels at rest: the twist they will drive
+            turning = None if previous is None else (
+                np.mod(self._steer - previous + math.pi, 2.0 * math.pi) - math.pi) / self.dt
+            twist = self.robot.steering_forward_kinematics(speeds, self._steer, turning)
+        return twist, speeds, None, None
+
+    def _solve(self, x0: FloatArray) -> SolveResult:
+        """Plan from ``x0`` on the reference the tick holds (warm started; path mode: solved
+        again while the progress settles after a reset)."""
+        tick, profile = self._tick, self._profile
         tick.pose[:] = x0
         tick.last_twist[:] = self._last
         if tick.steer_angles is not None and self._steer is not None:
@@ -223,33 +313,16 @@ class Controller:
             result = self.solver.solve(tick)
         if profile is not None:
             profile.mark("solve (rest)")
-        if result.success:
-            status, target, plan = Status.SOLVED, result.twists[0], result.poses
-            self._fallback.succeeded(result.twists)
-            self._warm.store(result.poses, result.twists)
-            self._timing.solved(result.progress)
-        else:
-            self._warm.reset()
-            self.solver.reset()
-            self._timing.solved(None)
-            status, target = self._fallback.failed(tick.twists_ref[0])
-            plan = tick.poses_ref.copy()
-        twist, clamped = clamp_command(self.robot, target, self._last, self.dt, self._steer)
-        speeds, self._steer = self.robot.wheel_commands(twist, self._steer, target, self.dt)
-        if self._steer is not None:  # steered wheels at rest: the twist the wheels will drive
-            twist = self.robot.forward_kinematics(speeds, self._steer)
-        feedforward = first_step_feedforward(self.robot, self._last, twist, self.dt, self._steer)
-        self._last = twist
-        self._delay.sent(twist)
-        if profile is not None:
-            profile.mark("clamp and commands")
-        return Command(
-            wheel_speeds=speeds, twist=twist, steer_angles=self._steer,
-            predicted_poses=plan, status=status, solver_status=result.status,
-            solve_time=result.solve_time, tick_time=time.perf_counter() - start,
-            iterations=result.iterations, consecutive_failures=self._fallback.failures,
-            clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time,
-            **_feedforward(feedforward))
+        return result
+
+    def _unplanned(self, status: str) -> SolveResult:
+        """A failed solve that never ran (``status`` says why); the reference in the tick is
+        not to be trusted, so the fallback skips its feedforward."""
+        self._tick.twists_ref[:] = np.nan
+        self._tick.poses_ref[:] = np.nan
+        n = self.horizon
+        return SolveResult(success=False, status=status, poses=np.full((n + 1, 3), np.nan),
+                           twists=np.full((n, 3), np.nan), solve_time=0.0, iterations=0)
 
 
 def _feedforward(values: tuple[FloatArray, FloatArray, FloatArray] | None
@@ -292,6 +365,59 @@ def _check_trajectory(trajectory: object) -> None:
             f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}")
 
 
+def _tick_rates(robot: Robot, twist: FloatArray, angles: FloatArray,
+                dt: float) -> tuple[FloatArray, FloatArray]:
+    """Joint rates to hold over a tick for ``twist``, from the measured steer ``angles``.
+
+    The angles turn during the tick while the motors hold their rates. So the steer rates
+    are the ones that end the tick where ``twist`` turns the casters (the model's angle
+    flow over ``dt``), and the drive rates the average over the tick of what ``twist``
+    asks for along that flow (Simpson's rule). Measured on the caster preset's circle
+    this cuts the steady error from model mismatch several times against rates taken at
+    the measured angles. A rate that ends up past its limit (the clamp kept them within
+    at the measured angles; a leading caster's rate grows within the tick) scales them
+    all down together."""
+    flow = robot.predict_steer_angles(angles, np.tile(twist, (2, 1)),
+                                      np.array([0.5 * dt, 0.5 * dt]))
+    rows = [robot.joint_rows(flow[k])[0] @ twist for k in range(3)]
+    drive = (rows[0] + 4.0 * rows[1] + rows[2]) / 6.0
+    steer = (flow[2] - flow[0]) / dt
+    limit_steer = robot.max_steer_rates
+    magnitude = np.concatenate([np.abs(drive), np.abs(steer)])
+    bound = np.concatenate([robot.max_wheel_speed,
+                            limit_steer if limit_steer is not None else np.abs(steer)])
+    over = magnitude > bound
+    if over.any():
+        scale = float((bound[over] / magnitude[over]).min())
+        drive, steer = drive * scale, steer * scale
+    return drive, steer
+
+
+def _check_steer_angles(robot: Robot, steer_angles: ArrayLike | None) -> FloatArray | None:
+    """The measured steer angles of a robot whose angles are states (required), else None."""
+    if not robot.steer_states:
+        if steer_angles is not None:
+            raise ControllerError(
+                f"steer_angles is for robots whose steer angles are states (casters); robot "
+                f"{robot.name!r} ({robot.kind}) follows its own commanded angles: pass None")
+        return None
+    n = robot.n_wheels
+    if steer_angles is None:
+        raise ControllerError(f"robot {robot.name!r} ({robot.kind}) needs the measured steer "
+                              f"angles each tick: step(pose, t, steer_angles=<{n} angles [rad]>)")
+    try:
+        angles = np.array(steer_angles, dtype=float)
+    except (TypeError, ValueError):
+        raise ControllerError(f"steer_angles must be {n} numbers [rad], "
+                              f"got {steer_angles!r}") from None
+    if angles.shape != (n,):
+        raise ControllerError(f"steer_angles must have shape ({n},) [rad], one per caster, "
+                              f"got shape {angles.shape}")
+    if not np.all(np.isfinite(angles)):
+        raise ControllerError(f"steer_angles must be finite, got {angles.tolist()}")
+    return angles
+
+
 def _check_pose(pose: ArrayLike) -> FloatArray:
     try:
         x0 = np.array(pose, dtype=float)
@@ -301,6 +427,10 @@ def _check_pose(pose: ArrayLike) -> FloatArray:
         raise ControllerError(f"pose must have shape (3,) as (x, y, theta), got shape {x0.shape}")
     if not (math.isfinite(x0[0]) and math.isfinite(x0[1]) and math.isfinite(x0[2])):
         raise ControllerError(f"pose must be finite, got {x0.tolist()}")
+    if not (abs(x0[0]) <= MAX_COORDINATE and abs(x0[1]) <= MAX_COORDINATE
+            and abs(x0[2]) <= MAX_COORDINATE):
+        raise ControllerError(f"pose must lie within +-{MAX_COORDINATE:g} (m, m, rad), "
+                              f"got {x0.tolist()}")
     return x0
 
 
@@ -308,8 +438,8 @@ def _make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
                  max_iter: int | None, time_limit: float) -> TrackingSolver:
     if name not in SOLVERS:
         raise ControllerError(f"unknown solver {name!r}; expected one of {list(SOLVERS)}")
-    iterations = None if max_iter is None else integer_at_least("max_iter", max_iter, 1,
-                                                                ControllerError)
+    iterations = None if max_iter is None else integer_in("max_iter", max_iter, 1,
+                                                          MAX_ITERATIONS, ControllerError)
     limit = non_negative("time_limit [s]", time_limit, ControllerError)
     if name == "ipopt":
         if polygon_sides is not None:
@@ -319,6 +449,7 @@ def _make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
     sides = DEFAULT_POLYGON_SIDES if polygon_sides is None else polygon_sides
     if not is_integer(sides) or sides < 4 or sides % 2:
         raise ControllerError(f"polygon_sides must be an even integer >= 4, got {sides!r}")
+    integer_in("polygon_sides", sides, 4, MAX_POLYGON_SIDES, ControllerError)
     if name == "daqp":
         return DenseSolver(model, polygon_sides=int(sides), max_iter=iterations or 1000,
                            time_limit=limit)

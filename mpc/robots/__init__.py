@@ -1,10 +1,13 @@
-"""Robot descriptions: Swedish-wheel (omni, Mecanum), swerve and driven-ball layouts.
+"""Robot descriptions: Swedish-wheel (omni, Mecanum), swerve (centred or axle-offset modules),
+driven-ball and powered-caster layouts, and wheel sets by type (refused unless
+omnidirectional).
 
 Conventions: REP-103 body frame (x forward, y left, yaw counter-clockwise),
 twists ``(vx, vy, omega)`` in m/s and rad/s, wheel speeds in rad/s. Wheel
 orders: Mecanum FL, FR, RL, RR; omni counter-clockwise from
 ``first_wheel_angle``; swerve as ``module_positions`` lists them; driven
-balls ball by ball, the actuator about +x then the one about +y. A new
+balls ball by ball, the actuator about +x then the one about +y; casters as ``positions``
+lists them (steer angles measured each tick: they are states). A new
 wheel type is a :class:`Robot` subclass plus a factory passed to
 :func:`register`. Motors: :class:`DCMotor` (WPILib's DC motor model and
 presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel); :class:`RobotDynamics`
@@ -13,8 +16,9 @@ limits (:mod:`mpc.robots.motor_limits`); :func:`motor_preset` ships them per lay
 """
 
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
+from mpc.robots.caster import CasterRobot, caster
 from mpc.robots.dynamics import RobotDynamics, choreo_dynamics, dynamics
-from mpc.robots.files import PRESETS, from_dict, load, motor_preset, preset
+from mpc.robots.files import MOTOR_ROBOT_PRESETS, PRESETS, from_dict, load, motor_preset, preset
 from mpc.robots.mobility import (
     Mobility,
     WheelSpec,
@@ -28,9 +32,12 @@ from mpc.robots.registry import register, robot_types
 from mpc.robots.spherical import SphericalRobot, spherical
 from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
 from mpc.robots.swerve import SwerveRobot, swerve, wrap_angle
+from mpc.robots.wheel_set import wheel_set
 
 __all__ = [
+    "CasterRobot",
     "MOTOR_PRESETS",
+    "MOTOR_ROBOT_PRESETS",
     "Mobility",
     "PRESETS",
     "DCMotor",
@@ -44,6 +51,7 @@ __all__ = [
     "SysIdMotor",
     "WheelCommands",
     "WheelSpec",
+    "caster",
     "choreo_dynamics",
     "dynamics",
     "from_dict",
@@ -60,5 +68,6 @@ __all__ = [
     "robot_types",
     "spherical",
     "swerve",
+    "wheel_set",
     "wrap_angle",
 ]

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike
 from mpc.arrays import BoolArray, FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.limits import SpeedRows, StageLimits, linear_stage_limits
-from mpc.validation import is_finite_number, is_integer
+from mpc.validation import MAX_WHEELS, is_finite_number, is_integer
 
 if TYPE_CHECKING:
     from mpc.robots.dynamics import RobotDynamics
@@ -91,6 +91,9 @@ class Robot(abc.ABC):
     kind: ClassVar[str] = ""
     #: Whether the wheels are steered (commands carry steer angles).
     steered: ClassVar[bool] = False
+    #: Whether the steer angles are states the motion sets (casters): the controller then
+    #: takes the measured angles each tick and commands steer rates.
+    steer_states: ClassVar[bool] = False
 
     name: str = field(default="robot", kw_only=True)
     derating: tuple[float, ...] | None = field(default=None, kw_only=True)
@@ -111,6 +114,9 @@ class Robot(abc.ABC):
         """Checks shared by every layout; subclasses call it last in ``__post_init__``."""
         if not isinstance(self.name, str):
             raise RobotError(f"name must be a string, got {self.name!r}")
+        if self.n_wheels > MAX_WHEELS:
+            raise RobotError(f"a robot has at most {MAX_WHEELS} wheels (a bound of this "
+                             f"library), got {self.n_wheels}")
         flat = self.wheel_blocks.reshape(-1, 3)
         check_holonomic(flat, f"robot {self.name!r}")
         object.__setattr__(self, "_flat_pinv", readonly(np.linalg.pinv(flat)))
@@ -214,6 +220,12 @@ class Robot(abc.ABC):
             steer_angles: steer angles [rad], shape (n,), for steered wheels; else None.
         """
 
+    def steering_forward_kinematics(self, wheel_speeds: FloatArray, steer_angles: FloatArray,
+                                    steer_rates: FloatArray | None) -> FloatArray:
+        """:meth:`forward_kinematics` while steered wheels turn at ``steer_rates`` [rad/s]
+        (modules whose wheel moves as they steer, e.g. an axle offset, override it)."""
+        return self.forward_kinematics(wheel_speeds, steer_angles)
+
     # ------------------------------------------------------------ commands
     def wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None,
                        aim: FloatArray | None = None, dt: float | None = None) -> WheelCommands:
@@ -231,6 +243,36 @@ class Robot(abc.ABC):
         turns no steered wheel faster than its steering rate from ``steer_angles``.
         Default (no steered wheels): 1."""
         return 1.0
+
+    def joint_rates(self, twist: ArrayLike, steer_angles: ArrayLike) -> tuple[FloatArray,
+                                                                             FloatArray]:
+        """Robots whose steer angles are states (:attr:`steer_states`): drive rates and steer
+        rates [rad/s], each (n,), for one twist at the given steer angles."""
+        raise RobotError(f"robot {self.name!r} ({self.kind}) has no steer states")
+
+    def joint_rows(self, steer_angles: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Robots whose steer angles are states: drive rows ``D`` and steer rows ``S``, each
+        (..., n, 3), at steer angles (..., n) [rad]: ``phidot = D xi``, ``betadot = S xi``."""
+        raise RobotError(f"robot {self.name!r} ({self.kind}) has no steer states")
+
+    def joint_twist(self, drive_rates: FloatArray, steer_rates: FloatArray,
+                    steer_angles: FloatArray) -> FloatArray:
+        """Robots whose steer angles are states: the least-squares twist of drive and steer
+        rates [rad/s] (n,) at the angles (n,) [rad], unchecked (the plant's hot path)."""
+        raise RobotError(f"robot {self.name!r} ({self.kind}) has no steer states")
+
+    def predict_steer_angles(self, steer_angles: FloatArray, twists: FloatArray,
+                             durations: FloatArray) -> FloatArray:
+        """Robots whose steer angles are states: the angles (k+1, n) [rad] that twists
+        (k, 3), each held for its duration (k,) [s], turn the wheels through."""
+        raise RobotError(f"robot {self.name!r} ({self.kind}) has no steer states")
+
+    def clamp_joints(self, target: FloatArray, last: FloatArray, dt: float,
+                     steer_angles: FloatArray) -> FloatArray | None:
+        """Robots whose joint limits depend on measured steer angles (casters) bring the
+        step from ``last`` towards ``target`` within them here; None (the default): the
+        generic clamp of :func:`mpc.control.clamp.clamp_command` applies."""
+        return None
 
     @abc.abstractmethod
     def commands_from_velocities(self, velocities: FloatArray,

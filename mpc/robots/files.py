@@ -12,8 +12,13 @@ arguments of its factory::
     max_wheel_accel = 40.0      # [rad/s^2], optional
 
 ``type = "swedish"`` takes ``[[wheels]]`` tables with the fields of
-:class:`~mpc.robots.swedish.SwedishWheel`. An optional ``[dynamics]`` table describes
-mass, motors, battery and traction (:mod:`mpc.robots.dynamics`). Unknown keys are an error.
+:class:`~mpc.robots.swedish.SwedishWheel`; ``type = "caster"`` the arguments of
+:func:`~mpc.robots.caster.caster` (``positions``, ``offset``, ``max_steer_rate``, ...);
+``type = "swerve"`` an optional ``axle_offset`` [m]; ``type = "wheels"`` a wheel set by
+the mobility analysis's types (:mod:`mpc.robots.wheel_set`), refused with a one-line
+error naming its degree of mobility and steerability when it cannot follow an arbitrary
+pose trajectory. An optional ``[dynamics]`` table describes mass, motors, battery and
+traction (:mod:`mpc.robots.dynamics`). Unknown keys are an error.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from mpc.errors import RobotError
 from mpc.robots.base import Robot
 from mpc.robots.dynamics import dynamics_from_dict
 from mpc.robots.registry import robot_type
+from mpc.validation import file_text
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -35,7 +41,7 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 #: Names of the shipped presets, usable with :func:`preset`.
-PRESETS: tuple[str, ...] = ("omni3", "omni4", "mecanum", "swerve", "ball3")
+PRESETS: tuple[str, ...] = ("omni3", "omni4", "mecanum", "swerve", "ball3", "caster4", "mpo700")
 
 
 def from_dict(description: Mapping[str, Any], source: str = "robot description") -> Robot:
@@ -66,13 +72,7 @@ def from_dict(description: Mapping[str, Any], source: str = "robot description")
 def load(path: str | Path) -> Robot:
     """Load a robot from a TOML file (see the module docstring for the keys)."""
     file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8-sig")
-    except OSError as error:
-        raise RobotError(f"cannot read robot file {str(file)!r}: {error.strerror}") from None
-    except UnicodeDecodeError as error:
-        raise RobotError(f"robot file {str(file)!r} is not UTF-8 text: {error.reason} "
-                         f"at byte {error.start}") from None
+    text = file_text(file, "robot", RobotError)
     try:
         description = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
@@ -89,13 +89,18 @@ def preset(name: str) -> Robot:
     return from_dict(tomllib.loads(text), source=f"preset {name!r}")
 
 
+#: Layouts shipped with motors as well (:func:`motor_preset`).
+MOTOR_ROBOT_PRESETS: tuple[str, ...] = ("omni3", "omni4", "mecanum", "swerve", "ball3")
+
+
 def motor_preset(name: str) -> Robot:
-    """A shipped robot with motors (``[dynamics]``) by layout name, one of :data:`PRESETS`:
-    the same wheel layout as :func:`preset`, with illustrative motors, mass and traction;
-    its speed limit is the motors' free speed and it has no acceleration limit (the
-    motor rows bound acceleration)."""
-    if name not in PRESETS:
-        raise RobotError(f"unknown robot preset {name!r}; expected one of {list(PRESETS)}")
+    """A shipped robot with motors (``[dynamics]``) by layout name, one of
+    :data:`MOTOR_ROBOT_PRESETS`: the same wheel layout as :func:`preset`, with illustrative
+    motors, mass and traction; its speed limit is the motors' free speed and it has no
+    acceleration limit (the motor rows bound acceleration)."""
+    if name not in MOTOR_ROBOT_PRESETS:
+        raise RobotError(f"no motor preset {name!r}; expected one of "
+                         f"{list(MOTOR_ROBOT_PRESETS)}")
     folder = resources.files("mpc.robots").joinpath("presets")
     text = folder.joinpath(f"{name}-motors.toml").read_text("utf-8")
     return from_dict(tomllib.loads(text), source=f"motor preset {name!r}")

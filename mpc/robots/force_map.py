@@ -68,6 +68,10 @@ def wheel_radii(robot: Robot) -> FloatArray:
     if robot.kind == "swedish":
         return np.array([wheel.radius for wheel in robot.wheels])  # type: ignore[attr-defined]
     if robot.kind == "swerve":
+        if getattr(robot, "axle_offset", 0.0):
+            raise RobotError("motor dynamics support swerve modules whose wheel is under the "
+                             f"steering axis; robot {robot.name!r} has axle_offset "
+                             f"{robot.axle_offset!r} m")  # type: ignore[attr-defined]
         return np.full(n, float(robot.wheel_radius))  # type: ignore[attr-defined]
     if robot.kind == "spherical":
         radius: FloatArray = np.asarray(robot.wheel_radius, dtype=np.float64)  # type: ignore[attr-defined]

@@ -28,7 +28,7 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.registry import register
-from mpc.validation import finite, integer_at_least, positive
+from mpc.validation import MAX_WHEELS, finite, integer_in, positive
 
 
 @dataclass(frozen=True)
@@ -98,6 +98,9 @@ class SwedishRobot(Robot):
 
     def __post_init__(self) -> None:
         wheels = tuple(self.wheels) if isinstance(self.wheels, Sequence) else ()
+        if len(wheels) > MAX_WHEELS:
+            raise RobotError(f"a robot has at most {MAX_WHEELS} wheels (a bound of this "
+                             f"library), got {len(wheels)}")
         if len(wheels) < 3 or not all(isinstance(w, SwedishWheel) for w in wheels):
             raise RobotError(
                 f"a Swedish robot needs a sequence of at least 3 SwedishWheel objects, "
@@ -186,7 +189,7 @@ def omni(
         first_wheel_angle: polar angle of wheel 0's centre [rad].
         max_wheel_accel: [rad/s^2] or None.
     """
-    count = integer_at_least("n_wheels", n_wheels, 3, RobotError)
+    count = integer_in("n_wheels", n_wheels, 3, MAX_WHEELS, RobotError)
     base = positive("base_radius", base_radius, RobotError)
     first = finite("first_wheel_angle", first_wheel_angle, RobotError)
     wheels = tuple(

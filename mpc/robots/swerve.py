@@ -15,6 +15,23 @@ Module ``i`` at body position ``p_i = (x_i, y_i)`` [m] moves at
 - Flip rule: a module more than 90 degrees from its present angle steers to
   ``angle + pi`` and drives backwards instead (exactly 90 degrees does not
   flip); a module at (near) zero speed keeps its angle.
+
+**Axle-offset modules** (``axle_offset = L > 0`` [m], Neobotix MPO-700, Care-O-bot 3): the
+wheel sits ``L`` along its axle to the right of the steer axis, contact
+``C = P + L (sin b, -cos b)`` for steer angle ``b`` (the wheel's rolling heading
+``e = (cos b, sin b)``). No lateral slip still aligns ``e`` with ``v_i`` (the offset adds
+``omega L e`` to the contact's velocity, along the wheel), so the steer angle and the flip
+rule are those of a centred module; the wheel's speed is corrected for the body's
+rotation and for the module's own steering::
+
+    r * phidot = e . v(C) + L * betadot = e . v_i + L * (omega + betadot)
+
+(``betadot`` the steer rate [rad/s]; one open-source driver omits the ``L betadot``
+term). Limits: the drive rate before steering is bounded by ``|v_i| + L |omega|``
+(either sign of ``e``), so the speed limit becomes ``|v_i| + L |omega| <= r max`` (a cone:
+exact in the NLP as smooth rows, the polygon rows doubled with ``+-L omega`` in the QP).
+The steering term is not in the plan (it depends on the change of twist); the final
+clamp keeps every command's corrected drive rate within the limit.
 """
 
 from __future__ import annotations
@@ -30,11 +47,13 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
 from mpc.robots.registry import register
-from mpc.robots.swerve_limits import nlp_stage_limits, steering_fraction, turns
-from mpc.validation import integer_at_least, positive
-
-#: Below this module speed [m/s] a module keeps its previous steer angle.
-STOPPED_MODULE_SPEED = 1e-6
+from mpc.robots.swerve_limits import (
+    STOPPED_MODULE_SPEED,
+    nlp_stage_limits,
+    steering_fraction,
+    turns,
+)
+from mpc.validation import integer_at_least, non_negative, positive
 
 
 def wrap_angle(angle: ArrayLike) -> FloatArray:
@@ -64,6 +83,7 @@ class SwerveRobot(Robot):
     max_speed: float = field(default=1.0, kw_only=True)
     max_steer_rate: float = field(default=10.0, kw_only=True)
     max_accel: float | None = field(default=None, kw_only=True)
+    axle_offset: float = field(default=0.0, kw_only=True)
 
     def __post_init__(self) -> None:
         try:
@@ -88,6 +108,8 @@ class SwerveRobot(Robot):
         if self.max_accel is not None:
             object.__setattr__(self, "max_accel",
                                positive("max_wheel_accel", self.max_accel, RobotError))
+        lever = non_negative("axle_offset [m]", self.axle_offset, RobotError)
+        object.__setattr__(self, "axle_offset", lever)
         n = positions.shape[0]
         object.__setattr__(self, "wheel_blocks", readonly(self.ground_maps() / radius))
         object.__setattr__(self, "nominal_max_wheel_speed", readonly(np.full(n, self.max_speed)))
@@ -115,12 +137,34 @@ class SwerveRobot(Robot):
         return np.full(self.n_wheels, self.max_steer_rate)
 
     def wheel_speeds(self, twist: ArrayLike) -> FloatArray:
-        """Module wheel speeds ``|v_i| / r`` [rad/s], non-negative, shape (n,) or (k, n)."""
-        return np.linalg.norm(self.wheel_velocities(twist), axis=-1)
+        """Module wheel speeds ``|v_i| / r`` [rad/s], non-negative, shape (n,) or (k, n); with
+        an axle offset, ``(|v_i| + L |omega|) / r`` (the larger of the two flips)."""
+        speeds = np.linalg.norm(self.wheel_velocities(twist), axis=-1)
+        if self.axle_offset:
+            spin = np.abs(as_twists(twist)[..., 2:3])
+            speeds = speeds + self.axle_offset * spin / self.wheel_radius
+        return speeds
 
     def wheel_magnitudes(self, twist: FloatArray) -> FloatArray:
         velocity = self.flat_wheel_blocks @ twist
-        return np.hypot(velocity[0::2], velocity[1::2])
+        speeds = np.hypot(velocity[0::2], velocity[1::2])
+        if self.axle_offset:
+            speeds = speeds + self.axle_offset * abs(float(twist[2])) / self.wheel_radius
+        return speeds
+
+    def speed_ratio(self, twist: ArrayLike) -> FloatArray | float:
+        """Peak wheel speed / limit; with an axle offset the speed is
+        ``(|v_i| + L |omega|) / r`` (see :meth:`wheel_speeds`)."""
+        if not self.axle_offset:
+            return super().speed_ratio(twist)
+        xi = as_twists(twist)
+        limit = self.max_wheel_speed
+        magnitude = self.wheel_speeds(xi)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(limit > 0.0, magnitude / np.where(limit > 0.0, limit, 1.0),
+                             np.where(magnitude > 1e-12, np.inf, 0.0))
+        peak = ratio.max(axis=-1)
+        return float(peak) if np.ndim(peak) == 0 else peak
 
     def module_velocities(self, twist: ArrayLike) -> FloatArray:
         """Module ground velocities ``v_i`` [m/s], shape (..., n, 2)."""
@@ -204,10 +248,38 @@ class SwerveRobot(Robot):
     def forward_kinematics(self, wheel_speeds: FloatArray,
                            steer_angles: FloatArray | None) -> FloatArray:
         angles = np.zeros(self.n_wheels) if steer_angles is None else steer_angles
+        if self.axle_offset:
+            return self.steering_forward_kinematics(wheel_speeds, angles, None)
         velocities = np.empty(2 * self.n_wheels)
         velocities[0::2] = wheel_speeds * np.cos(angles)
         velocities[1::2] = wheel_speeds * np.sin(angles)
         return self._flat_pinv @ velocities
+
+    def steering_forward_kinematics(self, wheel_speeds: FloatArray, steer_angles: FloatArray,
+                                    steer_rates: FloatArray | None) -> FloatArray:
+        """Forward kinematics while the modules steer at ``steer_rates`` [rad/s] (None: 0).
+        With an axle offset ``L``: least squares of ``e_i . v_i + L omega = r phidot_i -
+        L betadot_i`` and ``n_i . v_i = 0`` over the modules; else :meth:`forward_kinematics`."""
+        if not self.axle_offset:
+            return self.forward_kinematics(wheel_speeds, steer_angles)
+        c, s = np.cos(steer_angles), np.sin(steer_angles)
+        ground = self.ground_maps()
+        rows = np.empty((2 * self.n_wheels, 3))
+        rows[0::2] = c[:, None] * ground[:, 0] + s[:, None] * ground[:, 1]
+        rows[0::2, 2] += self.axle_offset
+        rows[1::2] = -s[:, None] * ground[:, 0] + c[:, None] * ground[:, 1]
+        rolling = self.wheel_radius * np.asarray(wheel_speeds, dtype=float)
+        if steer_rates is not None:
+            rolling = rolling - self.axle_offset * steer_rates
+        values = np.zeros(2 * self.n_wheels)
+        values[0::2] = rolling
+        return np.asarray(np.linalg.lstsq(rows, values, rcond=None)[0], dtype=float)
+
+    def axle_correction(self, twist: FloatArray, steer_rates: FloatArray | None) -> FloatArray:
+        """The drive-rate correction of an axle offset [rad/s] (n,):
+        ``L (omega + betadot) / r`` (0 without an offset)."""
+        rates = np.zeros(self.n_wheels) if steer_rates is None else steer_rates
+        return self.axle_offset * (float(twist[2]) + rates) / self.wheel_radius
 
     def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
         """A regular polygon with ``polygon_sides`` sides (even, >= 4; half as many two-sided
@@ -222,7 +294,11 @@ class SwerveRobot(Robot):
         angles = 2.0 * math.pi * np.arange(sides // 2) / sides
         normals = np.stack([np.cos(angles), np.sin(angles)], axis=1)  # (M/2, 2)
         rows = np.einsum("md,ndj->nmj", normals, self.wheel_blocks)
-        wheel = np.repeat(np.arange(self.n_wheels), len(angles))
+        if self.axle_offset:  # |c . v| + L |omega| <= b as the pair c . v +- L omega
+            spin = np.zeros(3)
+            spin[2] = self.axle_offset / self.wheel_radius
+            rows = np.concatenate([rows + spin, rows - spin], axis=1)
+        wheel = np.repeat(np.arange(self.n_wheels), rows.shape[1])
         return SpeedRows(rows.reshape(-1, 3), wheel, 0.5 * (1.0 + math.cos(math.pi / sides)))
 
     def casadi_limits(self, twist: ca.SX, bounds: FloatArray) -> tuple[ca.SX, FloatArray,
@@ -243,7 +319,12 @@ class SwerveRobot(Robot):
         """Signed speeds and steer angles for ``twist`` with the flip rule; modules it leaves
         at rest turn towards their direction in ``aim`` by at most ``max_steer_rate dt``."""
         speeds, angles = self._states(self.wheel_blocks @ twist, steer_angles)
-        if aim is None or dt is None or steer_angles is None:
+        if self.axle_offset:  # the wheel rolls with the body's rotation and its steering
+            turning = None
+            if steer_angles is not None and dt is not None:
+                turning = wrap_angle(angles - steer_angles) / dt
+            speeds = speeds + self.axle_correction(twist, turning)
+        if aim is None or dt is None or steer_angles is None or self.axle_offset:
             return WheelCommands(speeds, angles)
         goal = self.wheel_blocks @ aim
         wanted = np.arctan2(goal[:, 1], goal[:, 0])
@@ -276,6 +357,7 @@ def swerve(
     max_wheel_speed: float,
     max_steer_rate: float,
     max_wheel_accel: float | None = None,
+    axle_offset: float = 0.0,
     name: str = "swerve",
 ) -> SwerveRobot:
     """A swerve base.
@@ -286,10 +368,12 @@ def swerve(
         max_wheel_speed: per-module wheel speed limit [rad/s].
         max_steer_rate: steering rate limit [rad/s].
         max_wheel_accel: [rad/s^2] or None (bounds the module velocity vector's change).
+        axle_offset: the wheel's offset along its axle from the steer axis [m] >= 0
+            (MPO-700-style modules; see the module docstring), 0 for centred modules.
     """
     return SwerveRobot(module_positions, name=name, wheel_radius=wheel_radius,
                        max_speed=max_wheel_speed, max_steer_rate=max_steer_rate,
-                       max_accel=max_wheel_accel)
+                       max_accel=max_wheel_accel, axle_offset=axle_offset)
 
 
 register("swerve", swerve)

@@ -2,7 +2,8 @@
 
 For module ``i`` with velocity ``v = W_i u`` [rad/s] (ground velocity / r):
 
-- speed: ``|v_k| <= max_wheel_speed``; acceleration: ``|v_k - v_{k-1}| <= max_wheel_accel dt``;
+- speed: ``|v_k| <= max_wheel_speed`` (axle offset ``L``: ``|v_k| + L |omega_k| / r``);
+  acceleration: ``|v_k - v_{k-1}| <= max_wheel_accel dt``;
 - steering: the module turns at most ``max_steer_rate dt`` a tick. With the flip rule a
   module may reverse instead of turning, so what is bounded is the turn modulo a half
   turn: ``|v_k x v_{k-1}| <= sin(max_steer_rate dt) |v_k| |v_{k-1}|``.
@@ -51,7 +52,16 @@ def nlp_stage_limits(robot: SwerveRobot, twists: ca.SX, last: ca.SX, steer_angle
         for i, block in enumerate(blocks):
             v = block @ twists[:, k]
             w = block @ (last if k == 0 else twists[:, k - 1])
-            add(ca.sumsqr(v), float(speed[i]) ** 2)
+            if robot.axle_offset:  # |v| + L |omega| / r <= max, as smooth rows
+                spin = robot.axle_offset / robot.wheel_radius * twists[2, k]
+                bound = float(speed[i])
+                add(ca.sumsqr(v) - (bound - spin) ** 2, 0.0)
+                add(ca.sumsqr(v) - (bound + spin) ** 2, 0.0)
+                values.append(spin)
+                lower.append(np.array([-bound]))
+                upper.append(np.array([bound]))
+            else:
+                add(ca.sumsqr(v), float(speed[i]) ** 2)
             dt = float(change_times[k])
             if accel is not None:
                 add(ca.sumsqr(v - w), float(accel[i] * dt) ** 2)
@@ -62,20 +72,57 @@ def nlp_stage_limits(robot: SwerveRobot, twists: ca.SX, last: ca.SX, steer_angle
     return values, lower, upper
 
 
+#: Below this module speed [m/s] a module is at rest and keeps its steer angle.
+STOPPED_MODULE_SPEED = 1e-6
+
+#: The steering limits count a module as moving a little below that speed: rounding
+#: between the limit's check and the command's own computation can then only make the
+#: command keep an angle the limit allowed to change, never the reverse.
+_MOVING = STOPPED_MODULE_SPEED * (1.0 - 1e-3)
+
+
 def turns(robot: SwerveRobot, velocities: FloatArray, steer_angles: FloatArray) -> FloatArray:
     """How far each module must turn [rad] to drive ``velocities`` (n, 2) from its present
     angle, with the flip rule (so in [0, pi / 2]); 0 for a module at rest."""
     angle = np.arctan2(velocities[:, 1], velocities[:, 0])
     turn = np.abs(np.mod(angle - steer_angles + math.pi / 2, math.pi) - math.pi / 2)
-    moving = np.hypot(velocities[:, 0], velocities[:, 1]) * robot.wheel_radius > 1e-6
+    moving = np.hypot(velocities[:, 0], velocities[:, 1]) * robot.wheel_radius > _MOVING
     return np.where(moving, turn, 0.0)
 
 
 def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
                       steer_angles: FloatArray, dt: float) -> float:
-    """The largest ``f`` in [0, 1] such that every point of ``last + g (target - last)``,
-    ``0 <= g <= f``, turns no module by more than ``max_steer_rate dt`` from its present
-    angle (1 if the whole step does; 0 if ``last`` itself does not).
+    """:func:`turn_fraction`, and with an axle offset no further than every wheel's drive
+    rate, corrected for the module's steering over ``dt``, stays within its limit
+    (bisection below the turn's fraction)."""
+    fraction = turn_fraction(robot, last, target, steer_angles, dt)
+    if not robot.axle_offset or fraction == 0.0:
+        return fraction
+
+    def drives(part: float) -> bool:
+        twist = last + part * (target - last)
+        speeds, _ = robot.wheel_commands(twist, steer_angles, None, dt)
+        return bool(np.all(np.abs(speeds) <= robot.max_wheel_speed * (1.0 + 1e-12)))
+
+    if drives(fraction):
+        return fraction
+    if not drives(0.0):
+        return 0.0
+    # Below the turn's limit on the whole way from last (the target may fit where points
+    # on the way to it do not), search the drives' limit.
+    low, high = 0.0, turn_fraction(robot, last, target, steer_angles, dt, whole=False)
+    for _ in range(30):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if drives(middle) else (low, middle)
+    return low
+
+
+def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
+                  steer_angles: FloatArray, dt: float, whole: bool = True) -> float:
+    """1 if ``target`` turns no module by more than ``max_steer_rate dt`` from its present
+    angle (only the command sent has to: ``whole``); else the largest ``f`` in [0, 1] such
+    that every point of ``last + g (target - last)``, ``0 <= g <= f``, does so (0 if
+    ``last`` itself does not).
 
     Closed form: along the step a module's velocity ``a + g b`` is a line, so with ``u``
     its present direction the bound ``|u x v| <= tan(reach) |u . v|`` (a double cone: the
@@ -92,17 +139,18 @@ def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
         velocities = start[None] + fractions[:, None, None] * change[None]  # (K, n, 2)
         angle = np.arctan2(velocities[..., 1], velocities[..., 0])
         turn = np.abs(np.mod(angle - steer_angles + math.pi / 2, math.pi) - math.pi / 2)
-        moving = np.hypot(velocities[..., 0], velocities[..., 1]) * robot.wheel_radius > 1e-6
+        moving = (np.hypot(velocities[..., 0], velocities[..., 1]) * robot.wheel_radius
+                  > _MOVING)
         return np.all(~moving | (turn <= reach), axis=1)
 
     ends = fits(np.array([0.0, 1.0]))
-    if ends[1]:
+    if ends[1] and whole:
         return 1.0
     if not ends[0]:  # the last command itself is out of line (e.g. after a reset)
         return 0.0
     # The roots a hair inside the limits, so that rounding cannot push them out.
     roots = _turn_roots(start, change, steer_angles, reach * (1.0 - 1e-7),
-                        1e-6 / robot.wheel_radius * (1.0 - 1e-6))
+                        _MOVING / robot.wheel_radius * (1.0 - 1e-6))
     points = np.unique(np.concatenate(([0.0, 1.0], roots[(roots > 0.0) & (roots < 1.0)])))
     middles = 0.5 * (points[:-1] + points[1:])
     order = np.empty(2 * points.size - 1)

@@ -12,6 +12,13 @@ ways:
   limits (WPILib's ``desaturateWheelSpeeds``) and then towards the last
   command into the acceleration limits. Keeps the direction, loses speed.
 
+Casters (robots whose steer angles are states) are mapped at the *measured* steer
+angles, as the open-source powered-caster drivers do: ``"clip"`` clips every drive
+rate and every steer rate to its limit independently (the joints then disagree on
+one rigid motion: the robot moves by their least-squares twist, the rest is slip);
+``"desaturate"`` scales the twist uniformly until every joint rate is within its
+limit (and steps from the last command within the drive acceleration limit).
+
 Neither looks ahead; that is the difference from the MPC.
 """
 
@@ -86,8 +93,9 @@ class FeedforwardPController:
         self._last_wheels = np.zeros((self.robot.n_wheels, self.robot.wheel_dim))
         self._steer = self.robot.initial_steer_angles()
 
-    def step(self, pose: ArrayLike, t: float) -> Command:
-        """The command for measured ``pose`` (x, y, theta) at time ``t`` [s]."""
+    def step(self, pose: ArrayLike, t: float, steer_angles: ArrayLike | None = None) -> Command:
+        """The command for measured ``pose`` (x, y, theta) at time ``t`` [s]; casters need
+        their measured ``steer_angles`` [rad] (n,)."""
         start = time.perf_counter()
         x = np.asarray(pose, dtype=float)
         if x.shape != (3,) or not np.all(np.isfinite(x)):
@@ -103,6 +111,12 @@ class FeedforwardPController:
         c, s = math.cos(x[2]), math.sin(x[2])
         target = np.array([c * world[0] + s * world[1], -s * world[0] + c * world[1],
                            ahead.velocity[2] + self.gains[1] * error[2]])
+        if self.robot.steer_states:
+            return self._joint_step(target, _measured(self.robot, steer_angles), reference.pose,
+                                    float(t), start)
+        if steer_angles is not None:
+            raise ControllerError(f"steer_angles is for robots whose steer angles are states "
+                                  f"(casters), not {self.robot.kind!r}: pass None")
         if self.saturation == "desaturate":
             twist, clamped = clamp_command(self.robot, self.robot.desaturate(target),
                                            self._last, self.dt)
@@ -121,6 +135,41 @@ class FeedforwardPController:
             iterations=0, consecutive_failures=0, clamped=clamped, reference_time=float(t),
         )
 
+    def _joint_step(self, target: FloatArray, angles: FloatArray, reference: FloatArray,
+                    t: float, start: float) -> Command:
+        """Casters: joint rates at the measured angles, clipped per joint or scaled."""
+        robot = self.robot
+        if self.saturation == "desaturate":
+            drive, steer = robot.joint_rates(target, angles)
+            magnitude = np.concatenate([np.abs(drive), np.abs(steer)])
+            bound = np.concatenate([robot.max_wheel_speed, robot.max_steer_rates
+                                    if robot.max_steer_rates is not None else np.abs(steer)])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.where(magnitude > 1e-12, bound / magnitude, np.inf)
+            scaled = target * min(1.0, float(ratio.min()))
+            twist, _ = clamp_command(robot, scaled, self._last, self.dt, angles)
+            drive, steer = robot.joint_rates(twist, angles)
+        else:
+            drive, steer = robot.joint_rates(target, angles)
+            limit = robot.max_wheel_speed
+            drive = np.clip(drive, -limit, limit)
+            accel = robot.max_wheel_accel
+            if accel is not None:
+                previous = self._last_wheels[:, 0]
+                drive = np.clip(drive, previous - accel * self.dt, previous + accel * self.dt)
+            if robot.max_steer_rates is not None:
+                steer = np.clip(steer, -robot.max_steer_rates, robot.max_steer_rates)
+            twist = robot.joint_twist(drive, steer, angles)
+        clamped = not np.allclose(twist, target)
+        self._last = twist
+        self._last_wheels = np.zeros_like(self._last_wheels)
+        self._last_wheels[:, 0] = drive
+        return Command(
+            wheel_speeds=drive, twist=twist, steer_angles=angles + steer * self.dt,
+            predicted_poses=reference[None, :], status=Status.SOLVED, solver_status="none",
+            solve_time=0.0, tick_time=time.perf_counter() - start, iterations=0,
+            consecutive_failures=0, clamped=clamped, reference_time=t, steer_rates=steer)
+
     def _clip(self, wheels: FloatArray) -> FloatArray:
         """Per-wheel: speed into its limit, change into its acceleration limit."""
         limit = self.robot.max_wheel_speed[:, None]
@@ -132,6 +181,22 @@ class FeedforwardPController:
             wheels = self._last_wheels + change * np.minimum(
                 1.0, bound / np.maximum(_norm(change), 1e-300))
         return wheels
+
+
+def _measured(robot: Robot, steer_angles: ArrayLike | None) -> FloatArray:
+    """A caster robot's measured steer angles, checked."""
+    if steer_angles is None:
+        raise ControllerError(f"robot {robot.name!r} ({robot.kind}) needs the measured steer "
+                              f"angles each tick: step(pose, t, steer_angles=...)")
+    try:
+        angles = np.array(steer_angles, dtype=float)
+    except (TypeError, ValueError):
+        raise ControllerError(f"steer_angles must be {robot.n_wheels} numbers [rad], "
+                              f"got {steer_angles!r}") from None
+    if angles.shape != (robot.n_wheels,) or not np.all(np.isfinite(angles)):
+        raise ControllerError(f"steer_angles must be {robot.n_wheels} finite angles [rad], "
+                              f"got {steer_angles!r}")
+    return angles
 
 
 def _norm(vectors: FloatArray) -> FloatArray:

@@ -156,7 +156,7 @@ class MotorPlant(Plant):
         self._battery_current = 0.0
         self._last_speeds = np.zeros(robot.n_wheels)  # last commanded wheel speeds
         self._last_twist = np.zeros(3)
-        self._last_angles = self.steer_angles  # last commanded steer angles
+        self._last_angles: FloatArray | None = None  # last commanded steer angles
         self._events: list[tuple[float, ...]] = []
         self._commands: deque[Command | None] = deque([None] * config.delay_ticks)
         n = robot.n_wheels
@@ -204,7 +204,10 @@ class MotorPlant(Plant):
         lowest = math.inf
         aims = target_angles if self.steer_angles is not None else None
         if aims is not None:  # the module velocity vectors the tick ramps between
-            before = aims if self._last_angles is None else self._last_angles
+            if self._last_angles is not None:
+                before = self._last_angles
+            else:  # the first tick: from where the modules point
+                before = aims if self.steer_angles is None else self.steer_angles
             begin = start[:, None] * np.stack([np.cos(before), np.sin(before)], axis=1)
             finish = np.asarray(target_speeds)[:, None] * np.stack(
                 [np.cos(aims), np.sin(aims)], axis=1)

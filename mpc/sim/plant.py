@@ -5,6 +5,13 @@ pose with RK4 over ``substeps`` sub-intervals per tick from the twist that
 forward kinematics gives for the *actual* wheel speeds, which may lag the
 command (first-order motor), arrive late (whole ticks of delay), slip, or
 point the wrong way while a swerve module is still steering.
+
+Casters (robots whose steer angles are states): the plant integrates each steer
+angle from the commanded steer rate (limited to ``max_steer_rate``), and the robot
+moves by the least-squares forward map of the actual drive and steer rates at the
+actual angles (:meth:`~mpc.robots.caster.CasterRobot.joint_twist`): joint rates
+that do not agree on one rigid motion mean slip. :attr:`Plant.steer_angles` is what
+a caster robot's controller measures.
 """
 
 from __future__ import annotations
@@ -89,10 +96,12 @@ class Plant:
         n = robot.n_wheels
         self.wheel_speeds = np.zeros(n)  # actual, signed [rad/s]
         self.steer_angles = robot.initial_steer_angles()  # actual [rad], steered wheels only
-        rest = (np.zeros(n), None if self.steer_angles is None else np.zeros(n))
-        self._pipe: deque[tuple[FloatArray, FloatArray | None]] = deque(
+        rest = (np.zeros(n), None if self.steer_angles is None else np.zeros(n),
+                np.zeros(n) if robot.steer_states else None)
+        self._pipe: deque[tuple[FloatArray, FloatArray | None, FloatArray | None]] = deque(
             [rest] * config.delay_ticks
         )
+        self.steer_rates = np.zeros(n) if robot.steer_states else None  # actual [rad/s]
 
     def measure(self) -> FloatArray:
         """The pose a localisation system would report (with noise)."""
@@ -106,8 +115,8 @@ class Plant:
 
     def apply(self, command: Command) -> FloatArray:
         """Run one tick under ``command``; return the wheel speeds actually reached [rad/s]."""
-        self._pipe.append((command.wheel_speeds, command.steer_angles))
-        target_speeds, target_angles = self._pipe.popleft()
+        self._pipe.append((command.wheel_speeds, command.steer_angles, command.steer_rates))
+        target_speeds, target_angles, target_rates = self._pipe.popleft()
         config = self.config
         h = self.dt / config.substeps
         keep = math.exp(-h / config.motor_lag) if config.motor_lag > 0 else 0.0
@@ -115,13 +124,42 @@ class Plant:
             grip = 1.0 - self.rng.uniform(0.0, 2.0 * config.slip, size=self.robot.n_wheels)
         else:
             grip = np.ones(self.robot.n_wheels)
+        if self.robot.steer_states and target_rates is not None:
+            self._joint_tick(target_speeds, target_rates, grip, keep, h)
+            return self.wheel_speeds * grip
         for _ in range(config.substeps):
             self.wheel_speeds = keep * self.wheel_speeds + (1.0 - keep) * target_speeds
+            turning = None
             if self.steer_angles is not None and target_angles is not None:
+                before = self.steer_angles
                 self._steer(target_angles, h)
-            twist = self.robot.forward_kinematics(self.wheel_speeds * grip, self.steer_angles)
+                if config.steer_rate_limited:  # a snap (not rate limited) moves no wheel
+                    turning = wrap_angle(self.steer_angles - before) / h
+            if turning is None or self.steer_angles is None:
+                twist = self.robot.forward_kinematics(self.wheel_speeds * grip, self.steer_angles)
+            else:
+                twist = self.robot.steering_forward_kinematics(
+                    self.wheel_speeds * grip, self.steer_angles, turning)
             self._integrate(twist, h)
         return self.wheel_speeds * grip
+
+    def _joint_tick(self, target_speeds: FloatArray, target_rates: FloatArray | None,
+                    grip: FloatArray, keep: float, h: float) -> None:
+        """Casters: drive and steer rates through the motor lag (steer rates limited), the
+        angles integrated, the pose moved by the rates' least-squares twist."""
+        rates = np.zeros(self.robot.n_wheels) if target_rates is None else target_rates
+        limit = self.robot.max_steer_rates
+        if self.config.steer_rate_limited and limit is not None:
+            rates = np.clip(rates, -limit, limit)
+        angles = self.steer_angles if self.steer_angles is not None else np.zeros_like(rates)
+        steer = self.steer_rates if self.steer_rates is not None else np.zeros_like(rates)
+        for _ in range(self.config.substeps):
+            self.wheel_speeds = keep * self.wheel_speeds + (1.0 - keep) * target_speeds
+            steer = keep * steer + (1.0 - keep) * rates
+            twist = self.robot.joint_twist(self.wheel_speeds * grip, steer, angles)
+            self._integrate(twist, h)
+            angles = angles + h * steer
+        self.steer_angles, self.steer_rates = angles, steer
 
     def _steer(self, target: FloatArray, h: float) -> None:
         """Turn every steered wheel towards its commanded angle, at most ``max_steer_rate``."""

@@ -84,4 +84,6 @@ class Recorder:
             wheel_velocity_command=velocities,
             steer_command=(None if robot.max_steer_rates is None
                            else np.array([c.steer_angles for c in commands])),
-            steer_rate_limit=robot.max_steer_rates)
+            steer_rate_limit=robot.max_steer_rates,
+            steer_rate_command=(np.array([c.steer_rates for c in commands])
+                                if all(c.steer_rates is not None for c in commands) else None))

@@ -47,6 +47,8 @@ class SimResult:
             the commanded twists instead.
         steer_command: commanded steer angles (K, n) [rad] of steered wheels, else None.
         steer_rate_limit: their steering rate limits (n,) [rad/s], else None.
+        steer_rate_command: commanded steer rates (K, n) [rad/s] of robots whose steer
+            angles are states (casters), else None.
         plant_events: per-tick series of a motor plant (:meth:`MotorPlant.events`:
             voltage and current violations, slips, peak ratios, bus voltage), else None.
     """
@@ -71,6 +73,7 @@ class SimResult:
     wheel_velocity_command: FloatArray | None = None
     steer_command: FloatArray | None = None
     steer_rate_limit: FloatArray | None = None
+    steer_rate_command: FloatArray | None = None
     plant_events: dict[str, FloatArray] | None = field(default=None, repr=False)
 
     @property
@@ -136,8 +139,11 @@ class SimResult:
         ``max_lag`` and ``mean_lag`` [s] (how far the tracked reference time trailed
         the clock); ``lap_time`` [s] (the last complete lap after ``skip``, None if
         there is none); ``steer_violations`` (ticks on which a steered wheel's commanded
-        angle turned faster than its limit, modulo a half turn: the flip rule). Errors
-        and the peak wheel ratio cover the ticks after ``skip``; violations count every
+        angle turned faster than its limit, modulo a half turn: the flip rule; casters:
+        ticks with a commanded steer rate beyond its limit); ``max_steer_rate_ratio`` (peak
+        steer rate / limit of steered wheels, from the commanded rates of casters or the
+        commanded angles' turn per tick of swerve modules; None without steered wheels).
+        Errors and the peak ratios cover the ticks after ``skip``; violations count every
         tick. On a motor plant also ``voltage_violations``, ``current_violations`` and
         ``slip_events`` (ticks), ``peak_voltage_ratio``, ``peak_current_ratio`` and
         ``min_bus_voltage`` [V] (every tick).
@@ -171,6 +177,7 @@ class SimResult:
             "limit_violations": int(violations.sum()),
             "accel_violations": self._accel_violations(),
             "steer_violations": self._steer_violations(),
+            "max_steer_rate_ratio": self._steer_rate_ratio(keep),
             "control_effort": _rms(np.where(np.isfinite(ratio), ratio, 0.0)),
             "tick_time_p50": float(np.percentile(ticks, 50)),
             "tick_time_p95": float(np.percentile(ticks, 95)),
@@ -214,9 +221,30 @@ class SimResult:
         bound = self.wheel_accel_limit * self.dt
         return int((change > bound * (1 + LIMIT_RTOL) + 1e-12).any(axis=1).sum())
 
+    def steer_rates(self) -> FloatArray | None:
+        """Steered wheels' rates (K, n) [rad/s]: casters' commanded rates; swerve modules' turn
+        of the commanded angle per tick, modulo a half turn (from 0 before the first tick)."""
+        if self.steer_rate_command is not None:
+            return self.steer_rate_command
+        if self.steer_command is None:
+            return None
+        angles = np.vstack([np.zeros((1, self.steer_command.shape[1])), self.steer_command])
+        turn = np.mod(np.diff(angles, axis=0) + math.pi / 2, math.pi) - math.pi / 2
+        return turn / self.dt
+
+    def _steer_rate_ratio(self, keep: np.ndarray) -> float | None:
+        rates, limit = self.steer_rates(), self.steer_rate_limit
+        if rates is None or limit is None:
+            return None
+        return float((np.abs(rates[keep]) / limit).max())
+
     def _steer_violations(self) -> int:
         """Ticks whose commanded steer angles turned faster than the steering rate allows
-        (from rest at angle 0 on the first tick)."""
+        (from rest at angle 0 on the first tick); casters: commanded rates beyond it."""
+        if self.steer_rate_command is not None and self.steer_rate_limit is not None:
+            over = np.abs(self.steer_rate_command) > (
+                self.steer_rate_limit * (1 + LIMIT_RTOL) + 1e-12)
+            return int(over.any(axis=1).sum())
         if self.steer_command is None or self.steer_rate_limit is None:
             return 0
         angles = np.vstack([np.zeros((1, self.steer_command.shape[1])), self.steer_command])

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from typing import Protocol
+from typing import Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mpc.arrays import FloatArray
 from mpc.control.command import Command
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
@@ -16,7 +17,7 @@ from mpc.sim.motor_plant import MotorPlant, MotorPlantConfig
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.sim.recorder import Recorder
 from mpc.sim.result import SimResult
-from mpc.validation import finite_vector, is_finite_number
+from mpc.validation import MAX_SIMULATION_TICKS, finite_vector, is_finite_number
 from trajectories import Trajectory
 
 
@@ -34,6 +35,13 @@ class TrackingController(Protocol):
     def step(self, pose: ArrayLike, t: float) -> Command: ...
 
 
+class SteerMeasuringController(Protocol):
+    """A controller of a robot whose steer angles are states (casters): it takes them."""
+
+    def step(self, pose: ArrayLike, t: float, steer_angles: ArrayLike | None = None
+             ) -> Command: ...
+
+
 def simulate(
     controller: TrackingController,
     duration: float,
@@ -42,6 +50,7 @@ def simulate(
     seed: int | None = None,
     robot: Robot | None = None,
     on_tick: Callable[[int, int], None] | None = None,
+    initial_steer_angles: ArrayLike | None = None,
 ) -> SimResult:
     """Run ``controller`` in closed loop for ``duration`` seconds.
 
@@ -58,31 +67,68 @@ def simulate(
         robot: the true robot, if it differs from the controller's (e.g. a
             wheel the controller does not know has failed); default the same.
         on_tick: called as ``on_tick(k, ticks)`` after each tick (progress).
+        initial_steer_angles: the true robot's steer angles at the start [rad] (n,). Default:
+            for robots whose steer angles are states (casters), trailing the reference's
+            first direction of travel (:func:`trailing_start`); for others, 0.
+
+    A controller of a robot whose steer angles are states is stepped as
+    ``step(measured_pose, t, steer_angles=measured_angles)`` (the plant's angles).
     """
     if not is_finite_number(duration) or duration <= 0:
         raise SimulationError(f"duration must be a finite number of seconds > 0, got {duration!r}")
     config = _plant_config(plant)
     dt = controller.dt
     ticks = max(1, round(duration / dt))
+    if ticks > MAX_SIMULATION_TICKS:
+        raise SimulationError(f"duration {duration!r} s is {ticks} ticks of {dt} s; at most "
+                              f"{MAX_SIMULATION_TICKS} ticks are simulated at once")
     trajectory = controller.trajectory
     if initial_pose is None:
         start = trajectory.sample(0.0).pose
     else:
         start = finite_vector("initial_pose", initial_pose, 3, "(x, y, theta)", SimulationError)
+    true_robot = robot or controller.robot
     kind = MotorPlant if isinstance(config, MotorPlantConfig) else Plant
-    sim = kind(robot or controller.robot, dt, start, config, np.random.default_rng(seed))
+    sim = kind(true_robot, dt, start, config, np.random.default_rng(seed))
+    if initial_steer_angles is not None:
+        sim.steer_angles = finite_vector("initial_steer_angles", initial_steer_angles,
+                                         true_robot.n_wheels, "steer angles [rad]",
+                                         SimulationError)
+    elif true_robot.steer_states:
+        sim.steer_angles = trailing_start(true_robot, trajectory)
+    measuring = controller.robot.steer_states
     controller.reset()
     recorder = Recorder(controller.robot, trajectory, dt)
     for k in range(ticks):
         t = k * dt
         pose, measured = sim.pose, sim.measure()
-        command = controller.step(measured, t)
+        if measuring and sim.steer_angles is not None:
+            command = cast(SteerMeasuringController, controller).step(
+                measured, t, steer_angles=sim.steer_angles.copy())
+        else:
+            command = controller.step(measured, t)
         recorder.record(t, pose, command, measured, sim.apply(command))
         if on_tick is not None:
             on_tick(k, ticks)
     if isinstance(sim, MotorPlant):
         return dataclasses.replace(recorder.result(), plant_events=sim.events())
     return recorder.result()
+
+
+def trailing_start(robot: Robot, trajectory: Trajectory) -> FloatArray:
+    """Steer angles [rad] trailing the reference's first direction of travel: each caster
+    along its axis's velocity at the first of 200 samples over the reference's first
+    period (or span, or 10 s) where the robot moves; 0 if it never does."""
+    span = trajectory.period or trajectory.duration or 10.0
+    times = trajectory.start_time + np.linspace(0.0, span, 201)
+    twists = trajectory.body_twist(times)
+    positions = robot.wheel_positions
+    for twist in twists:
+        velocity = np.stack([twist[0] - twist[2] * positions[:, 1],
+                             twist[1] + twist[2] * positions[:, 0]], axis=1)
+        if np.hypot(velocity[:, 0], velocity[:, 1]).min() > 1e-9:
+            return np.arctan2(velocity[:, 1], velocity[:, 0])
+    return np.zeros(robot.n_wheels)
 
 
 def _plant_config(plant: PlantConfig | str | None) -> PlantConfig:

@@ -1,0 +1,159 @@
+"""``mpc-bench perf``: what one run writes, the do-mpc peer only when installed, flag errors.
+
+Behaviour only: no test here depends on how fast anything is.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from benchmarks import peers
+from benchmarks.cli import main
+from benchmarks.scenarios import reference
+from mpc.robots import preset
+
+ROW_KEYS = {"section", "solver", "horizon", "ticks", "settle", "tick_p50", "tick_p99", "tick_max",
+            "cpu_p50", "cpu_p99", "solve_p50", "overhead_p50", "iterations_p50",
+            "rms_position_error", "max_position_error", "limit_violations", "accel_violations",
+            "failures"}
+
+
+def _sane(row: dict[str, Any]) -> None:
+    assert ROW_KEYS <= set(row), ROW_KEYS - set(row)
+    assert row["ticks"] > 0 and row["settle"] >= 0
+    assert 0 < row["solve_p50"] <= row["tick_p50"] <= row["tick_p99"] <= row["tick_max"]
+    assert 0 <= row["cpu_p50"] <= row["cpu_p99"]
+    assert row["overhead_p50"] >= 0
+    assert row["iterations_p50"] >= 0
+    assert math.isfinite(row["rms_position_error"]) and row["rms_position_error"] >= 0
+    assert row["limit_violations"] == 0 and row["accel_violations"] == 0
+
+
+def test_quick_run_writes_every_section_and_skips_an_absent_peer(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(peers, "available", lambda: False)  # as if do-mpc were not installed
+    assert main(["perf", "--quick", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert out.count(peers.INSTALL_HINT) == 1
+    for header in ("1. tick split", "2. horizons", "3. scenarios", "4. peers", "summary",
+                   "growth daqp: tick(N=20) / tick(N=10)"):
+        assert header in out
+
+    document = json.loads((tmp_path / "perf.json").read_text())
+    assert {"command", "commit", "machine", "settings", "profiles", "rows", "peers", "summary",
+            "wall_time"} <= set(document)
+    assert document["command"] == f"mpc-bench perf --quick --out {tmp_path}"
+    assert {"cpu_count", "python", "processor", "load_average_start",
+            "thread_env"} <= set(document["machine"])
+    assert document["settings"]["horizons"] == [10, 20]
+
+    (profile,) = document["profiles"]
+    assert profile["scenario"]["horizon"] == 20 and profile["scenario"]["solver"] == "daqp"
+    assert profile["phases"] and profile["ticks"] > 0
+    for phase in profile["phases"]:
+        assert 1 <= phase["runs"] <= profile["ticks"]
+        assert 0 <= phase["p50"] <= phase["p99"] and phase["mean_per_tick"] >= 0
+    assert "tick split" in (tmp_path / "tick_profile.txt").read_text()
+    assert json.loads((tmp_path / "tick_profile.json").read_text())["profiles"] == [profile]
+    assert "summary" in (tmp_path / "perf.txt").read_text()
+
+    rows = document["rows"]
+    for row in rows:
+        _sane(row)
+    horizons = {(row["solver"], row["horizon"]) for row in rows if row["section"] == "horizons"}
+    assert horizons == {(s, n) for s in ("daqp", "osqp", "ipopt") for n in (10, 20)}
+    scenarios = {(row["layout"], row["mode"], row["speed"]) for row in rows
+                 if row["section"] == "scenarios"}
+    assert scenarios == {("mecanum", m, s) for m in ("time", "path") for s in ("inside", "beyond")}
+    assert all(isinstance(row["over_p99_limit"], bool) for row in rows
+               if row["section"] == "scenarios")
+    same_ticks = {(row["solver"], row["speed"]) for row in rows if row["section"] == "peers"}
+    assert same_ticks == {(s, v) for s in ("mpc-daqp", "mpc-ipopt") for v in ("inside", "beyond")}
+    assert document["peers"]["status"] == "do-mpc not installed"
+
+    summary = document["summary"]
+    for solver in ("daqp", "osqp", "ipopt"):
+        growth = summary["growth"][solver]
+        assert (growth["from"], growth["to"], growth["horizon_ratio"]) == (10, 20, 2.0)
+        assert growth["tick_ratio"] > 0 and isinstance(growth["at_most_linear"], bool)
+    assert summary["osqp_over_daqp_tick_N20"] > 0 and summary["ipopt_over_daqp_tick_N20"] > 0
+    assert summary["daqp_tick_over_solve_N20"] >= 1
+    assert "do_mpc_over_daqp_tick" not in summary["same_ticks_inside"]
+    assert summary["same_ticks_inside"]["ipopt_over_daqp_tick"] > 0
+    assert summary["drift"]["end_over_start"] > 0
+    assert summary["targets"] and all(isinstance(item["met"], bool)
+                                      for item in summary["targets"].values())
+
+
+def test_sections_and_profile_horizons_are_chosen(tmp_path: Path) -> None:
+    assert main(["perf", "--sections", "profile,horizons", "--solvers", "daqp",
+                 "--horizons", "5,10", "--profile-horizons", "5,10", "--ticks", "20",
+                 "--out", str(tmp_path)]) == 0
+    document = json.loads((tmp_path / "perf.json").read_text())
+    assert [p["scenario"]["horizon"] for p in document["profiles"]] == [5, 10]
+    assert {(row["solver"], row["horizon"]) for row in document["rows"]} == {("daqp", 5),
+                                                                             ("daqp", 10)}
+    assert document["peers"] is None and "scenario_count" not in document["summary"]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--solvers", "cvxpy"], "--solvers: unknown solver cvxpy"),
+    (["--layouts", "tank"], "--layouts: unknown layout tank"),
+    (["--modes", "fast"], "--modes: unknown mode fast"),
+    (["--sections", "all"], "--sections: unknown section all"),
+    (["--speeds", "warp"], "--speeds: unknown speed 'warp'"),
+    (["--horizons", "ten"], "--horizons must be a comma list of integers"),
+    (["--profile-horizons", "0"], "--profile-horizons must list integers >= 1"),
+    (["--ticks", "5"], "--ticks must be >= 20"),
+    (["--ipopt-ticks", "3"], "--ipopt-ticks must be >= 20"),
+    (["--out", __file__], "--out must be a folder"),
+])
+def test_bad_flags_are_one_line_errors(argv: list[str], message: str, tmp_path: Path,
+                                       capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["perf", "--out", str(tmp_path), *argv]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+
+
+def test_control_path_and_benchmarks_never_import_do_mpc() -> None:
+    code = ("import sys, mpc, benchmarks.cli, benchmarks.perf, benchmarks.peers\n"
+            "from mpc import Controller\n"
+            "from mpc.robots import preset\n"
+            "from trajectories import Circle\n"
+            "Controller(preset('mecanum'), Circle(1.0, 10.0)).step([1.0, 0.0, 0.0], 0.0)\n"
+            "assert 'do_mpc' not in sys.modules, 'do_mpc imported'\n")
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=Path(__file__).parents[1])
+
+
+def test_do_mpc_peer_refuses_steered_wheels() -> None:
+    robot = preset("swerve")
+    with pytest.raises(ValueError, match="steered"):
+        peers.DoMpcController(robot, reference("figure8", "fixed", robot, 0.8))
+
+
+def test_do_mpc_solves_the_same_problem(tmp_path: Path,
+                                        capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("do_mpc")
+    assert main(["perf", "--sections", "peers", "--ipopt-ticks", "40",
+                 "--out", str(tmp_path)]) == 0
+    assert peers.INSTALL_HINT not in capsys.readouterr().out
+    document = json.loads((tmp_path / "perf.json").read_text())
+    assert document["peers"]["status"] == "measured" and document["peers"]["version"]
+    rows = {(row["solver"], row["speed"]): row for row in document["rows"]}
+    for speed in ("inside", "beyond"):
+        ours, theirs = rows[("mpc-ipopt", speed)], rows[("do-mpc", speed)]
+        _sane(theirs)
+        assert theirs["failures"] == 0
+        # The same NLP, the same plant: the closed loops agree to IPOPT's tolerance.
+        assert theirs["rms_position_error"] == pytest.approx(ours["rms_position_error"],
+                                                             rel=1e-2, abs=1e-7)
+        ratios = document["summary"][f"same_ticks_{speed}"]
+        assert ratios["do_mpc_over_daqp_tick"] > 0 and ratios["do_mpc_over_ipopt_tick"] > 0
