@@ -13,7 +13,7 @@ from mpc import Command, Status
 from mpc.robots import MOTOR_ROBOT_PRESETS, Robot, motor_preset, omni
 from mpc.robots.dynamics import GRAVITY, dynamics
 from mpc.robots.force_map import coriolis, force_map
-from mpc.robots.motor_limits import first_step_feedforward
+from mpc.robots.motor_step import first_step_feedforward
 from mpc.sim.motor_plant import MotorPlant, MotorPlantConfig
 
 RNG_SEED = 7

@@ -14,15 +14,9 @@ from mpc.control.clamp import clamp_command
 from mpc.robots import motor_preset, preset, swerve
 from mpc.robots.dynamics import RobotDynamics, dynamics
 from mpc.robots.force_map import coriolis, force_map
-from mpc.robots.motor_limits import (
-    CLAMP_HEADROOM,
-    MotorStageLimits,
-    first_step_feedforward,
-    motor_step_fraction,
-    nlp_stage_limits,
-    stage_limits,
-    update_stage_limits,
-)
+from mpc.robots.motor_limits import MotorStageLimits, stage_limits, update_stage_limits
+from mpc.robots.motor_nlp import nlp_stage_limits
+from mpc.robots.motor_step import CLAMP_HEADROOM, first_step_feedforward, motor_step_fraction
 from mpc.sim import simulate
 from trajectories import Circle, FigureEight
 

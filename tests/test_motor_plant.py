@@ -98,7 +98,7 @@ def test_flooring_it_slips_and_breaks_the_limits() -> None:
     safe, clamped = clamp_command(robot, target, np.zeros(3), DT)
     assert clamped and 0.0 < safe[0] < target[0]
     calm = MotorPlant(robot, DT, np.zeros(3), MotorPlantConfig(), np.random.default_rng(0))
-    from mpc.robots.motor_limits import first_step_feedforward
+    from mpc.robots.motor_step import first_step_feedforward
 
     feed = first_step_feedforward(robot, np.zeros(3), safe, DT, None)
     assert feed is not None

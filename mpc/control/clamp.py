@@ -12,7 +12,7 @@ import numpy as np
 
 from mpc.arrays import FloatArray
 from mpc.robots.base import Robot
-from mpc.robots.motor_limits import motor_step_fraction
+from mpc.robots.motor_step import motor_step_fraction
 
 #: Relative slack under which a wheel counts as within its limit (rounding).
 _SPEED_SLACK = 1e-12
@@ -37,7 +37,7 @@ def clamp_command(
     3. Motors (robots with dynamics): step from ``last`` only as far as every wheel stays
        within its battery voltage and current limit and every contact within traction,
        the wheels turning at ``last``'s speeds now
-       (:func:`~mpc.robots.motor_limits.motor_step_fraction`).
+       (:func:`~mpc.robots.motor_step.motor_step_fraction`).
     4. Steering (steered wheels, given their present ``steer_angles``): step from
        ``last`` only as far as no wheel turns faster than its steering rate
        (:meth:`~mpc.robots.Robot.steering_fraction`); a wheel that must turn

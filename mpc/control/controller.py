@@ -22,7 +22,7 @@ from mpc.model.tracking import TrackingModel
 from mpc.model.weights import Weights, make_weights
 from mpc.profiling import TickProfile
 from mpc.robots.base import Robot
-from mpc.robots.motor_limits import first_step_feedforward
+from mpc.robots.motor_step import first_step_feedforward
 from mpc.solvers import DenseSolver, NlpSolver, QpSolver, SolveResult, TrackingSolver
 from mpc.validation import (
     MAX_COORDINATE,
