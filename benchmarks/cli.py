@@ -6,6 +6,12 @@
     mpc-bench report RESULTS     rebuild the report from a results.json
     mpc-bench perf [options]     tick time against horizon for both solver paths
     mpc-bench soak [options]     memory and tick time over a long run
+    mpc-bench tune [options]     tune the MPC's cost weights for a robot (Optuna)
+    mpc-bench sweep [options]    Monte-Carlo over random robots, starts, plant faults
+
+Runs are independent: ``--workers N`` spreads them over N local processes (default:
+the machine's cores) and ``--scheduler tcp://HOST:PORT`` over a Dask cluster, with the
+same results run for run (see :mod:`benchmarks.executor`).
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks import perf, soak
+from benchmarks.executor import RunPool, add_pool_arguments
 from benchmarks.runner import build_scenarios, results_document, run_all, summary_table, write_csv
 from benchmarks.scenarios import (
     CONTROLLERS,
@@ -42,7 +49,8 @@ def _parser() -> argparse.ArgumentParser:
     parser = Parser(
         prog="mpc-bench",
         description="Benchmark MPC tracking against feedforward + P baselines on holonomic "
-                    "robots. Subcommands: 'report RESULTS', 'perf', 'soak' (see --help of each).",
+                    "robots. Subcommands: 'report RESULTS', 'perf', 'soak', 'tune', 'sweep' "
+                    "(see --help of each).",
     )
     parser.add_argument("--layouts", help=f"comma list of {', '.join(PRESETS)} (default: all)")
     parser.add_argument("--trajectories",
@@ -77,6 +85,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--no-report", action="store_true", help="skip the figures and HTML page")
     parser.add_argument("--quick", action="store_true",
                         help="smoke run in seconds: mecanum, figure8, 3 s per run")
+    add_pool_arguments(parser)
     return parser
 
 
@@ -106,11 +115,16 @@ def run(argv: list[str]) -> int:
     out.mkdir(parents=True, exist_ok=True)
 
     scenarios = build_scenarios(chosen_robots, trajectories, speeds, headings, csv_trajectory)
-    print(f"mpc-bench: {len(scenarios)} scenarios x {len(controllers)} controllers, "
-          f"plant {args.plant}, horizon {args.horizon}, dt {args.dt} s", flush=True)
     started = time.perf_counter()
-    runs = run_all(scenarios, controllers, settings, args.duration, args.skip, args.plant,
-                   args.seed, lambda line: print(line, flush=True))
+    failed: list[dict[str, Any]] = []
+    with RunPool(args.workers, args.scheduler) as pool:
+        print(f"mpc-bench: {len(scenarios)} scenarios x {len(controllers)} controllers, "
+              f"plant {args.plant}, horizon {args.horizon}, dt {args.dt} s, "
+              f"on {pool.description}", flush=True)
+        for note in pool.notes:
+            print(f"mpc-bench: note: {note}", flush=True)
+        runs = run_all(scenarios, controllers, settings, args.duration, args.skip, args.plant,
+                       args.seed, lambda line: print(line, flush=True), pool, failed)
     document = results_document(
         runs,
         command=" ".join(["mpc-bench", *argv]),
@@ -119,6 +133,9 @@ def run(argv: list[str]) -> int:
                   "plant": args.plant, "skip": args.skip, "headings": headings,
                   "seed": args.seed},
     )
+    if failed:  # kept beside the runs, out of the tables and figures
+        document["meta"]["failed_runs"] = [
+            {key: value for key, value in run.items() if key != "traceback"} for run in failed]
     (out / "results.json").write_text(json.dumps(document))
     write_csv(runs, out / "results.csv")
     print()
@@ -127,6 +144,10 @@ def run(argv: list[str]) -> int:
           f"({time.perf_counter() - started:.0f} s)")
     if not args.no_report:
         _write_report(document, out / "report")
+    if failed:
+        print(f"mpc-bench: {len(failed)} run(s) failed (listed in results.json meta.failed_runs)",
+              file=sys.stderr)
+        return 1
     return 0
 
 
@@ -155,10 +176,23 @@ def report(argv: list[str]) -> int:
     return 0
 
 
+def _tune(argv: list[str]) -> int:
+    from benchmarks import tune  # Optuna only when asked for
+
+    return tune.main(argv)
+
+
+def _sweep(argv: list[str]) -> int:
+    from benchmarks import sweep
+
+    return sweep.main(argv)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mpc-bench`` console script."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    commands = {"report": report, "perf": perf.main, "soak": soak.main}
+    commands = {"report": report, "perf": perf.main, "soak": soak.main, "tune": _tune,
+                "sweep": _sweep}
     try:
         if argv and argv[0] in commands:
             return commands[argv[0]](argv[1:])
