@@ -69,7 +69,8 @@ class RunSpec:
         weights: MPC cost weights (names of :class:`mpc.model.weights.Weights`).
         delay_ticks: MPC only, the command latency the controller compensates.
         plant: a plant preset name or the fields of :class:`mpc.sim.PlantConfig`.
-        initial_pose: the true start pose; None: the reference at t = 0.
+        initial_offset: the true start pose minus the reference's at t = 0 (world frame,
+            [m, m, rad]); None: on the reference.
         optimal_lap: the scenario's time-optimal lap [s] (:func:`optimal_lap`, computed once
             per scenario by the caller); None: no yardstick (durations from the period).
         series: pack the time series (the benchmark's results) or the metrics only.
@@ -86,7 +87,7 @@ class RunSpec:
     delay_ticks: int = 0
     plant: str | Mapping[str, Any] = "ideal"
     seed: int | None = 0
-    initial_pose: tuple[float, float, float] | None = None
+    initial_offset: tuple[float, float, float] | None = None
     optimal_lap: float | None = None
     series: bool = False
 
@@ -180,12 +181,15 @@ def _simulate(spec: RunSpec) -> dict[str, Any]:
     vars(scenario)["optimal_lap"] = spec.optimal_lap
     length = spec.duration or default_duration(scenario, spec.skip)
     control = build_controller(spec, robot, trajectory)
-    result = simulate(control, length, initial_pose=spec.initial_pose,
-                      plant=_plant(spec.plant), seed=spec.seed)
+    start = (None if spec.initial_offset is None
+             else trajectory.sample(0.0).pose + np.asarray(spec.initial_offset, dtype=float))
+    result = simulate(control, length, initial_pose=start, plant=_plant(spec.plant),
+                      seed=spec.seed)
     metrics = result.metrics(skip=min(spec.skip, 0.5 * length))
     if spec.series:
         return pack_run(scenario, spec.controller, metrics, result)
-    return {**labels, "controller": spec.controller, "seed": spec.seed, "metrics": metrics}
+    return {**labels, "controller": spec.controller, "seed": spec.seed,
+            "ticks": len(result.time), "metrics": metrics}
 
 
 def execute(spec: RunSpec) -> tuple[dict[str, Any], float]:
@@ -232,8 +236,9 @@ def _cost(spec: RunSpec) -> float:
 
 def describe_result(result: Mapping[str, Any]) -> str:
     """One progress line's text for a result."""
-    names = " ".join(str(result.get(key, "")) for key in
-                     ("layout", "trajectory", "heading", "speed", "controller"))
+    names = " ".join(str(result[key]) for key in
+                     ("case", "layout", "trajectory", "heading", "speed", "controller")
+                     if key in result)
     if "error" in result:
         return f"{names} FAILED {result['error']}"
     metrics = result["metrics"]
