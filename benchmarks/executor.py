@@ -272,13 +272,14 @@ class RunPool:
     or call :meth:`close`.
     """
 
-    def __init__(self, workers: int | None = None, scheduler: str | None = None) -> None:
+    def __init__(self, workers: int | None = None, scheduler: str | None = None,
+                 timeout: float = 10.0) -> None:
         if workers is not None and (not isinstance(workers, int) or workers < 1):
             raise ScenarioError(f"--workers must be an integer >= 1, got {workers!r}")
         if workers is not None and scheduler is not None:
             raise ScenarioError("give --workers or --scheduler, not both")
         self.workers = workers or os.cpu_count() or 1
-        self.scheduler = scheduler
+        self.scheduler, self.timeout = scheduler, timeout  # [s] to reach the scheduler
         self._executor: cf.Executor | None = None
         self._client: Any = None
         self._saved_env: dict[str, str | None] = {}
@@ -305,7 +306,7 @@ class RunPool:
             raise ScenarioError("--scheduler needs dask.distributed: "
                                 "pip install 'holonomic-mpc[sweeps]'") from None
         try:
-            self._client = Client(address, timeout="10s", set_as_default=False)
+            self._client = Client(address, timeout=self.timeout, set_as_default=False)
         except (OSError, TimeoutError, ValueError) as error:
             raise ScenarioError(f"cannot reach the Dask scheduler at {address}: {error}") from None
         envs = self._client.run(_blas_env)

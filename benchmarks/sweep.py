@@ -111,11 +111,11 @@ def sample_cases(count: int, kinds: list[str], controllers: list[str], seed: int
 def summarise(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """One row per controller and robot kind, then per controller over every kind."""
     rows = []
-    groups = sorted({(r["controller"], r["layout"]) for r in results})
+    groups = sorted({(r["controller"], r.get("layout", "-")) for r in results})
     groups += sorted({(r["controller"], "all") for r in results})
     for name, kind in groups:
         chosen = [r for r in results
-                  if r["controller"] == name and kind in ("all", r["layout"])]
+                  if r["controller"] == name and kind in ("all", r.get("layout", "-"))]
         ok = [r["metrics"] for r in chosen if "error" not in r]
         row: dict[str, Any] = {
             "controller": name, "kind": kind, "runs": len(chosen),
