@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks import perf, soak
-from benchmarks.executor import RunPool, add_pool_arguments
+from benchmarks.executor import RunPool
 from benchmarks.runner import build_scenarios, results_document, run_all, summary_table, write_csv
 from benchmarks.scenarios import (
     CONTROLLERS,
@@ -43,6 +43,16 @@ from benchmarks.scenarios import (
 )
 from mpc.errors import MpcError
 from mpc.sim import PLANT_PRESETS
+
+
+def add_pool_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``--workers`` and ``--scheduler`` options of every command that runs sweeps."""
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="local worker processes (default: the machine's cores; 1 runs "
+                             "in this process)")
+    parser.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                        help="run on this Dask cluster instead (workers need holonomic-mpc "
+                             "installed; pip install 'holonomic-mpc[sweeps]')")
 
 
 def _parser() -> argparse.ArgumentParser:

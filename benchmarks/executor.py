@@ -20,7 +20,6 @@ with an ``"error"`` field; the other runs go on.
 
 from __future__ import annotations
 
-import argparse
 import concurrent.futures as cf
 import math
 import multiprocessing
@@ -37,7 +36,7 @@ from benchmarks.runner import Scenario, default_duration, pack_run
 from benchmarks.scenarios import _MPC as MPC_CONTROLLERS  # (solver, mode) by name
 from benchmarks.scenarios import SHAPE_SIZE, ScenarioError, Settings, controller, reference
 from mpc import Controller
-from mpc.robots import Robot, SphericalRobot, SwedishRobot, SwerveRobot, from_dict, preset
+from mpc.robots import Robot, from_dict, preset
 from mpc.sim import PlantConfig, TrackingController, simulate
 from trajectories import Circle, FigureEight, SpinHeading, Trajectory, Waypoints
 
@@ -49,7 +48,6 @@ TIMING_METRICS: frozenset[str] = frozenset({
     "tick_time_p50", "tick_time_p95", "tick_time_p99", "tick_time_max", "solve_time_p50",
     "solve_time_p99", "deadline_misses"})
 
-T = TypeVar("T")
 R = TypeVar("R")
 
 
@@ -90,42 +88,6 @@ class RunSpec:
     initial_offset: tuple[float, float, float] | None = None
     optimal_lap: float | None = None
     series: bool = False
-
-
-def describe_robot(robot: Robot) -> dict[str, Any]:
-    """A description :func:`mpc.robots.from_dict` rebuilds ``robot`` from, exactly."""
-    if robot.derating is not None:
-        raise ScenarioError(f"robot {robot.name!r} is derated; describe the healthy robot")
-    if isinstance(robot, SwedishRobot):
-        wheels = [{"alpha": w.alpha, "beta": w.beta, "gamma": w.gamma, "l": w.l,
-                   "radius": w.radius, "max_speed": w.max_speed,
-                   **({} if w.max_accel is None else {"max_accel": w.max_accel})}
-                  for w in robot.wheels]
-        return {"type": "swedish", "name": robot.name, "wheels": wheels}
-    if isinstance(robot, SwerveRobot):
-        return {"type": "swerve", "name": robot.name,
-                "module_positions": np.asarray(robot.module_positions).tolist(),
-                "wheel_radius": robot.wheel_radius, "max_wheel_speed": robot.max_speed,
-                "max_steer_rate": robot.max_steer_rate, "max_wheel_accel": robot.max_accel}
-    if isinstance(robot, SphericalRobot):
-        accel = robot.max_accel
-        return {"type": "spherical", "name": robot.name,
-                "positions": np.asarray(robot.ball_positions).tolist(),
-                "wheel_radius": np.asarray(robot.wheel_radius).tolist(),
-                "max_wheel_speed": np.asarray(robot.max_speed).tolist(),
-                "max_wheel_accel": None if accel is None else np.asarray(accel).tolist()}
-    raise ScenarioError(f"cannot describe a robot of kind {robot.kind!r} as plain data")
-
-
-def describe_trajectory(scenario: Scenario) -> dict[str, Any]:
-    """The trajectory spec of a benchmark scenario (its period, or its waypoints)."""
-    trajectory = scenario.trajectory
-    if isinstance(trajectory, Waypoints):
-        return {"times": trajectory.times.tolist(), "poses": trajectory.poses.tolist()}
-    if scenario.trajectory_name in ("circle", "figure8") and trajectory.period is not None:
-        return {"shape": scenario.trajectory_name, "heading": scenario.heading,
-                "period": trajectory.period}
-    raise ScenarioError(f"cannot describe trajectory {scenario.trajectory_name!r} as plain data")
 
 
 def build_robot(spec: str | Mapping[str, Any]) -> Robot:
@@ -201,10 +163,13 @@ def execute(spec: RunSpec) -> tuple[dict[str, Any], float]:
     try:
         result = _simulate(spec)
     except Exception as error:  # noqa: BLE001  (a failed run is a result, not a crash)
-        result = {**spec.labels, "controller": spec.controller, "seed": spec.seed,
-                  "error": f"{type(error).__name__}: {error}",
-                  "traceback": traceback.format_exc(limit=6)}
+        result = {**_failed(spec, error), "traceback": traceback.format_exc(limit=6)}
     return result, time.perf_counter() - started
+
+
+def _failed(spec: RunSpec, error: BaseException) -> dict[str, Any]:
+    return {**spec.labels, "controller": spec.controller, "seed": spec.seed,
+            "error": f"{type(error).__name__}: {error}"}
 
 
 def comparable(result: Mapping[str, Any]) -> dict[str, Any]:
@@ -232,28 +197,6 @@ def _cost(spec: RunSpec) -> float:
     period = spec.trajectory.get("period") or 10.0
     ticks = (spec.duration or 2.2 * (spec.optimal_lap or period) + spec.skip) / spec.settings.dt
     return ticks * (8.0 if "ipopt" in spec.controller else 1.0) * spec.settings.horizon
-
-
-def describe_result(result: Mapping[str, Any]) -> str:
-    """One progress line's text for a result."""
-    names = " ".join(str(result[key]) for key in
-                     ("case", "layout", "trajectory", "heading", "speed", "controller")
-                     if key in result)
-    if "error" in result:
-        return f"{names} FAILED {result['error']}"
-    metrics = result["metrics"]
-    return (f"{names} rms {metrics['rms_position_error'] * 1e3:.3g} mm, "
-            f"{math.degrees(metrics['rms_heading_error']):.3g} deg")
-
-
-def add_pool_arguments(parser: argparse.ArgumentParser) -> None:
-    """The ``--workers`` and ``--scheduler`` options of every command that runs sweeps."""
-    parser.add_argument("--workers", type=int, metavar="N",
-                        help="local worker processes (default: the machine's cores; 1 runs "
-                             "in this process)")
-    parser.add_argument("--scheduler", metavar="tcp://HOST:PORT",
-                        help="run on this Dask cluster instead (workers need holonomic-mpc "
-                             "installed; pip install 'holonomic-mpc[sweeps]')")
 
 
 def _worker_init() -> None:
@@ -338,37 +281,42 @@ class RunPool:
         return [future.result() for future in futures]
 
     def run(self, specs: Sequence[RunSpec], log: Callable[[str], None] | None = None,
-            line: Callable[[Mapping[str, Any]], str] = describe_result) -> list[dict[str, Any]]:
-        """Every spec's result, in the order of ``specs``; ``log`` gets one line per finished
-        run (``[done/total] <line(result)> (seconds, eta)``)."""
-        results: list[dict[str, Any] | None] = [None] * len(specs)
-        progress = _Progress(len(specs), log, line)
+            line: Callable[[Mapping[str, Any]], str] | None = None) -> list[dict[str, Any]]:
+        """Every spec's result, in the order of ``specs``; with ``log`` and ``line``, a line
+        per run as it finishes: ``[done/total] <line(result)> (seconds, eta)``."""
+        results: list[dict[str, Any]] = [{}] * len(specs)
+        started, done = time.perf_counter(), 0
+
+        def finished(index: int, outcome: tuple[dict[str, Any], float]) -> None:
+            nonlocal done
+            results[index], seconds = outcome
+            done += 1
+            if log is not None and line is not None:
+                eta = (time.perf_counter() - started) / done * (len(specs) - done)
+                log(f"[{done:{len(str(len(specs)))}d}/{len(specs)}] {line(results[index])} "
+                    f"({seconds:.1f} s, eta {eta:.0f} s)")
+
         if self._local(len(specs)):
             for index, spec in enumerate(specs):
-                results[index], seconds = execute(spec)
-                progress.done(results[index], seconds)
-            return [result for result in results if result is not None]
-        order = sorted(range(len(specs)), key=lambda i: -_cost(specs[i]))
+                finished(index, execute(spec))
+            return results
+        order = sorted(range(len(specs)), key=lambda i: -_cost(specs[i]))  # longest first
         futures = {self._pool().submit(execute, specs[i]): i for i in order}
         try:
             for future in cf.as_completed(futures):
-                index = futures[future]
-                results[index], seconds = _outcome(future, specs[index])
-                progress.done(results[index], seconds)
+                finished(futures[future], _outcome(future, specs[futures[future]]))
         except BaseException:
             for future in futures:
                 future.cancel()
             raise
-        return [result for result in results if result is not None]
+        return results
 
     def close(self) -> None:
         if self._executor is not None and self._client is None:
             self._executor.shutdown(wait=True, cancel_futures=True)
-            for name, value in self._saved_env.items():
-                if value is None:
-                    os.environ.pop(name, None)
-                else:
-                    os.environ[name] = value
+            os.environ.update({k: v for k, v in self._saved_env.items() if v is not None})
+            for name in (k for k, v in self._saved_env.items() if v is None):
+                del os.environ[name]
         if self._client is not None:
             self._client.close()
         self._executor, self._client = None, None
@@ -379,29 +327,8 @@ def _outcome(future: cf.Future[Any], spec: RunSpec) -> tuple[dict[str, Any], flo
     try:
         return future.result()  # type: ignore[no-any-return]
     except Exception as error:  # noqa: BLE001  (a lost worker fails its runs, not the sweep)
-        return ({**spec.labels, "controller": spec.controller, "seed": spec.seed,
-                 "error": f"{type(error).__name__}: {error}"}, 0.0)
+        return _failed(spec, error), 0.0
 
 
-class _Progress:
-    """``[done/total] ... (s, eta)`` lines as runs finish."""
-
-    def __init__(self, total: int, log: Callable[[str], None] | None,
-                 line: Callable[[Mapping[str, Any]], str]) -> None:
-        self.total, self.count, self.log, self.line = total, 0, log, line
-        self.started = time.perf_counter()
-
-    def done(self, result: Mapping[str, Any] | None, seconds: float) -> None:
-        self.count += 1
-        if self.log is None or result is None:
-            return
-        elapsed = time.perf_counter() - self.started
-        eta = elapsed / self.count * (self.total - self.count)
-        self.log(f"[{self.count:{len(str(self.total))}d}/{self.total}] {self.line(result)} "
-                 f"({seconds:.1f} s, eta {eta:.0f} s)")
-
-
-__all__ = ["THREAD_ENV", "TIMING_METRICS", "RunPool", "RunSpec", "add_pool_arguments",
-           "build_controller",
-           "build_robot", "build_trajectory", "comparable", "describe_result", "describe_robot",
-           "describe_trajectory", "execute", "optimal_lap"]
+__all__ = ["THREAD_ENV", "TIMING_METRICS", "RunPool", "RunSpec", "build_controller",
+           "build_robot", "build_trajectory", "comparable", "execute", "optimal_lap"]

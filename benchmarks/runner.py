@@ -15,11 +15,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from benchmarks.scenarios import Settings, applies, reference
+from benchmarks.scenarios import ScenarioError, Settings, applies, reference
 from mpc.errors import MpcError
-from mpc.robots import Robot
+from mpc.robots import Robot, SphericalRobot, SwedishRobot, SwerveRobot
 from mpc.sim import SimResult
-from trajectories import Trajectory, feasibility, time_optimal
+from trajectories import Trajectory, Waypoints, feasibility, time_optimal
 
 if TYPE_CHECKING:
     from benchmarks.executor import RunPool
@@ -118,7 +118,7 @@ def run_all(
     A run that raised is left out of the result and appended to ``failed`` (its labels and
     an ``"error"``), and the other runs go on.
     """
-    from benchmarks.executor import RunPool, RunSpec, describe_robot, describe_trajectory
+    from benchmarks.executor import RunPool, RunSpec
     from benchmarks.executor import optimal_lap as yardstick
 
     plan = [(index, name) for index, scenario in enumerate(scenarios) for name in controllers
@@ -151,6 +151,42 @@ def _run_line(run: Mapping[str, Any]) -> str:
             f"  path {metrics['max_cross_track_error'] * 1e3:8.3g} mm"
             f"  lap/target {'-' if pace is None else f'{pace:.3f}':>5s}"
             f"  tick p50 {metrics['tick_time_p50'] * 1e3:6.3f} ms")
+
+
+def describe_robot(robot: Robot) -> dict[str, Any]:
+    """A description :func:`mpc.robots.from_dict` rebuilds ``robot`` from, exactly."""
+    if robot.derating is not None:
+        raise ScenarioError(f"robot {robot.name!r} is derated; describe the healthy robot")
+    if isinstance(robot, SwedishRobot):
+        wheels = [{"alpha": w.alpha, "beta": w.beta, "gamma": w.gamma, "l": w.l,
+                   "radius": w.radius, "max_speed": w.max_speed,
+                   **({} if w.max_accel is None else {"max_accel": w.max_accel})}
+                  for w in robot.wheels]
+        return {"type": "swedish", "name": robot.name, "wheels": wheels}
+    if isinstance(robot, SwerveRobot):
+        return {"type": "swerve", "name": robot.name,
+                "module_positions": np.asarray(robot.module_positions).tolist(),
+                "wheel_radius": robot.wheel_radius, "max_wheel_speed": robot.max_speed,
+                "max_steer_rate": robot.max_steer_rate, "max_wheel_accel": robot.max_accel}
+    if isinstance(robot, SphericalRobot):
+        accel = robot.max_accel
+        return {"type": "spherical", "name": robot.name,
+                "positions": np.asarray(robot.ball_positions).tolist(),
+                "wheel_radius": np.asarray(robot.wheel_radius).tolist(),
+                "max_wheel_speed": np.asarray(robot.max_speed).tolist(),
+                "max_wheel_accel": None if accel is None else np.asarray(accel).tolist()}
+    raise ScenarioError(f"cannot describe a robot of kind {robot.kind!r} as plain data")
+
+
+def describe_trajectory(scenario: Scenario) -> dict[str, Any]:
+    """The trajectory spec of a benchmark scenario (its period, or its waypoints)."""
+    trajectory = scenario.trajectory
+    if isinstance(trajectory, Waypoints):
+        return {"times": trajectory.times.tolist(), "poses": trajectory.poses.tolist()}
+    if scenario.trajectory_name in ("circle", "figure8") and trajectory.period is not None:
+        return {"shape": scenario.trajectory_name, "heading": scenario.heading,
+                "period": trajectory.period}
+    raise ScenarioError(f"cannot describe trajectory {scenario.trajectory_name!r} as plain data")
 
 
 def run_pace(run: dict[str, Any]) -> float | None:

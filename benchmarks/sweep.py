@@ -31,13 +31,15 @@ import argparse
 import json
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from benchmarks.executor import RunPool, RunSpec, add_pool_arguments
+from benchmarks.cli import add_pool_arguments
+from benchmarks.executor import RunPool, RunSpec
 from benchmarks.scenarios import CONTROLLERS, Parser, ScenarioError, Settings, choose
 
 KINDS: tuple[str, ...] = ("omni", "mecanum", "swerve", "ball")
@@ -151,6 +153,18 @@ def _quantiles(row: dict[str, Any], key: str, scale: float) -> str:
     return "/".join(f"{row[key][f'p{q}'] * scale:.3g}" for q in QUANTILES)
 
 
+def progress_line(result: Mapping[str, Any]) -> str:
+    """One progress line's text for a result."""
+    names = " ".join(str(result[key]) for key in
+                     ("case", "layout", "trajectory", "heading", "speed", "controller")
+                     if key in result)
+    if "error" in result:
+        return f"{names} FAILED {result['error']}"
+    metrics = result["metrics"]
+    return (f"{names} rms {metrics['rms_position_error'] * 1e3:.3g} mm, "
+            f"{math.degrees(metrics['rms_heading_error']):.3g} deg")
+
+
 def _parser() -> Parser:
     parser = Parser(prog="mpc-bench sweep", description=__doc__.split("\n\n")[0],
                     epilog=__doc__.split("\n\n", 1)[1],
@@ -181,7 +195,7 @@ def main(argv: list[str]) -> int:
     with RunPool(args.workers, args.scheduler) as pool:
         print(f"sweep: {args.runs} cases x {len(controllers)} controllers on {pool.description}",
               flush=True)
-        results = pool.run(specs, lambda line: print(line, flush=True))
+        results = pool.run(specs, lambda line: print(line, flush=True), progress_line)
     rows = summarise(results)
     print()
     print(table(rows))

@@ -29,14 +29,16 @@ summary.md (before/after against the baselines), history.png and importance.png 
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import time
 from pathlib import Path
 from typing import Any
 
-from benchmarks.executor import RunPool, RunSpec, add_pool_arguments, describe_robot, optimal_lap
-from benchmarks.runner import build_scenarios, run_pace
+from benchmarks.cli import add_pool_arguments
+from benchmarks.executor import RunPool, RunSpec, optimal_lap
+from benchmarks.runner import build_scenarios, describe_robot, run_pace
 from benchmarks.scenarios import (
     HEADINGS,
     PRESETS,
@@ -205,7 +207,8 @@ def write_weights(result: Any, args: Any, command: str, out: Path) -> dict[str, 
              "# Load: Controller(..., weights=mpc.model.weights.load_weights(path))"]
     if "horizon" in best.params:
         lines.append(f"# Tuned with Controller(horizon={best.params['horizon']}).")
-    lines += [f"{name} = {_toml(value)}" for name, value in weights.items()]
+    lines += [f"{name} = {list(value) if isinstance(value, list) else value!r}"
+              for name, value in weights.items()]  # repr: the exact tuned numbers
     (out / "weights.toml").write_text("\n".join(lines) + "\n", encoding="utf-8")
     return {"command": command, "robot": args.robot, "mode": args.mode,
             "heading_scale": args.heading_scale,
@@ -215,10 +218,6 @@ def write_weights(result: Any, args: Any, command: str, out: Path) -> dict[str, 
                      "weights": weights, "runs": best.user_attrs["runs"]},
             "trials": [{"number": t.number, "J": t.value, "params": t.params}
                        for t in result.trials]}
-
-
-def _toml(value: Any) -> str:
-    return f"[{', '.join(map(repr, value))}]" if isinstance(value, list) else repr(value)
 
 
 def _cell(run: dict[str, Any], mode: str) -> str:
@@ -282,22 +281,24 @@ def write_figures(result: Any, document: dict[str, Any], out: Path) -> None:
     figure.savefig(out / "history.png", dpi=100)
     # PED-ANOVA (no scikit-learn, deterministic): which parameters set the best trials apart
     evaluator = optuna.importance.PedAnovaImportanceEvaluator()
-    importances = optuna.importance.get_param_importances(result, evaluator=evaluator)
-    document_importances = {k: float(v) for k, v in importances.items()}
+    try:
+        importances = optuna.importance.get_param_importances(result, evaluator=evaluator)
+    except (ValueError, RuntimeError):  # too few distinct trials to tell
+        return
+    document["importances"] = {k: float(v) for k, v in importances.items()}
     figure = Figure(figsize=(6, 0.4 * len(importances) + 1), layout="constrained")
     FigureCanvasAgg(figure)
     axes = figure.add_subplot()
-    names = list(document_importances)[::-1]
-    axes.barh(names, [document_importances[n] for n in names])
+    names = list(importances)[::-1]
+    axes.barh(names, [importances[n] for n in names])
     axes.set(xlabel="importance (PED-ANOVA, normalised)", title="parameter importance")
     figure.savefig(out / "importance.png", dpi=100)
-    document["importances"] = document_importances
 
 
 def _parser() -> Parser:
     parser = Parser(prog="mpc-bench tune", description=__doc__.split("\n\n")[0],
                     epilog=__doc__.split("\n\n", 1)[1],
-                    formatter_class=__import__("argparse").RawDescriptionHelpFormatter)
+                    formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--robot", default="omni3",
                         help=f"a preset ({', '.join(PRESETS)}) or a robot TOML file (omni3)")
     parser.add_argument("--mode", choices=("time", "path"), default="time")
@@ -334,8 +335,8 @@ def main(argv: list[str]) -> int:
     with RunPool(args.workers, args.scheduler) as pool:
         tuner = Tuner(args, pool, print)
         result = study(tuner, args.trials, lambda line: print(line, flush=True))
-        baselines = ([] if args.mode == "path" else
-                     [(name, tuner.evaluate([(name, None)])[0]) for name in tuner.baselines])
+        names = [] if args.mode == "path" else tuner.baselines  # they track time, not paths
+        baselines = zip(names, tuner.evaluate([(name, None) for name in names]), strict=True)
     command = " ".join(["mpc-bench", "tune", *argv])
     document = write_weights(result, args, command, out)
     document["baselines"] = {name: {"J": cost, "runs": [_compact(r) for r in runs]}
@@ -345,7 +346,8 @@ def main(argv: list[str]) -> int:
     write_figures(result, document, out)
     (out / "study.json").write_text(json.dumps(document, indent=1), encoding="utf-8")
     print(table)
-    print(f"J defaults {document['defaults']['J']:.4g} -> best {document['best']['J']:.4g} "
-          f"(trial {document['best']['trial']}); wrote {out / 'weights.toml'}, study.json, "
-          f"summary.md, history.png, importance.png")
+    others = "".join(f", {name} {b['J']:.4g}" for name, b in document["baselines"].items())
+    print(f"J: defaults {document['defaults']['J']:.4g}, tuned {document['best']['J']:.4g} "
+          f"(trial {document['best']['trial']}){others}\nwrote {out / 'weights.toml'}, "
+          f"study.json, summary.md, history.png, importance.png")
     return 0

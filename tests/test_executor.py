@@ -11,7 +11,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from benchmarks.executor import RunPool, RunSpec, comparable, describe_robot, optimal_lap
+from benchmarks.executor import RunPool, RunSpec, comparable, optimal_lap
+from benchmarks.runner import describe_robot
 from benchmarks.scenarios import ScenarioError
 from benchmarks.sweep import sample_cases, summarise
 from mpc import Controller
