@@ -291,9 +291,10 @@ class RunPool:
             nonlocal done
             results[index], seconds = outcome
             done += 1
-            if log is not None and line is not None:
+            if log is not None:
                 eta = (time.perf_counter() - started) / done * (len(specs) - done)
-                log(f"[{done:{len(str(len(specs)))}d}/{len(specs)}] {line(results[index])} "
+                text = (line or _names)(results[index])
+                log(f"[{done:{len(str(len(specs)))}d}/{len(specs)}] {text} "
                     f"({seconds:.1f} s, eta {eta:.0f} s)")
 
         if self._local(len(specs)):
@@ -320,6 +321,13 @@ class RunPool:
         if self._client is not None:
             self._client.close()
         self._executor, self._client = None, None
+
+
+def _names(result: Mapping[str, Any]) -> str:
+    """The default progress text: the run's labels and controller, and any error."""
+    names = " ".join(v for k, v in result.items()
+                     if isinstance(v, str) and k not in ("error", "traceback"))
+    return f"{names} FAILED {result['error']}" if "error" in result else names
 
 
 def _outcome(future: cf.Future[Any], spec: RunSpec) -> tuple[dict[str, Any], float]:
