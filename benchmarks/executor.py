@@ -27,6 +27,7 @@ import os
 import time
 import traceback
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -278,7 +279,11 @@ class RunPool:
         if self._local(len(items)):
             return [fn(*item) for item in items]
         futures = [self._pool().submit(fn, *item) for item in items]
-        return [future.result() for future in futures]
+        try:
+            return [future.result() for future in futures]
+        except BrokenProcessPool as error:
+            raise ScenarioError(f"a worker process died ({error}); a script that starts a pool "
+                                "must guard its entry with if __name__ == '__main__'") from None
 
     def run(self, specs: Sequence[RunSpec], log: Callable[[str], None] | None = None,
             line: Callable[[Mapping[str, Any]], str] | None = None) -> list[dict[str, Any]]:
