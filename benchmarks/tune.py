@@ -5,8 +5,8 @@ Objective J, lower is better: the mean over the scenarios s of
     time mode:  c_s = sqrt((e_pos / 10 mm)^2 + (e_head / H)^2)
     path mode:  c_s = sqrt((e_path / 10 mm)^2 + (e_head / H)^2 + (max(0, lap/target - 1) / 5%)^2)
 
-plus penalties: +100 for a run that commands a wheel beyond a speed or acceleration
-limit, +100 x the fraction of its ticks not solved (fallbacks), and c_s = 1000 for a run
+where c_s also gains 100 if the run commands a wheel beyond a speed or acceleration
+limit and 100 x the fraction of its ticks not solved (fallbacks), and is 1000 for a run
 that raises. e_pos is the RMS distance to the time-indexed reference, e_path the RMS
 distance to the path (cross-track), e_head the RMS heading error [deg], all after
 --skip seconds; H is --heading-scale (default 2 deg: 1 deg of heading costs as much as
@@ -271,11 +271,12 @@ def write_figures(result: Any, document: dict[str, Any], out: Path) -> None:
     figure = Figure(figsize=(7, 4), layout="constrained")
     FigureCanvasAgg(figure)
     axes = figure.add_subplot()
-    axes.semilogy(range(len(values)), values, "o", ms=4, label="trial")
+    axes.plot(range(len(values)), values, "o", ms=4, label="trial")
     axes.step(range(len(values)), [min(values[:i + 1]) for i in range(len(values))],
               where="post", label="best so far")
     axes.axhline(values[0], ls="--", color="grey", label="defaults (trial 0)")
-    axes.set(xlabel="trial", ylabel="J (lower is better)",
+    top = min(max(values), 1.5 * values[0])  # worse trials run off the top
+    axes.set(xlabel="trial", ylabel="J (lower is better)", ylim=(0.95 * min(values), top),
              title=f"{document['robot']}, {document['mode']} mode")
     axes.legend()
     figure.savefig(out / "history.png", dpi=100)
