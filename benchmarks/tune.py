@@ -14,6 +14,14 @@ distance to the path (cross-track), e_head the RMS heading error [deg], all afte
 can keep (2 when no lap completes). Being a pose error in one metric, c_s has its
 minimum where trading heading for position stops paying, not at either extreme.
 
+--objective baseline (time mode) scores each scenario against the baseline with the
+lowest position RMS there, b (ff-p-clip, ff-p-desat, ff-p-setpoint for swerve):
+
+    c_s = max(e_pos, 1 mm) / max(e_pos_b, 1 mm) + max(0, e_head - e_head_b - 1 deg) / 1 deg
+
+(the same penalties), below 1 where the MPC has the lower position RMS with a heading RMS
+at most 1 deg above the baseline's: the benchmark's criterion of a win.
+
 Scenarios (default): the robot's circle and figure-eight, fixed and tangent heading,
 inside (0.8 x) and 1.3 x beyond the wheel limits, with mpc-daqp (time mode) or
 mpc-path (--mode path). Search space, log-uniform (defaults in brackets): heading
@@ -89,19 +97,29 @@ def weights_of(params: dict[str, float]) -> dict[str, Any]:
     return {**weights, **{k: params[k] for k in PATH_ONLY if k in params}}
 
 
-def scenario_cost(run: dict[str, Any], mode: str, heading_scale: float) -> float:
+def scenario_cost(run: dict[str, Any], mode: str, heading_scale: float,
+                  baseline: dict[str, Any] | None = None) -> float:
     """c_s of one run (see the module docstring); ``run`` as the executor returns it, with
-    ``target_lap`` added for path mode."""
+    ``target_lap`` added for path mode; ``baseline``: that scenario's best baseline run
+    (``--objective baseline``)."""
     if "error" in run:
         return ERROR_COST
     m = run["metrics"]
-    error = m["rms_cross_track_error"] if mode == "path" else m["rms_position_error"]
-    terms = [error / POSITION_SCALE, math.degrees(m["rms_heading_error"]) / heading_scale]
-    if mode == "path":
-        pace = run_pace(run)
-        terms.append(max(0.0, (2.0 if pace is None else pace) - 1.0) / LAP_SCALE)
+    if baseline is not None:
+        b = baseline.get("metrics") or {"rms_position_error": math.inf,
+                                        "rms_heading_error": math.inf}
+        excess = math.degrees(m["rms_heading_error"] - b["rms_heading_error"]) - 1.0
+        cost = (max(m["rms_position_error"], 1e-3) / max(b["rms_position_error"], 1e-3)
+                + max(0.0, excess))
+    else:
+        error = m["rms_cross_track_error"] if mode == "path" else m["rms_position_error"]
+        terms = [error / POSITION_SCALE, math.degrees(m["rms_heading_error"]) / heading_scale]
+        if mode == "path":
+            pace = run_pace(run)
+            terms.append(max(0.0, (2.0 if pace is None else pace) - 1.0) / LAP_SCALE)
+        cost = math.hypot(*terms)
     penalty = VIOLATION_PENALTY * (m["limit_violations"] + m["accel_violations"] > 0)
-    return math.hypot(*terms) + penalty + FAILURE_PENALTY * m["failures"] / max(1, run["ticks"])
+    return cost + penalty + FAILURE_PENALTY * m["failures"] / max(1, run["ticks"])
 
 
 class Tuner:
@@ -120,7 +138,14 @@ class Tuner:
         log(f"tune: {robot.name}, {len(self.scenarios)} scenarios, {args.mode} mode, "
             f"on {pool.description}")
         self.laps = pool.map(optimal_lap, [(self.robot_spec, t) for t in self.trajectories])
-        self.baselines = [name for name in BASELINES if applies(name, robot)]
+        self.references: list[dict[str, Any]] | None = None  # best baseline per scenario
+        names = [] if args.mode == "path" else [n for n in BASELINES if applies(n, robot)]
+        runs = self.pool.run([spec for name in names for spec in self.specs(name, None)])
+        size = len(self.scenarios)
+        self.baseline_runs = {name: runs[i * size:(i + 1) * size] for i, name in enumerate(names)}
+        if args.objective == "baseline":
+            self.references = [min((r[i] for r in self.baseline_runs.values()), key=_position)
+                               for i in range(size)]
 
     def specs(self, controller: str, params: dict[str, float] | None) -> list[RunSpec]:
         horizon = int(params.get("horizon", self.args.horizon)) if params else self.args.horizon
@@ -139,14 +164,23 @@ class Tuner:
         """(J, runs) of each (controller, parameters), all runs in one go on the pool."""
         specs = [spec for name, params in batch for spec in self.specs(name, params)]
         results = self.pool.run(specs)
-        out, size = [], len(self.scenarios)
-        for i in range(len(batch)):
-            runs = results[i * size:(i + 1) * size]
-            for run, lap in zip(runs, self.laps, strict=True):
-                run["target_lap"] = lap
-            cost = sum(scenario_cost(run, self.mode, self.args.heading_scale) for run in runs)
-            out.append((cost / size, runs))
-        return out
+        size = len(self.scenarios)
+        return [self.cost(results[i * size:(i + 1) * size]) for i in range(len(batch))]
+
+    def cost(self, runs: list[dict[str, Any]]) -> tuple[float, list[dict[str, Any]]]:
+        """J of one run per scenario, and the runs."""
+        references: list[dict[str, Any] | None] = [None] * len(runs)
+        if self.references is not None:
+            references = list(self.references)
+        for run, lap in zip(runs, self.laps, strict=True):
+            run["target_lap"] = lap
+        costs = [scenario_cost(run, self.mode, self.args.heading_scale, reference)
+                 for run, reference in zip(runs, references, strict=True)]
+        return sum(costs) / len(costs), runs
+
+
+def _position(run: dict[str, Any]) -> float:
+    return float(run["metrics"]["rms_position_error"]) if "metrics" in run else math.inf
 
 
 def study(tuner: Tuner, trials: int, log: Any) -> Any:
@@ -202,7 +236,8 @@ def write_weights(result: Any, args: Any, command: str, out: Path) -> dict[str, 
     best, defaults = result.best_trial, result.trials[0]
     weights = weights_of(best.params)
     lines = [f"# MPC cost weights for {args.robot}, {args.mode} mode, tuned by", f"#   {command}",
-             f"# J (mpc-bench tune --help): defaults {defaults.value:.4g}, these "
+             f"# J ({args.objective} objective, mpc-bench tune --help): defaults "
+             f"{defaults.value:.4g}, these "
              f"{best.value:.4g} (trial {best.number} of {len(result.trials)}).",
              "# Load: Controller(..., weights=mpc.model.weights.load_weights(path))"]
     if "horizon" in best.params:
@@ -211,7 +246,7 @@ def write_weights(result: Any, args: Any, command: str, out: Path) -> dict[str, 
               for name, value in weights.items()]  # repr: the exact tuned numbers
     (out / "weights.toml").write_text("\n".join(lines) + "\n", encoding="utf-8")
     return {"command": command, "robot": args.robot, "mode": args.mode,
-            "heading_scale": args.heading_scale,
+            "objective": args.objective, "heading_scale": args.heading_scale,
             "defaults": {"J": defaults.value, "params": defaults.params,
                          "runs": defaults.user_attrs["runs"]},
             "best": {"J": best.value, "trial": best.number, "params": best.params,
@@ -303,6 +338,9 @@ def _parser() -> Parser:
     parser.add_argument("--robot", default="omni3",
                         help=f"a preset ({', '.join(PRESETS)}) or a robot TOML file (omni3)")
     parser.add_argument("--mode", choices=("time", "path"), default="time")
+    parser.add_argument("--objective", choices=("pose", "baseline"), default="pose",
+                        help="pose: the pose error in one metric; baseline: against the best "
+                             "baseline per scenario (time mode; see below)")
     parser.add_argument("--trials", type=int, default=60, help="trials, the defaults first (60)")
     parser.add_argument("--batch", type=int, default=1,
                         help="trials evaluated at once (1; more for big clusters: the sampler "
@@ -328,6 +366,8 @@ def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
     if args.trials < 2 or args.batch < 1 or not args.heading_scale > 0:
         raise ScenarioError("--trials must be >= 2, --batch >= 1, --heading-scale > 0")
+    if args.objective == "baseline" and args.mode == "path":
+        raise ScenarioError("--objective baseline compares time-mode runs: use --mode time")
     if args.horizon < 1 or not args.dt > 0 or (args.duration is not None
                                                and not args.duration > args.skip >= 0):
         raise ScenarioError("--horizon must be >= 1, --dt > 0, --duration > --skip >= 0")
@@ -336,8 +376,7 @@ def main(argv: list[str]) -> int:
     with RunPool(args.workers, args.scheduler) as pool:
         tuner = Tuner(args, pool, print)
         result = study(tuner, args.trials, lambda line: print(line, flush=True))
-        names = [] if args.mode == "path" else tuner.baselines  # they track time, not paths
-        baselines = zip(names, tuner.evaluate([(name, None) for name in names]), strict=True)
+        baselines = [(name, tuner.cost(runs)) for name, runs in tuner.baseline_runs.items()]
     command = " ".join(["mpc-bench", "tune", *argv])
     document = write_weights(result, args, command, out)
     document["baselines"] = {name: {"J": cost, "runs": [_compact(r) for r in runs]}
