@@ -7,6 +7,13 @@
     mpc-bench perf [options]     tick time against horizon for both solver paths
     mpc-bench soak [options]     memory and tick time over a long run
     mpc-bench motors [options]   motor-aware MPC against kinematic control on the motor plant
+    mpc-bench fuzz [options]     seeded abuse of every robot and control path: unsafe commands
+    mpc-bench tune [options]     tune the MPC's cost weights for a robot (Optuna)
+    mpc-bench sweep [options]    Monte-Carlo over random robots, starts, plant faults
+
+Runs are independent: ``--workers N`` spreads them over N local processes (default:
+the machine's cores) and ``--scheduler tcp://HOST:PORT`` over a Dask cluster, with the
+same results run for run (see :mod:`benchmarks.executor`).
 """
 
 from __future__ import annotations
@@ -18,7 +25,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from benchmarks import motors, perf, soak
+from benchmarks import fuzz, motors, perf, soak
+from benchmarks.executor import RunPool
 from benchmarks.runner import build_scenarios, results_document, run_all, summary_table, write_csv
 from benchmarks.scenarios import (
     ALL_TRAJECTORIES,
@@ -42,11 +50,22 @@ from mpc.robots import motor_preset
 from mpc.sim import PLANT_PRESETS
 
 
+def add_pool_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``--workers`` and ``--scheduler`` options of every command that runs sweeps."""
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="local worker processes (default: the machine's cores; 1 runs "
+                             "in this process)")
+    parser.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                        help="run on this Dask cluster instead (workers need holonomic-mpc "
+                             "installed; pip install 'holonomic-mpc[sweeps]')")
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = Parser(
         prog="mpc-bench",
         description="Benchmark MPC tracking against feedforward + P baselines on holonomic "
-                    "robots. Subcommands: 'report RESULTS', 'perf', 'soak' (see --help of each).",
+                    "robots. Subcommands: 'report RESULTS', 'perf', 'soak', 'tune', 'sweep' "
+                    "(see --help of each).",
     )
     parser.add_argument("--layouts", help=f"comma list of {', '.join(PRESETS)} "
                                           f"(default: {', '.join(DEFAULT_LAYOUTS)})")
@@ -84,6 +103,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--no-report", action="store_true", help="skip the figures and HTML page")
     parser.add_argument("--quick", action="store_true",
                         help="smoke run in seconds: mecanum, figure8, 3 s per run")
+    add_pool_arguments(parser)
     return parser
 
 
@@ -116,11 +136,16 @@ def run(argv: list[str]) -> int:
     out.mkdir(parents=True, exist_ok=True)
 
     scenarios = build_scenarios(chosen_robots, trajectories, speeds, headings, csv_trajectory)
-    print(f"mpc-bench: {len(scenarios)} scenarios x {len(controllers)} controllers, "
-          f"plant {args.plant}, horizon {args.horizon}, dt {args.dt} s", flush=True)
     started = time.perf_counter()
-    runs = run_all(scenarios, controllers, settings, args.duration, args.skip, args.plant,
-                   args.seed, lambda line: print(line, flush=True))
+    failed: list[dict[str, Any]] = []
+    with RunPool(args.workers, args.scheduler) as pool:
+        print(f"mpc-bench: {len(scenarios)} scenarios x {len(controllers)} controllers, "
+              f"plant {args.plant}, horizon {args.horizon}, dt {args.dt} s, "
+              f"on {pool.description}", flush=True)
+        for note in pool.notes:
+            print(f"mpc-bench: note: {note}", flush=True)
+        runs = run_all(scenarios, controllers, settings, args.duration, args.skip, args.plant,
+                       args.seed, lambda line: print(line, flush=True), pool, failed)
     document = results_document(
         runs,
         command=" ".join(["mpc-bench", *argv]),
@@ -129,6 +154,9 @@ def run(argv: list[str]) -> int:
                   "plant": args.plant, "skip": args.skip, "headings": headings,
                   "seed": args.seed},
     )
+    if failed:  # kept beside the runs, out of the tables and figures
+        document["meta"]["failed_runs"] = [
+            {key: value for key, value in run.items() if key != "traceback"} for run in failed]
     (out / "results.json").write_text(json.dumps(document))
     write_csv(runs, out / "results.csv")
     print()
@@ -137,6 +165,10 @@ def run(argv: list[str]) -> int:
           f"({time.perf_counter() - started:.0f} s)")
     if not args.no_report:
         _write_report(document, out / "report")
+    if failed:
+        print(f"mpc-bench: {len(failed)} run(s) failed (listed in results.json meta.failed_runs)",
+              file=sys.stderr)
+        return 1
     return 0
 
 
@@ -165,10 +197,23 @@ def report(argv: list[str]) -> int:
     return 0
 
 
+def _tune(argv: list[str]) -> int:
+    from benchmarks import tune  # Optuna only when asked for
+
+    return tune.main(argv)
+
+
+def _sweep(argv: list[str]) -> int:
+    from benchmarks import sweep
+
+    return sweep.main(argv)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mpc-bench`` console script."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    commands = {"report": report, "perf": perf.main, "soak": soak.main, "motors": motors.main}
+    commands = {"report": report, "perf": perf.main, "soak": soak.main, "motors": motors.main,
+                "fuzz": fuzz.main, "tune": _tune, "sweep": _sweep}
     try:
         if argv and argv[0] in commands:
             return commands[argv[0]](argv[1:])

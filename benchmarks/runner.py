@@ -8,19 +8,21 @@ import functools
 import math
 import os
 import platform
-import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from benchmarks.scenarios import Settings, applies, controller, reference
+from benchmarks.scenarios import ScenarioError, Settings, applies, reference
 from mpc.errors import MpcError
-from mpc.robots import Robot
-from mpc.sim import SimResult, simulate
-from trajectories import Trajectory, feasibility, time_optimal
+from mpc.robots import CasterRobot, Robot, SphericalRobot, SwedishRobot, SwerveRobot
+from mpc.sim import SimResult
+from trajectories import Trajectory, Waypoints, feasibility, time_optimal
+
+if TYPE_CHECKING:
+    from benchmarks.executor import RunPool
 
 
 @dataclass(frozen=True)
@@ -107,27 +109,97 @@ def run_all(
     plant: str,
     seed: int,
     log: Callable[[str], None],
+    pool: RunPool | None = None,
+    failed: list[dict[str, Any]] | None = None,
 ) -> list[dict[str, Any]]:
-    """Simulate every scenario with every controller; print one line per run."""
-    runs = []
-    plan = [(scenario, name) for scenario in scenarios for name in controllers
+    """Simulate every scenario with every controller on ``pool`` (default: in this
+    process); print one line per run as it finishes; return the runs in plan order.
+
+    A run that raised is left out of the result and appended to ``failed`` (its labels and
+    an ``"error"``), and the other runs go on.
+    """
+    from benchmarks.executor import RunPool, RunSpec
+    from benchmarks.executor import optimal_lap as yardstick
+
+    plan = [(index, name) for index, scenario in enumerate(scenarios) for name in controllers
             if applies(name, scenario.robot)]
-    for scenario, name in plan:
-        started = time.perf_counter()
-        control = controller(name, scenario.robot, scenario.trajectory, settings)
-        length = duration or default_duration(scenario, skip)
-        result = simulate(control, length, plant=plant, seed=seed)
-        metrics = result.metrics(skip=min(skip, 0.5 * length))
-        runs.append(pack_run(scenario, name, metrics, result))
-        pace = run_pace(runs[-1])
-        log(f"[{len(runs):3d}/{len(plan)}] {scenario.layout:8s} {scenario.trajectory_name:8s} "
-            f"{scenario.heading:7s} {scenario.speed:7s} {name:14s} "
-            f"rms {metrics['rms_position_error'] * 1e3:8.3g} mm"
+    described = [(describe_robot(s.robot), describe_trajectory(s)) for s in scenarios]
+    executor = pool or RunPool(workers=1)  # one worker: no processes to close
+    laps = executor.map(yardstick, described)  # once per scenario, in parallel
+    specs = [RunSpec(robot=described[index][0], trajectory=described[index][1],
+                     controller=name, settings=settings, duration=duration, skip=skip,
+                     plant=plant, seed=seed, optimal_lap=laps[index], series=True,
+                     labels={"layout": scenarios[index].layout,
+                             "trajectory": scenarios[index].trajectory_name,
+                             "heading": scenarios[index].heading,
+                             "speed": scenarios[index].speed})
+             for index, name in plan]
+    results = executor.run(specs, log, line=_run_line)
+    if failed is not None:
+        failed.extend(result for result in results if "error" in result)
+    return [result for result in results if "error" not in result]
+
+
+def _run_line(run: Mapping[str, Any]) -> str:
+    """The text of a run's progress line."""
+    names = (f"{run['layout']:8s} {run['trajectory']:8s} {run['heading']:7s} "
+             f"{run['speed']:7s} {run['controller']:14s}")
+    if "error" in run:
+        return f"{names} FAILED {run['error']}"
+    metrics, pace = run["metrics"], run_pace(dict(run))
+    return (f"{names} rms {metrics['rms_position_error'] * 1e3:8.3g} mm"
             f"  path {metrics['max_cross_track_error'] * 1e3:8.3g} mm"
             f"  lap/target {'-' if pace is None else f'{pace:.3f}':>5s}"
-            f"  tick p50 {metrics['tick_time_p50'] * 1e3:6.3f} ms"
-            f"  ({time.perf_counter() - started:.1f} s)")
-    return runs
+            f"  tick p50 {metrics['tick_time_p50'] * 1e3:6.3f} ms")
+
+
+def describe_robot(robot: Robot) -> dict[str, Any]:
+    """A description :func:`mpc.robots.from_dict` rebuilds ``robot`` from, exactly."""
+    if robot.derating is not None:
+        raise ScenarioError(f"robot {robot.name!r} is derated; describe the healthy robot")
+    if getattr(robot, "dynamics", None) is not None:
+        raise ScenarioError(f"robot {robot.name!r} has a motor model; runs on other processes "
+                            "describe kinematic robots only")
+    if isinstance(robot, SwedishRobot):
+        wheels = [{"alpha": w.alpha, "beta": w.beta, "gamma": w.gamma, "l": w.l,
+                   "radius": w.radius, "max_speed": w.max_speed,
+                   **({} if w.max_accel is None else {"max_accel": w.max_accel})}
+                  for w in robot.wheels]
+        return {"type": "swedish", "name": robot.name, "wheels": wheels}
+    if isinstance(robot, SwerveRobot):
+        return {"type": "swerve", "name": robot.name,
+                "module_positions": np.asarray(robot.module_positions).tolist(),
+                "wheel_radius": robot.wheel_radius, "max_wheel_speed": robot.max_speed,
+                "max_steer_rate": robot.max_steer_rate, "max_wheel_accel": robot.max_accel,
+                **({"axle_offset": robot.axle_offset} if robot.axle_offset else {})}
+    if isinstance(robot, CasterRobot):
+        accel = robot.max_accel
+        return {"type": "caster", "name": robot.name,
+                "positions": np.asarray(robot.caster_positions).tolist(),
+                "offset": np.asarray(robot.offset).tolist(),
+                "wheel_radius": np.asarray(robot.wheel_radius).tolist(),
+                "max_wheel_speed": np.asarray(robot.max_speed).tolist(),
+                "max_steer_rate": np.asarray(robot.max_steer_rate).tolist(),
+                "max_wheel_accel": None if accel is None else np.asarray(accel).tolist()}
+    if isinstance(robot, SphericalRobot):
+        accel = robot.max_accel
+        return {"type": "spherical", "name": robot.name,
+                "positions": np.asarray(robot.ball_positions).tolist(),
+                "wheel_radius": np.asarray(robot.wheel_radius).tolist(),
+                "max_wheel_speed": np.asarray(robot.max_speed).tolist(),
+                "max_wheel_accel": None if accel is None else np.asarray(accel).tolist()}
+    raise ScenarioError(f"cannot describe a robot of kind {robot.kind!r} as plain data")
+
+
+def describe_trajectory(scenario: Scenario) -> dict[str, Any]:
+    """The trajectory spec of a benchmark scenario (its period, or its waypoints)."""
+    trajectory = scenario.trajectory
+    if isinstance(trajectory, Waypoints):
+        return {"times": trajectory.times.tolist(), "poses": trajectory.poses.tolist()}
+    if scenario.trajectory_name in ("circle", "figure8") and trajectory.period is not None:
+        return {"shape": scenario.trajectory_name, "heading": scenario.heading,
+                "period": trajectory.period}
+    raise ScenarioError(f"cannot describe trajectory {scenario.trajectory_name!r} as plain data")
 
 
 def _violations(metrics: dict[str, Any]) -> int:

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -11,6 +13,11 @@ from numpy.typing import ArrayLike
 from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
 from mpc.validation import is_finite_number
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
 
 
 def _diagonal(name: str, value: ArrayLike) -> FloatArray:
@@ -128,3 +135,33 @@ def make_weights(weights: Weights | Mapping[str, ArrayLike] | None) -> Weights:
                 f"unknown weight name(s) {unknown}; expected some of {sorted(known)}")
         return Weights(**weights)  # type: ignore[arg-type]
     raise ControllerError(f"weights must be Weights, a dict or None, got {type(weights).__name__}")
+
+
+def load_weights(path: str | Path) -> Weights:
+    """Weights from a TOML file of weight names (any of :class:`Weights`' fields; the others
+    keep their defaults), e.g. as ``mpc-bench tune`` writes them::
+
+        pose = [200.0, 200.0, 12.5]     # [1/m^2, 1/m^2, 1/rad^2]
+        terminal = [600.0, 600.0, 37.5]
+        twist = 0.5                      # a scalar applies to all three axes
+
+    Unknown names, tables and values that are not numbers are a
+    :class:`~mpc.errors.ControllerError` naming the file. Pass the result as
+    ``Controller(..., weights=load_weights(path))``.
+    """
+    file = Path(path)
+    try:
+        text = file.read_text(encoding="utf-8-sig")
+    except OSError as error:
+        raise ControllerError(f"cannot read weights file {str(file)!r}: {error.strerror}") from None
+    except UnicodeDecodeError as error:
+        raise ControllerError(f"weights file {str(file)!r} is not UTF-8 text: {error.reason} "
+                              f"at byte {error.start}") from None
+    try:
+        table = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise ControllerError(f"weights file {str(file)!r} is not valid TOML: {error}") from None
+    try:
+        return make_weights(table)
+    except ControllerError as error:
+        raise ControllerError(f"weights file {str(file)!r}: {error}") from None
