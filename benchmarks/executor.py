@@ -35,8 +35,14 @@ import numpy as np
 
 from benchmarks.runner import Scenario, default_duration, pack_run
 from benchmarks.scenarios import _MPC as MPC_CONTROLLERS  # (solver, mode) by name
-from benchmarks.scenarios import SHAPE_SIZE, ScenarioError, Settings, controller, reference
-from mpc import Controller
+from benchmarks.scenarios import (
+    SHAPE_SIZE,
+    ScenarioError,
+    Settings,
+    controller,
+    mpc_controller,
+    reference,
+)
 from mpc.robots import Robot, from_dict, preset
 from mpc.sim import PlantConfig, TrackingController, simulate
 from trajectories import Circle, FigureEight, SpinHeading, Trajectory, Waypoints
@@ -121,11 +127,7 @@ def build_controller(spec: RunSpec, robot: Robot, trajectory: Trajectory) -> Tra
         if spec.weights is not None or spec.delay_ticks:
             raise ScenarioError(f"weights and delay_ticks apply to MPC controllers, not {name}")
         return controller(name, robot, trajectory, settings)
-    solver, mode = MPC_CONTROLLERS[name]
-    sides = settings.polygon_sides if robot.kind == "swerve" and solver != "ipopt" else None
-    return Controller(robot, trajectory, settings.horizon, settings.dt, solver=solver,
-                      weights=None if spec.weights is None else dict(spec.weights),
-                      mode=mode, polygon_sides=sides, delay_ticks=spec.delay_ticks)
+    return mpc_controller(name, robot, trajectory, settings, spec.weights, spec.delay_ticks)
 
 
 def _plant(spec: str | Mapping[str, Any]) -> str | PlantConfig:

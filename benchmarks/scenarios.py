@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from mpc import Controller
 from mpc.errors import MpcError
+from mpc.model.weights import Weights, tuned_layouts, tuned_weights
 from mpc.robots import PRESETS, Robot, load, preset
 from mpc.sim import FeedforwardPController, FeedforwardPSetpointController, TrackingController
 from trajectories import (
@@ -42,14 +43,14 @@ ALL_TRAJECTORIES: tuple[str, ...] = (*TRAJECTORIES, "out-and-back")
 DEFAULT_LAYOUTS: tuple[str, ...] = tuple(name for name in PRESETS
                                          if name not in ("caster4", "mpo700"))
 #: Every controller the benchmark knows: this project in time mode (the daqp fast path,
-#: the OSQP fast path, the exact IPOPT path) and in path mode, and the baselines a user
-#: would otherwise pick (feedforward + P with per-wheel clipping, WPILib-style
-#: desaturation, or, for swerve, a Team 254-style setpoint generator).
-CONTROLLERS: tuple[str, ...] = ("mpc-daqp", "mpc-osqp", "mpc-ipopt", "mpc-path", "mpc-path-ipopt",
-                                "ff-p-clip", "ff-p-desat", "ff-p-setpoint")
+#: the same with the robot's tuned weights, the OSQP fast path, the exact IPOPT path) and in
+#: path mode, and the baselines a user would otherwise pick (feedforward + P with per-wheel
+#: clipping, WPILib-style desaturation, or, for swerve, a Team 254-style setpoint generator).
+CONTROLLERS: tuple[str, ...] = ("mpc-daqp", "mpc-tuned", "mpc-osqp", "mpc-ipopt", "mpc-path",
+                                "mpc-path-ipopt", "ff-p-clip", "ff-p-desat", "ff-p-setpoint")
 #: What runs by default (mpc-osqp and mpc-path-ipopt on request).
-DEFAULT_CONTROLLERS: tuple[str, ...] = ("mpc-daqp", "mpc-ipopt", "mpc-path", "ff-p-clip",
-                                        "ff-p-desat", "ff-p-setpoint")
+DEFAULT_CONTROLLERS: tuple[str, ...] = ("mpc-daqp", "mpc-tuned", "mpc-ipopt", "mpc-path",
+                                        "ff-p-clip", "ff-p-desat", "ff-p-setpoint")
 #: Controllers that only apply to robots with steered wheels.
 STEERED_ONLY: frozenset[str] = frozenset({"ff-p-setpoint"})
 HEADINGS: tuple[str, ...] = ("fixed", "tangent", "spin")
@@ -163,31 +164,44 @@ def controller(name: str, robot: Robot, trajectory: Trajectory,
                settings: Settings) -> TrackingController:
     """A controller by its benchmark name (one of :data:`CONTROLLERS`)."""
     if name in _MPC:
-        solver, mode = _MPC[name]
-        sides = settings.polygon_sides if robot.kind == "swerve" and solver != "ipopt" else None
-        return Controller(robot, trajectory, settings.horizon, settings.dt, solver=solver,
-                          mode=mode, polygon_sides=sides)
+        return mpc_controller(name, robot, trajectory, settings)
     if name == "ff-p-setpoint":
         return FeedforwardPSetpointController(robot, trajectory, settings.dt)
     saturation = "clip" if name == "ff-p-clip" else "desaturate"
     return FeedforwardPController(robot, trajectory, settings.dt, saturation=saturation)
 
 
-#: The MPC controllers by benchmark name: (solver, mode).
+#: The MPC controllers by benchmark name: (solver, mode). ``mpc-tuned`` is ``mpc-daqp`` with
+#: the robot's tuned weight preset (:func:`mpc.model.weights.tuned_weights`).
 _MPC: dict[str, tuple[str, str]] = {
-    "mpc-daqp": ("daqp", "time"), "mpc-osqp": ("osqp", "time"), "mpc-ipopt": ("ipopt", "time"),
-    "mpc-path": ("daqp", "path"), "mpc-path-ipopt": ("ipopt", "path"),
+    "mpc-daqp": ("daqp", "time"), "mpc-tuned": ("daqp", "time"), "mpc-osqp": ("osqp", "time"),
+    "mpc-ipopt": ("ipopt", "time"), "mpc-path": ("daqp", "path"),
+    "mpc-path-ipopt": ("ipopt", "path"),
 }
+
+
+def mpc_controller(name: str, robot: Robot, trajectory: Trajectory, settings: Settings,
+                   weights: Mapping[str, Any] | None = None, delay_ticks: int = 0) -> Controller:
+    """The MPC controller ``name`` (a key of ``_MPC``); ``weights`` override its own."""
+    solver, mode = _MPC[name]
+    sides = settings.polygon_sides if robot.kind == "swerve" and solver != "ipopt" else None
+    chosen: Weights | Mapping[str, Any] | None = weights
+    if chosen is None and name == "mpc-tuned":
+        chosen = tuned_weights(robot.name)
+    return Controller(robot, trajectory, settings.horizon, settings.dt, solver=solver,
+                      weights=chosen, mode=mode, polygon_sides=sides, delay_ticks=delay_ticks)
 
 
 def applies(name: str, robot: Robot) -> bool:
     """Whether controller ``name`` can drive ``robot`` (the setpoint generator: swerve, not
-    casters, whose steer angles are states)."""
+    casters, whose steer angles are states; ``mpc-tuned``: robots with a tuned preset)."""
+    if name == "mpc-tuned":
+        return robot.name in tuned_layouts()
     return name not in STEERED_ONLY or (robot.steered and not robot.steer_states)
 
 
 __all__ = [
-    "ALL_TRAJECTORIES", "CONTROLLERS", "DEFAULT_CONTROLLERS", "DEFAULT_HEADINGS",
+    "ALL_TRAJECTORIES", "CONTROLLERS", "DEFAULT_CONTROLLERS", "DEFAULT_HEADINGS", "mpc_controller",
     "DEFAULT_LAYOUTS", "HEADINGS", "PRESETS", "SPEEDS", "TRAJECTORIES", "Parser",
     "ScenarioError", "Settings", "applies", "choose", "controller", "csv_reference",
     "parse_speeds", "reference", "robots",

@@ -100,7 +100,7 @@ def test_robot_file_and_csv_trajectory(tmp_path: Path) -> None:
     ("argv", "message"),
     [
         (["--layouts", "tank"], "unknown layout tank; valid: omni3, omni4, mecanum, swerve"),
-        (["--controllers", "pid"], "unknown controller pid; valid: mpc-daqp, mpc-osqp"),
+        (["--controllers", "pid"], "unknown controller pid; valid: mpc-daqp, mpc-tuned, mpc-osqp"),
         (["--heading", "sideways"], "unknown heading sideways; valid: fixed, tangent, spin"),
         (["--trajectories", "square"], "unknown trajectory square; valid: circle, figure8"),
         (["--speeds", "fast"], "unknown speed 'fast'"),

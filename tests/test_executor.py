@@ -145,3 +145,30 @@ def test_tiny_study_beats_the_defaults_and_its_weights_load(tmp_path: Path) -> N
     (tmp_path / "bad.toml").write_text("pose = 1.0\nheading = 2.0\n")
     with pytest.raises(ControllerError, match=r"bad.toml.*unknown weight name\(s\) \['heading'\]"):
         load_weights(tmp_path / "bad.toml")
+
+
+def test_tuned_presets_load_and_drive_the_mpc_tuned_controller() -> None:
+    """Every shipped preset loads, differs from the defaults and names its command; the
+    benchmark's ``mpc-tuned`` uses it and applies only to robots that have one."""
+    from benchmarks.scenarios import Settings, applies, mpc_controller
+    from mpc.model import weights as weights_module
+    from mpc.model.weights import Weights, tuned_layouts, tuned_weights
+
+    assert set(tuned_layouts()) <= set(PRESETS)
+    assert {"mecanum", "omni3", "swerve"} <= set(tuned_layouts())
+    defaults = Weights()
+    for name in tuned_layouts():
+        weights = tuned_weights(name)
+        assert not np.array_equal(weights.pose, defaults.pose) or not np.array_equal(
+            weights.twist, defaults.twist)
+        head = (Path(weights_module.__file__).with_name("tuned") / f"{name}.toml"
+                ).read_text().splitlines()[1]
+        assert head.startswith("#   mpc-bench tune --robot " + name)
+    robot = preset("swerve")
+    control = mpc_controller("mpc-tuned", robot, Circle(1.0, 8.0), Settings())
+    assert np.array_equal(control.weights.twist, tuned_weights("swerve").twist)
+    assert applies("mpc-tuned", robot)
+    assert not applies("mpc-tuned", preset("caster4"))
+    with pytest.raises(ControllerError, match="no tuned weights for robot 'caster4'; tuned "
+                                              "presets: mecanum"):
+        tuned_weights("caster4")

@@ -10,7 +10,7 @@ from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import Layout, TickInput, TrackingLayouts, tracking_layouts
 from mpc.model.se2 import SMALL_ROTATION, integrate, twist_integral, twist_logarithm
 from mpc.model.tracking import DIRECTION_SPEED, TrackingModel
-from mpc.model.weights import Weights, make_weights
+from mpc.model.weights import Weights, load_weights, make_weights, tuned_layouts, tuned_weights
 
 __all__ = [
     "DIRECTION_SPEED",
@@ -22,8 +22,11 @@ __all__ = [
     "TrackingModel",
     "Weights",
     "integrate",
+    "load_weights",
     "make_weights",
     "tracking_layouts",
+    "tuned_layouts",
+    "tuned_weights",
     "twist_integral",
     "twist_logarithm",
 ]

@@ -165,3 +165,28 @@ def load_weights(path: str | Path) -> Weights:
         return make_weights(table)
     except ControllerError as error:
         raise ControllerError(f"weights file {str(file)!r}: {error}") from None
+
+
+#: Folder of the tuned weight presets: ``<robot name>.toml`` as ``mpc-bench tune`` wrote it.
+_TUNED = Path(__file__).with_name("tuned")
+
+
+def tuned_layouts() -> tuple[str, ...]:
+    """Names of the preset robots that have tuned weights (see :func:`tuned_weights`)."""
+    return tuple(sorted(path.stem for path in _TUNED.glob("*.toml")))
+
+
+def tuned_weights(name: str) -> Weights:
+    """The tuned time-mode weights of preset robot ``name`` (e.g. ``robot.name``).
+
+    Tuned with ``mpc-bench tune --objective baseline --speeds beyond`` (the command is
+    the first lines of each file in ``mpc/model/tuned/``): they trade position against
+    heading error on references 30% beyond the wheel limits, where the defaults leave
+    heading error a baseline would not. Inside the limits both track to a fraction of a
+    millimetre. Unknown names are a :class:`~mpc.errors.ControllerError` listing
+    :func:`tuned_layouts`.
+    """
+    if not isinstance(name, str) or name not in tuned_layouts():
+        raise ControllerError(f"no tuned weights for robot {name!r}; tuned presets: "
+                              f"{', '.join(tuned_layouts())}")
+    return load_weights(_TUNED / f"{name}.toml")
