@@ -155,7 +155,7 @@ def test_tuned_presets_load_and_drive_the_mpc_tuned_controller() -> None:
     from mpc.model.weights import Weights, tuned_layouts, tuned_weights
 
     assert set(tuned_layouts()) <= set(PRESETS)
-    assert {"mecanum", "omni3", "swerve"} <= set(tuned_layouts())
+    assert {"ball3", "mecanum", "omni3", "omni4", "swerve"} <= set(tuned_layouts())
     defaults = Weights()
     for name in tuned_layouts():
         weights = tuned_weights(name)
@@ -170,5 +170,5 @@ def test_tuned_presets_load_and_drive_the_mpc_tuned_controller() -> None:
     assert applies("mpc-tuned", robot)
     assert not applies("mpc-tuned", preset("caster4"))
     with pytest.raises(ControllerError, match="no tuned weights for robot 'caster4'; tuned "
-                                              "presets: mecanum"):
+                                              "presets: ball3, mecanum"):
         tuned_weights("caster4")
