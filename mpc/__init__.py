@@ -18,7 +18,14 @@ import importlib
 import logging
 from typing import TYPE_CHECKING, Any
 
-from mpc.errors import ControllerError, MpcError, RobotError, SimulationError, TrajectoryError
+from mpc.errors import (
+    ControllerError,
+    MpcError,
+    ReportError,
+    RobotError,
+    SimulationError,
+    TrajectoryError,
+)
 
 # The library's log (fallbacks starting and ending, never per tick): silent unless the
 # application configures logging.
@@ -42,6 +49,7 @@ __all__ = [
     "Controller",
     "ControllerError",
     "MpcError",
+    "ReportError",
     "RobotError",
     "SimulationError",
     "Status",
