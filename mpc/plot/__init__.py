@@ -15,7 +15,7 @@ figures show errors in mm, angles in deg, tick times in ms.
 Modules, one idea each: :mod:`.record` (a result as plain data), :mod:`.results` (reading
 runs and series), :mod:`.headline` (who won where), :mod:`.terms` (settings with units,
 what the words mean), :mod:`.tables`, :mod:`.page` (HTML); drawing: :mod:`.style`,
-:mod:`.outline`, :mod:`.run_figure`, :mod:`.compare`; :mod:`.report` writes the folder.
+:mod:`.outline`, :mod:`.run_figure`, :mod:`.compare`; :mod:`.writer` writes the report folder.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ if TYPE_CHECKING:
 
     from mpc.sim.result import SimResult
 
-    from .report import Results
+    from .writer import Results
 
 __all__ = ["ReportError", "load_results", "plot_run", "report", "run_id", "run_record",
            "validate_results", "write_report"]
@@ -68,8 +68,8 @@ def plot_run(result: SimResult | Mapping[str, Any], *, skip: float = 0.0,
 def report(results: Results, out_dir: str | Path, *, skip: float = 0.0,
            labels: Mapping[str, Any] | None = None,
            on_figure: Callable[[int, int], None] | None = None) -> Path:
-    """Write the report page of one or many runs; see :func:`mpc.plot.report.report`."""
-    from .report import report as write
+    """Write the report page of one or many runs; see :func:`mpc.plot.writer.report`."""
+    from .writer import report as write
 
     return write(results, out_dir, skip=skip, labels=labels, on_figure=on_figure)
 
@@ -77,7 +77,7 @@ def report(results: Results, out_dir: str | Path, *, skip: float = 0.0,
 def write_report(results: Mapping[str, Any], out_dir: str | Path,
                  on_figure: Callable[[int, int], None] | None = None) -> Path:
     """Draw a results document (``mpc-bench``'s ``results.json``); see
-    :func:`mpc.plot.report.write_report`."""
-    from .report import write_report as write
+    :func:`mpc.plot.writer.write_report`."""
+    from .writer import write_report as write
 
     return write(results, out_dir, on_figure=on_figure)
