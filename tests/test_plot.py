@@ -22,7 +22,7 @@ from benchmarks.executor import TIMING_METRICS, RunSpec, execute
 from benchmarks.report import write_report
 from benchmarks.scenarios import reference
 from benchmarks.screenshot import find_browser, screenshot
-from mpc import Controller, ReportError
+from mpc import Controller, ReportError, SimulationError
 from mpc.plot.headline import headline
 from mpc.plot.terms import SETTING_TERMS, UNKNOWN_TERM, setting_rows, settings_line
 from mpc.robots import preset
@@ -120,6 +120,59 @@ def test_own_loop_writes_the_benchmark_page(benchmark_run: dict[str, Any],
                            for p in (tmp_path / "bench").rglob("*.png"))
     assert mpc.plot.load_results(tmp_path / "own" / "results.json")["runs"][0]["controller"] \
         == "mpc-daqp"
+
+
+def test_recorder_takes_the_reference_tracked() -> None:
+    """A reference pose given per tick is what the errors measure against; other ticks
+    keep the trajectory's."""
+    robot = preset("mecanum")
+    trajectory = Circle(1.0, 12.0)
+    controller = Controller(robot, trajectory, 10, 0.05, solver="daqp")
+    recorder = Recorder(robot, trajectory, controller.dt)
+    pose = trajectory.sample(0.0).pose
+    recorder.record(0.0, pose, controller.step(pose, 0.0), reference=pose + [0.003, 0.004, 0])
+    recorder.record(0.05, pose, controller.step(pose, 0.05))
+    result = recorder.result()
+    assert result.position_error()[0] == pytest.approx(0.005)
+    np.testing.assert_allclose(result.reference[1], trajectory.sample(0.05).pose)
+
+
+def test_recorder_rejects_what_is_not_a_tick() -> None:
+    robot = preset("mecanum")
+    trajectory = Circle(1.0, 12.0)
+    controller = Controller(robot, trajectory, 10, 0.05, solver="daqp")
+    recorder = Recorder(robot, trajectory, controller.dt)
+    command = controller.step(np.array([1.0, 0.0, 0.0]), 0.1)
+    with pytest.raises(SimulationError, match="command must be the Command"):
+        recorder.record(0.0, [1.0, 0.0, 0.0], command.wheel_speeds)  # type: ignore[arg-type]
+    recorder.record(0.1, [1.0, 0.0, 0.0], command)
+    with pytest.raises(SimulationError, match="t must not decrease"):
+        recorder.record(0.05, [1.0, 0.0, 0.0], command)
+    with pytest.raises(SimulationError, match=r"reference must have shape \(3,\)"):
+        recorder.record(0.15, [1.0, 0.0, 0.0], command, reference=[1.0, 0.0])
+
+
+def test_readme_loop(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The README's ten-line loop runs and writes its figure and report."""
+    monkeypatch.chdir(tmp_path)
+    import mpc
+    from mpc.model import integrate
+    from trajectories import FigureEight
+
+    robot = preset("mecanum")
+    controller = mpc.Controller(robot, FigureEight(1.0, 20.0), horizon=20, dt=0.05)
+    recorder = Recorder(robot, controller.trajectory, controller.dt)
+    pose = controller.trajectory.sample(0.0).pose + [0.05, 0.0, 0.0]  # your robot's pose
+    for k in range(120):
+        t = k * controller.dt
+        command = controller.step(pose, t)        # send command.wheel_speeds [rad/s]
+        recorder.record(t, pose, command)
+        pose = integrate(pose, command.twist, controller.dt)  # read your robot's pose
+    mpc.plot.plot_run(recorder.result(), skip=1.0).savefig("run.png")
+    mpc.plot.report({"mpc": recorder.result()}, "report", skip=1.0)
+    assert (tmp_path / "run.png").stat().st_size > 10_000
+    assert (tmp_path / "report" / "index.html").is_file()
+    assert recorder.result().metrics(skip=1.0)["rms_position_error"] < 1e-3
 
 
 # --------------------------------------------------------------------------- peak ratio

@@ -8,6 +8,8 @@
         command = controller.step(pose, t)
         recorder.record(t, pose, command)
     result = recorder.result()       # metrics, figures: as for simulate()
+    mpc.plot.plot_run(result, skip=1.0).savefig("run.png")
+    mpc.plot.report({"mpc": result}, "report", skip=1.0)     # report/index.html
 
 Every ``predict_every``-th tick (the first included) it also keeps the plan's predicted
 poses (``Command.predicted_poses``), for the predicted-path overlay of
@@ -54,20 +56,31 @@ class Recorder:
         self.predict_every = predict_every
         self._rows: list[tuple[float, FloatArray, FloatArray, FloatArray, Command]] = []
         self._plans: list[tuple[int, FloatArray]] = []  # (tick, predicted poses (N+1, 3))
+        self._references: dict[int, FloatArray] = {}  # tick -> reference pose given
 
     def __len__(self) -> int:
         return len(self._rows)
 
     def record(self, t: float, pose: ArrayLike, command: Command,
-               measured: ArrayLike | None = None, wheel_actual: ArrayLike | None = None) -> None:
+               measured: ArrayLike | None = None, wheel_actual: ArrayLike | None = None,
+               reference: ArrayLike | None = None) -> None:
         """One tick at time ``t`` [s]: the true ``pose`` (x, y, theta) [m, m, rad] when the
-        command was computed, the ``command``, the pose the controller saw (default: the true
-        pose) and the wheel speeds actually reached [rad/s] (default: the command's)."""
+        command was computed, the ``command`` (from ``Controller.step``), the pose the
+        controller saw (default: the true pose), the wheel speeds actually reached [rad/s]
+        (default: the command's) and the reference pose tracked at this tick [m, m, rad]
+        (default: the trajectory at ``t - command.lag``, what the controller tracked)."""
         if not is_finite_number(t):
             raise SimulationError(f"t must be a finite time in seconds, got {t!r}")
+        if not isinstance(command, Command):
+            raise SimulationError(f"command must be the Command step() returned, got {command!r}")
+        if self._rows and t < self._rows[-1][0]:
+            raise SimulationError(f"t must not decrease: {t!r} s after {self._rows[-1][0]!r} s")
         true = finite_vector("pose", pose, 3, "(x, y, theta)", SimulationError)
         seen = true if measured is None else finite_vector(
             "measured", measured, 3, "(x, y, theta)", SimulationError)
+        if reference is not None:
+            self._references[len(self._rows)] = finite_vector(
+                "reference", reference, 3, "(x, y, theta)", SimulationError)
         reached = command.wheel_speeds if wheel_actual is None else finite_vector(
             "wheel_actual", wheel_actual, self.robot.n_wheels, "wheel speeds", SimulationError)
         tick = len(self._rows)
@@ -86,11 +99,14 @@ class Recorder:
         predicted_ticks, predicted_poses = self._predicted()
         time = np.array(times)
         lag = np.array([c.lag for c in commands])
+        reference = self.trajectory.sample(time - lag).pose
+        for tick, pose in self._references.items():
+            reference[tick] = pose
         velocities = np.array([robot.command_velocities(c.wheel_speeds, c.steer_angles)
                                for c in commands])
         return SimResult(
             time=time, pose=np.array(poses), measured=np.array(measured),
-            reference=self.trajectory.sample(time - lag).pose, lag=lag,
+            reference=reference, lag=lag,
             wheel_command=np.array([c.wheel_speeds for c in commands]),
             wheel_actual=np.array(actual),
             wheel_limit=robot.max_wheel_speed.copy(), wheel_accel_limit=robot.max_wheel_accel,
