@@ -299,7 +299,7 @@ def test_every_benchmark_setting_has_a_unit() -> None:
     assert rows[1] == ("dt", "0.05", "s", SETTING_TERMS["dt"][1])
     assert ("headings", "fixed, tangent") == rows[6][:2]
     assert settings_line(settings) == ("horizon 20 ticks (1 s) \u00b7 dt 0.05 s \u00b7 "
-                                       "polygon_sides 16 sides \u00b7 duration none \u00b7 "
+                                       "polygon_sides 16 sides \u00b7 duration default \u00b7 "
                                        "plant ideal \u00b7 skip 2 s")
 
 

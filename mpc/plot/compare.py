@@ -34,39 +34,37 @@ def colour(controllers: Sequence[str], name: str) -> str:
 
 
 def headline_figure(headline: Headline, runs: Sequence[Run]) -> Figure:
-    """RMS position error [mm] (log) of every controller in each scenario in focus,
-    horizontal bars grouped by scenario; the winner's bar outlined in black."""
+    """RMS position error [mm] (log x) of every controller in each scenario in focus: one
+    row per scenario, one dot per controller, the winner's dot larger and outlined."""
     controllers = controllers_of(runs)
     count = max(len(headline.rankings), 1)
-    figure = new_figure(6.4, min(1.4 + 0.22 * count * max(len(controllers), 1) + 0.15 * count,
-                                 14.0), constrained=True)
+    figure = new_figure(6.4, min(1.3 + 0.3 * count, 12.0), constrained=True)
     ax = figure.subplots()
-    height = 0.8 / max(len(controllers), 1)
     finite: list[float] = []
     for row, ranking in enumerate(headline.rankings):
         for controller, rms, _ in ranking.entries:
             if not (math.isfinite(rms) and rms > 0):
                 continue
-            slot = controllers.index(controller)
-            y = row + (slot - (len(controllers) - 1) / 2) * height
             best = controller == ranking.winner
-            ax.barh(y, 1e3 * rms, height, color=colour(controllers, controller),
-                    edgecolor="k" if best else "none", linewidth=1.2 if best else 0)
+            ax.plot(1e3 * rms, row, "o", color=colour(controllers, controller),
+                    ms=10 if best else 6, mec="k" if best else "none", mew=1.2, zorder=3)
             finite.append(1e3 * rms)
     ax.set_yticks(np.arange(len(headline.rankings)))
-    ax.set_yticklabels([" / ".join(r.scenario[:3]) + f"\n{r.scenario[3]}"
-                        + (f" ({r.peak_ratio:.2f}\u00d7 limit)" if math.isfinite(r.peak_ratio)
-                           else "") for r in headline.rankings], fontsize="small")
-    ax.invert_yaxis()
+    ax.set_yticklabels([" / ".join(r.scenario[:3])
+                        + (f" ({r.peak_ratio:.2f}\u00d7)" if math.isfinite(r.peak_ratio)
+                           else f" ({r.scenario[3]})") for r in headline.rankings],
+                       fontsize="small")
+    ax.set_ylim(len(headline.rankings) - 0.5, -0.5)
     if finite:
         ax.set_xscale("log")
         ax.set_xlim(10.0 ** math.floor(math.log10(min(finite)) - 0.3), 2.0 * max(finite))
     ax.set_xlabel("RMS position error after the settling time [mm] (log)")
-    ax.grid(True, axis="x", alpha=0.4)
-    handles = [Line2D([], [], lw=6, color=colour(controllers, name), label=name)
+    ax.grid(True, alpha=0.4)
+    handles = [Line2D([], [], marker="o", ls="", color=colour(controllers, name), label=name)
                for name in controllers]
     ax.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    ax.set_title(f"Lowest RMS position error {headline.focus} (outlined)", fontsize="medium")
+    ax.set_ylabel("scenario (reference peak / wheel limit)", fontsize="small")
+    ax.set_title(f"RMS position error {headline.focus} (winner outlined)", fontsize="medium")
     return figure
 
 

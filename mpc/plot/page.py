@@ -73,7 +73,8 @@ def _wins_table(headline: Headline, runs: Sequence[Run]) -> str:
         median = errors[len(errors) // 2] if errors else math.nan
         rows.append(f"<tr><td class=\"text\">{_e(name)}</td><td>{wins.get(name, 0)}</td>"
                     f"<td>{_e(format_value(median))}</td></tr>")
-    return ('<table class="wins"><thead><tr><th>controller</th><th>scenarios won</th>'
+    return (f'<table class="wins"><caption>{_e(headline.focus)}, after the settling time'
+            "</caption><thead><tr><th>controller</th><th>scenarios won</th>"
             "<th>median RMS pos. err. [mm]</th></tr></thead>"
             f"<tbody>{''.join(rows)}</tbody></table>")
 

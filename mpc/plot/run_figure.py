@@ -102,7 +102,8 @@ def _draw_wheels(ax: Axes, data: Series) -> None:
     scored = ratio[data.scored[:count]] if count else ratio
     peak = float(np.nanmax(scored)) if scored.size and np.isfinite(scored).any() else np.nan
     after = f" after {data.skip:g} s" if data.skip > 0 else ""
-    ax.set_title(f"(c) wheel commands (peak {format_value(peak)}\u00d7 limit{after})")
+    shown = f"{peak:.2f}" if np.isfinite(peak) else format_value(peak)
+    ax.set_title(f"(c) wheel commands (peak {shown}\u00d7 limit{after})")
     if count:
         shade_skip(ax, float(time[0]), data.skip)
     for wheel in range(data.wheel_command.shape[1]):
@@ -155,7 +156,7 @@ def _draw_tick_histogram(ax: Axes, data: Series, run: Run) -> None:
 def run_figure(run: Run, data: Series) -> Figure:
     """The 2x2 figure of one run (a run record and its series as arrays), 1200 x 900 px."""
     figure = new_figure(12.0, 9.0, constrained=False)
-    figure.subplots_adjust(left=0.065, right=0.94, bottom=0.065, top=0.925, wspace=0.28,
+    figure.subplots_adjust(left=0.065, right=0.93, bottom=0.065, top=0.925, wspace=0.28,
                            hspace=0.27)
     axes = figure.subplots(2, 2)
     robot = run.get("robot")

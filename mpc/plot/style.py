@@ -41,7 +41,7 @@ def shade_skip(ax: Axes, start: float, skip: float) -> None:
     """Shade the settling window ``[start, start + skip]`` [s] of a time axis (left out of
     the metrics); nothing for ``skip`` <= 0."""
     if skip > 0 and np.isfinite(start):
-        ax.axvspan(start, start + skip, color=SKIP_COLOUR, alpha=0.6, lw=0, zorder=0,
+        ax.axvspan(start, start + skip, color=SKIP_COLOUR, alpha=0.6, lw=0, zorder=0.5,
                    label=f"settling, not scored ({skip:g} s)")
 
 

@@ -13,7 +13,7 @@ SETTING_TERMS: dict[str, tuple[str, str]] = {
     "horizon": ("ticks", "prediction horizon N, in control ticks"),
     "dt": ("s", "control tick (the controller's period)"),
     "polygon_sides": ("sides", "polygon inscribed in a swerve module's speed disk (QP)"),
-    "duration": ("s", "simulated time per run (none: two laps at the target pace)"),
+    "duration": ("s", "simulated time per run (default: two laps at the target pace)"),
     "plant": ("preset", "the simulated robot: ideal, or with lag, delay, noise, slip"),
     "skip": ("s", "settling time at the start of each run, left out of the metrics"),
     "headings": ("modes", "heading references: fixed, or tangent to the path"),
@@ -65,7 +65,7 @@ def settings_line(settings: Mapping[str, Any]) -> str:
     for key, shown, unit, _ in setting_rows(settings):
         if key in ("headings", "seed"):
             continue
-        text = f"{key} {shown}"
+        text = f"{key} {'default' if settings[key] is None else shown}"
         if unit in ("s", "ticks", "sides") and shown != "none":
             text += f" {unit}"
         if key == "horizon" and isinstance(settings.get("dt"), (int, float)):
