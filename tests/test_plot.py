@@ -21,7 +21,7 @@ import mpc.plot
 from benchmarks.executor import TIMING_METRICS, RunSpec, execute
 from benchmarks.report import write_report
 from benchmarks.scenarios import reference
-from benchmarks.screenshot import find_browser, screenshot
+from benchmarks.screenshot import find_browser, first_screen, main, off_first_screen, screenshot
 from mpc import Controller, ReportError, SimulationError
 from mpc.plot.headline import headline
 from mpc.plot.terms import SETTING_TERMS, UNKNOWN_TERM, setting_rows, settings_line
@@ -353,10 +353,35 @@ def _png_size(path: Path) -> tuple[int, int]:
 
 @pytest.mark.skipif(find_browser() is None, reason="no Chromium-like browser on PATH")
 def test_screenshot_of_the_first_screen(simulated: SimResult, tmp_path: Path) -> None:
-    index = mpc.plot.report({"mpc": simulated}, tmp_path / "report", skip=SKIP)
+    """The headline, the settings with units and a path plot show without scrolling, for
+    one run and for several controllers in several scenarios."""
+    index = mpc.plot.report({"mpc": simulated}, tmp_path / "one", skip=SKIP)
     shot = screenshot(index, tmp_path / "first.png")
     assert _png_size(shot) == (1280, 900)
     assert shot.stat().st_size > 20_000  # text and figures, not a blank page
+    parts = first_screen(index)
+    assert off_first_screen(parts) == []
+    assert parts["headline"][0] < parts["settings with units"][0] < 200
+    robot = preset("mecanum")
+    runs = []
+    for shape in ("circle", "figure8"):
+        for speed, ratio in (("inside", 0.8), ("beyond", 1.3)):
+            trajectory = reference(shape, "fixed", robot, ratio)
+            for name, solver in (("mpc-daqp", "daqp"), ("mpc-osqp", "osqp")):
+                result = simulate(Controller(robot, trajectory, 10, 0.05, solver=solver), 1.0)
+                runs.append(mpc.plot.run_record(result, skip=0.3, controller=name,
+                                                trajectory=shape, speed=speed))
+    index = mpc.plot.report(runs, tmp_path / "many")
+    assert off_first_screen(first_screen(index)) == []
+    assert main([str(index), "--out", str(tmp_path / "many.png")]) == 0
+
+
+def test_first_screen_names_what_is_below_it() -> None:
+    parts = {"headline": (40.0, 60.0), "settings with units": (70.0, 100.0),
+             "path plot": (500.0, 950.0), "summary figure": (880.0, 1300.0)}
+    assert off_first_screen(parts) == ["path plot"]
+    del parts["headline"]
+    assert off_first_screen(parts, height=1000.0) == ["headline"]
 
 
 def test_screenshot_errors(tmp_path: Path) -> None:
