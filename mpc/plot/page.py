@@ -51,6 +51,10 @@ def _e(value: object) -> str:
     return html.escape(str(value))
 
 
+def _count(number: int, noun: str) -> str:
+    return f"{number} {noun}" + ("" if number == 1 else "s")
+
+
 @dataclass(frozen=True)
 class ScenarioFigure:
     """A scenario's overlay figure: its ranking and the figure's path beside the page."""
@@ -209,7 +213,7 @@ def html_page(results: Mapping[str, Any], ids: Sequence[str], table: str, headli
 </style>
 </head>
 <body>
-<h1>Tracking report: {len(runs)} runs, {len(scenarios)} scenarios</h1>
+<h1>Tracking report: {_count(len(runs), "run")}, {_count(len(scenarios), "scenario")}</h1>
 {_headline(headline, runs, settings or {}, overlay)}
 <h2 id="terms">Terms</h2>
 <p>{_e(TERMS_PARAGRAPH)}</p>

@@ -30,7 +30,7 @@ Run = Mapping[str, Any]
 
 def load_results(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Read and validate a ``results.json`` (written by ``mpc-bench`` or
-    :func:`~mpc.plot.write_report`).
+    :func:`~mpc.plot.report`).
 
     Raises:
         ReportError: the file is missing or unreadable, is not JSON, or lacks

@@ -24,7 +24,8 @@ SETTING_TERMS: dict[str, tuple[str, str]] = {
 UNKNOWN_TERM = ("(unit not stated)", "")
 
 TERMS_PARAGRAPH = (
-    "Inside and beyond: each scenario's reference is scaled so that its peak wheel speed, "
+    "Inside and beyond (the speeds of mpc-bench): each scenario's reference is timed so that "
+    "its peak wheel speed, "
     "on that robot, is a stated multiple of the wheel speed limit: inside asks 0.8\u00d7 the "
     "limit (every controller can follow it exactly), beyond asks 1.3\u00d7 (no controller "
     "can: the question is how gracefully each one falls behind). The peak wheel ratio in "

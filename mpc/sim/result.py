@@ -138,7 +138,7 @@ class SimResult:
         Keys (units): ``rms_position_error``, ``max_position_error``,
         ``rms_cross_track_error``, ``max_cross_track_error`` [m];
         ``rms_heading_error``, ``max_heading_error`` [rad, wrapped];
-        ``max_wheel_speed_ratio`` (peak |command| / limit, 1 = at the limit);
+        ``max_wheel_speed_ratio`` (peak |command| / limit after ``skip``, 1 = at the limit);
         ``limit_violations`` (ticks with a wheel above its speed limit by
         more than 1e-6 relative); ``accel_violations`` (the same for the
         acceleration limit); ``control_effort`` (RMS over ticks and wheels of
