@@ -38,7 +38,7 @@ def headline_figure(headline: Headline, runs: Sequence[Run]) -> Figure:
     row per scenario, one dot per controller, the winner's dot larger and outlined."""
     controllers = controllers_of(runs)
     count = max(len(headline.rankings), 1)
-    figure = new_figure(6.4, min(1.3 + 0.3 * count, 12.0), constrained=True)
+    figure = new_figure(6.4, min(1.9 + 0.3 * count, 12.0), constrained=True)
     ax = figure.subplots()
     finite: list[float] = []
     for row, ranking in enumerate(headline.rankings):
@@ -63,7 +63,6 @@ def headline_figure(headline: Headline, runs: Sequence[Run]) -> Figure:
     handles = [Line2D([], [], marker="o", ls="", color=colour(controllers, name), label=name)
                for name in controllers]
     ax.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    ax.set_ylabel("scenario (reference peak / wheel limit)", fontsize="small")
     ax.set_title(f"RMS position error {headline.focus} (winner outlined)", fontsize="medium")
     return figure
 

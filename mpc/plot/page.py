@@ -100,7 +100,9 @@ def _headline(headline: Headline, runs: Sequence[Run], settings: Mapping[str, An
 {terms}
 <div class="first">
 <figure style="flex-grow: 0.8">{_wins_table(headline, runs)}
-<img src="headline.png" alt="lowest RMS position error per scenario"></figure>
+<img src="headline.png" alt="lowest RMS position error per scenario">
+<figcaption>One row per scenario (in brackets: the reference's peak wheel speed / limit),
+one dot per controller.</figcaption></figure>
 {figure}
 </div>
 </section>"""
