@@ -150,9 +150,10 @@ def _simulate(spec: RunSpec) -> dict[str, Any]:
              else trajectory.sample(0.0).pose + np.asarray(spec.initial_offset, dtype=float))
     result = simulate(control, length, initial_pose=start, plant=_plant(spec.plant),
                       seed=spec.seed)
-    metrics = result.metrics(skip=min(spec.skip, 0.5 * length))
+    skip = min(spec.skip, 0.5 * length)  # the window the metrics and the report share
+    metrics = result.metrics(skip=skip)
     if spec.series:
-        return pack_run(scenario, spec.controller, metrics, result)
+        return pack_run(scenario, spec.controller, metrics, result, skip)
     return {**labels, "controller": spec.controller, "seed": spec.seed,
             "ticks": len(result.time), "metrics": metrics}
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from benchmarks.scenarios import ScenarioError, Settings, applies, reference
 from mpc.errors import MpcError
+from mpc.plot.record import run_record
 from mpc.robots import CasterRobot, Robot, SphericalRobot, SwedishRobot, SwerveRobot
 from mpc.sim import SimResult
 from trajectories import Trajectory, Waypoints, feasibility, time_optimal
@@ -222,48 +223,16 @@ def run_pace(run: dict[str, Any]) -> float | None:
     return float(lap) / float(target)
 
 
-def _steer_series(result: SimResult) -> dict[str, Any]:
-    """Steered wheels' commanded angles [rad], rates [rad/s] and rate limits, if any."""
-    rates, limit = result.steer_rates(), result.steer_rate_limit
-    if rates is None or limit is None or result.steer_command is None:
-        return {}
-    return {"steer_angle": _list(result.steer_command), "steer_rate": _list(rates),
-            "steer_rate_limit": _list(limit)}
-
-
-def _robot_info(robot: Robot) -> dict[str, Any]:
-    return {"name": robot.name, "kind": robot.kind,
-            "wheel_positions": robot.wheel_positions.round(6).tolist()}
-
-
-def _list(array: np.ndarray, decimals: int = 7) -> list[Any]:
-    return np.round(array, decimals).tolist()  # type: ignore[no-any-return]
-
-
-def pack_run(scenario: Scenario, name: str, metrics: dict[str, Any],
-             result: SimResult) -> dict[str, Any]:
-    """One run as plain data: names, metrics, time series, robot outline."""
-    return {
-        "layout": scenario.layout,
-        "trajectory": scenario.trajectory_name,
-        "heading": scenario.heading,
-        "speed": scenario.speed,
-        "peak_ratio": round(scenario.peak_ratio, 4),
-        "period": scenario.trajectory.period,
-        "optimal_lap": scenario.optimal_lap,
-        "target_lap": scenario.target_lap,
-        "controller": name,
-        "metrics": metrics,
-        "series": {
-            "time": _list(result.time), "pose": _list(result.pose),
-            "reference": _list(result.reference), "wheel_command": _list(result.wheel_command),
-            "wheel_limit": _list(result.wheel_limit), "tick_time": _list(result.tick_time, 8),
-            "solve_time": _list(result.solve_time, 8), "status": list(result.status),
-            "lag": _list(result.time - result.reference_time), "dt": result.dt,
-            **_steer_series(result),
-        },
-        "robot": _robot_info(scenario.robot),
-    }
+def pack_run(scenario: Scenario, name: str, metrics: dict[str, Any], result: SimResult,
+             skip: float) -> dict[str, Any]:
+    """One run as plain data (:func:`mpc.plot.run_record`, as a run of your own is packed):
+    the scenario's labels, the metrics over the ticks after ``skip`` [s], the time series,
+    the robot's outline, the reference's peak ratio and lap yardsticks."""
+    return run_record(result, skip=skip, controller=name, metrics=metrics,
+                      layout=scenario.layout, trajectory=scenario.trajectory_name,
+                      heading=scenario.heading, speed=scenario.speed,
+                      peak_ratio=round(scenario.peak_ratio, 4),
+                      optimal_lap=scenario.optimal_lap, target_lap=scenario.target_lap)
 
 
 def results_document(runs: list[dict[str, Any]], command: str,

@@ -2,11 +2,13 @@
 
 The public entry point is :class:`Controller`; robots live in
 :mod:`mpc.robots`, reference trajectories in the ``trajectories`` package,
-the simulation harness in :mod:`mpc.sim`.
+the simulation harness in :mod:`mpc.sim`, figures and report pages of any
+run (simulated or recorded from a loop of your own) in :mod:`mpc.plot`.
 
 Layers, each importing only those before it: :mod:`mpc.errors` ->
 :mod:`mpc.robots` (and ``trajectories``) -> :mod:`mpc.model` ->
-:mod:`mpc.solvers` -> :mod:`mpc.control` -> :mod:`mpc.sim`.
+:mod:`mpc.solvers` -> :mod:`mpc.control` -> :mod:`mpc.sim` -> :mod:`mpc.plot`
+(the only one that imports matplotlib, when it draws).
 
 The names below load on first use, so ``import mpc.errors`` (which the
 ``trajectories`` package does) does not pull in the solvers.
@@ -18,7 +20,14 @@ import importlib
 import logging
 from typing import TYPE_CHECKING, Any
 
-from mpc.errors import ControllerError, MpcError, RobotError, SimulationError, TrajectoryError
+from mpc.errors import (
+    ControllerError,
+    MpcError,
+    ReportError,
+    RobotError,
+    SimulationError,
+    TrajectoryError,
+)
 
 # The library's log (fallbacks starting and ending, never per tick): silent unless the
 # application configures logging.
@@ -42,6 +51,7 @@ __all__ = [
     "Controller",
     "ControllerError",
     "MpcError",
+    "ReportError",
     "RobotError",
     "SimulationError",
     "Status",

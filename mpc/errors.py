@@ -13,6 +13,7 @@ exception                raised for
 ``TrajectoryError``      trajectory arguments, waypoint files
 ``ControllerError``      controller options, ``step()`` arguments
 ``SimulationError``      plant settings, simulation arguments
+``ReportError``          results files and runs that cannot be plotted
 =======================  ==============================================
 
 This module imports nothing from the project, so every layer (the
@@ -40,6 +41,11 @@ class ControllerError(MpcError):
 
 class SimulationError(MpcError):
     """A plant setting or a simulation argument is invalid."""
+
+
+class ReportError(MpcError):
+    """A results file, document or run cannot be plotted or reported: missing, not JSON,
+    lacking keys or of the wrong shape."""
 
 
 def __getattr__(name: str) -> type[MpcError]:

@@ -5,7 +5,8 @@
 - :mod:`.motor_plant`: the robot driven through its DC motors (voltage, current,
   back-EMF, battery sag, traction and slip), ``plant="motor"``;
 - :mod:`.simulate`: the closed loop, :func:`simulate`;
-- :mod:`.recorder`: :class:`Recorder`, the same record from a loop of your own;
+- :mod:`.recorder`: :class:`Recorder`, the same record from a loop of your own (plot and
+  report it with :mod:`mpc.plot`);
 - :mod:`.result`: :class:`SimResult` and its metrics;
 - :mod:`.baselines`: feedforward + P controllers with per-wheel clipping or desaturation;
 - :mod:`.setpoint`: feedforward + P through a swerve setpoint generator (Team 254 style);

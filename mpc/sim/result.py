@@ -9,8 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from mpc.arrays import FloatArray
+from mpc.arrays import FloatArray, IntArray
 from mpc.errors import SimulationError
+from mpc.robots.base import Robot
 from mpc.robots.swerve import wrap_angle
 from mpc.validation import is_finite_number
 from trajectories import Trajectory
@@ -51,6 +52,11 @@ class SimResult:
             angles are states (casters), else None.
         plant_events: per-tick series of a motor plant (:meth:`MotorPlant.events`:
             voltage and current violations, slips, peak ratios, bus voltage), else None.
+        predicted_ticks: the ticks whose plan was kept (M,) (every
+            :attr:`Recorder.predict_every`-th), else None.
+        predicted_poses: those plans' predicted poses (M, P, 3) [m, m, rad], row m from
+            tick ``predicted_ticks[m]`` (shorter plans padded with NaN), else None.
+        robot: the controller's robot (its outline and limits, for reports), else None.
     """
 
     time: FloatArray
@@ -75,6 +81,9 @@ class SimResult:
     steer_rate_limit: FloatArray | None = None
     steer_rate_command: FloatArray | None = None
     plant_events: dict[str, FloatArray] | None = field(default=None, repr=False)
+    predicted_ticks: IntArray | None = field(default=None, repr=False)
+    predicted_poses: FloatArray | None = field(default=None, repr=False)
+    robot: Robot | None = field(default=None, repr=False)
 
     @property
     def reference_time(self) -> FloatArray:
@@ -129,7 +138,7 @@ class SimResult:
         Keys (units): ``rms_position_error``, ``max_position_error``,
         ``rms_cross_track_error``, ``max_cross_track_error`` [m];
         ``rms_heading_error``, ``max_heading_error`` [rad, wrapped];
-        ``max_wheel_speed_ratio`` (peak |command| / limit, 1 = at the limit);
+        ``max_wheel_speed_ratio`` (peak |command| / limit after ``skip``, 1 = at the limit);
         ``limit_violations`` (ticks with a wheel above its speed limit by
         more than 1e-6 relative); ``accel_violations`` (the same for the
         acceleration limit); ``control_effort`` (RMS over ticks and wheels of

@@ -1,7 +1,7 @@
-"""Saved benchmark results as the report reads them: loading, validation, values, series.
+"""Runs as the figures and the report read them: loading, validation, values, series.
 
-Works on the plain dicts and lists of ``results.json`` (SI units: m, rad, s, rad/s);
-imports neither matplotlib nor a solver.
+Works on the plain dicts and lists of ``results.json`` and of :func:`~mpc.plot.run_record`
+(SI units: m, rad, s, rad/s); imports neither matplotlib nor a solver.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from mpc.errors import MpcError
+from mpc.errors import ReportError
 
 REQUIRED_RUN_KEYS = ("layout", "trajectory", "speed", "controller", "metrics", "series")
 REQUIRED_SERIES_KEYS = ("time", "pose", "reference")
@@ -25,15 +25,12 @@ REQUIRED_SERIES_KEYS = ("time", "pose", "reference")
 Run = Mapping[str, Any]
 
 
-class ReportError(MpcError):
-    """A results file or dict cannot be reported: missing, not JSON or lacking keys."""
-
-
 # --------------------------------------------------------------------------- loading
 
 
 def load_results(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Read and validate a ``results.json`` written by the benchmark CLI.
+    """Read and validate a ``results.json`` (written by ``mpc-bench`` or
+    :func:`~mpc.plot.report`).
 
     Raises:
         ReportError: the file is missing or unreadable, is not JSON, or lacks
@@ -91,7 +88,13 @@ def run_id(run: Run) -> str:
     Characters other than letters, digits, ``.``, ``_``, ``+`` and ``-`` become ``_``.
     """
     heading = (run["heading"],) if "heading" in run else ()
-    parts = (run["layout"], run["trajectory"], *heading, run["speed"], run["controller"])
+    return safe_name((run["layout"], run["trajectory"], *heading, run["speed"],
+                      run["controller"]))
+
+
+def safe_name(parts: Sequence[object]) -> str:
+    """``parts`` joined by ``-``, each with characters other than letters, digits, ``.``,
+    ``_``, ``+`` and ``-`` replaced by ``_`` (a file name and an HTML id)."""
     return "-".join(re.sub(r"[^A-Za-z0-9._+-]+", "_", str(part)) for part in parts)
 
 
@@ -157,17 +160,22 @@ def pace_of(run: Run) -> float:
 
 
 def peak_ratio_text(run: Run) -> str:
+    """The reference's peak wheel speed / limit (``peak_ratio``) as ``"1.30"``, else ``-``."""
     ratio = run.get("peak_ratio")
     if isinstance(ratio, (int, float)) and math.isfinite(ratio):
         return f"{ratio:.2f}"
     return "-"
 
 
+def scenario_title(scenario: Sequence[str], peak_ratio: str = "-") -> str:
+    """``"mecanum / circle / fixed / beyond (reference asks 1.30x the wheel limit)"``."""
+    asks = "" if peak_ratio == "-" else f" (reference asks {peak_ratio}\u00d7 the wheel limit)"
+    return " / ".join(scenario) + asks
+
+
 def run_title(run: Run) -> str:
-    """``"mecanum / circle / fixed / beyond (peak 1.30x limit) / mpc-daqp"``."""
-    layout, trajectory, heading, speed = scenario_of(run)
-    peak = f"(peak {peak_ratio_text(run)}\u00d7 limit)"
-    return f"{layout} / {trajectory} / {heading} / {speed} {peak} / {run['controller']}"
+    """``"mecanum / circle / fixed / beyond (reference asks 1.30x the wheel limit) / mpc"``."""
+    return f"{scenario_title(scenario_of(run), peak_ratio_text(run))} / {run['controller']}"
 
 
 # --------------------------------------------------------------------------- series
@@ -185,6 +193,34 @@ class Series:
     tick_time: np.ndarray  # (<=K,) [s]
     fallback: np.ndarray  # (K,) bool, True where the status is not "solved"
     dt: float  # [s]
+    skip: float = 0.0  # [s] settling time left out of the metrics (shaded)
+    path_error: np.ndarray | None = None  # (K,) [m] distance to the reference's path
+    predicted_tick: np.ndarray | None = None  # (M,) ticks whose plan was kept
+    predicted_pose: np.ndarray | None = None  # (M, P, 3) [m, m, rad] those plans
+
+    @property
+    def position_error(self) -> np.ndarray:
+        """Distance to the time-indexed reference (K,) [m]."""
+        return np.hypot(*(self.pose[:, :2] - self.reference[:, :2]).T)
+
+    @property
+    def scored(self) -> np.ndarray:
+        """Ticks the metrics cover (K,) bool: from ``time[0] + skip`` on."""
+        if len(self.time) == 0:
+            return np.zeros(0, dtype=bool)
+        return self.time >= self.time[0] + self.skip - 1e-12  # type: ignore[no-any-return]
+
+    @property
+    def wheel_ratio(self) -> np.ndarray:
+        """Peak over the wheels of |command| / limit per tick (K,) (inf: a wheel with a
+        zero limit asked to turn; NaN: no wheels)."""
+        if self.wheel_command.size == 0 or self.wheel_limit.size != self.wheel_command.shape[1]:
+            return np.full(len(self.wheel_command), np.nan)
+        magnitude, limit = np.abs(self.wheel_command), self.wheel_limit
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(limit > 0, magnitude / np.where(limit > 0, limit, 1.0),
+                             np.where(magnitude > 1e-12, np.inf, 0.0))
+        return ratio.max(axis=1)  # type: ignore[no-any-return]
 
 
 def _float_array(series: Mapping[str, Any], key: str, columns: int | None, name: str) -> np.ndarray:
@@ -209,7 +245,26 @@ def _float_array(series: Mapping[str, Any], key: str, columns: int | None, name:
     return array
 
 
-def read_series(run: Run, name: str, default_dt: float) -> Series:
+def run_skip(run: Run, default: float = 0.0) -> float:
+    """The run's settling time [s]: its ``skip``, else ``default`` (the settings')."""
+    value = run.get("skip")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0:
+        return default
+    return float(value)
+
+
+def settings_value(results: Mapping[str, Any], key: str) -> float:
+    """A number from ``meta.settings`` (e.g. ``dt`` [s], ``skip`` [s]); NaN when absent."""
+    settings = (results.get("meta") or {}).get("settings") or {}
+    value = settings.get(key) if isinstance(settings, Mapping) else None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return math.nan
+    return float(value)
+
+
+def read_series(run: Run, name: str, default_dt: float, default_skip: float = 0.0) -> Series:
+    """A run's series as arrays (``name`` labels its errors); ``default_dt`` [s] and
+    ``default_skip`` [s] where the run does not say."""
     series = run["series"]
     time = _float_array(series, "time", None, name)
     pose = _float_array(series, "pose", 3, name)
@@ -223,6 +278,20 @@ def read_series(run: Run, name: str, default_dt: float) -> Series:
     dt = series.get("dt")
     if not isinstance(dt, (int, float)) or not dt > 0:
         dt = float(np.median(np.diff(time))) if len(time) > 1 else default_dt
+    path_error = _float_array(series, "path_error", None, name)[:count]
+    predicted = series.get("predicted")
+    ticks = plans = None
+    if isinstance(predicted, Mapping):
+        ticks = _float_array(predicted, "tick", None, name).astype(int)
+        try:
+            plans = np.asarray(predicted.get("pose") or [], dtype=float)
+        except (TypeError, ValueError) as error:
+            raise ReportError(f"run {name}: series 'predicted' is not numeric: {error}") from None
+        if plans.ndim != 3 or plans.shape[2] != 3 or len(plans) != len(ticks):
+            raise ReportError(f"run {name}: series 'predicted' should hold ticks (M,) and "
+                              f"poses (M, P, 3), got {ticks.shape} and {plans.shape}")
+        keep = (ticks >= 0) & (ticks < count)
+        ticks, plans = ticks[keep], plans[keep]
     return Series(
         time=time[:count],
         pose=pose[:count],
@@ -232,4 +301,8 @@ def read_series(run: Run, name: str, default_dt: float) -> Series:
         tick_time=_float_array(series, "tick_time", None, name)[:count],
         fallback=fallback,
         dt=float(dt),
+        skip=run_skip(run, default_skip),
+        path_error=path_error if len(path_error) == count and count else None,
+        predicted_tick=ticks,
+        predicted_pose=plans,
     )

@@ -1,4 +1,7 @@
-"""The summary table: one row per run, grouped by scenario, in Markdown (and cells for HTML)."""
+"""The full table: one row per run, grouped by scenario, in Markdown (and cells for HTML).
+
+Errors and peak ratios cover the ticks after the settling time; counts cover every tick.
+"""
 
 from __future__ import annotations
 
@@ -28,17 +31,18 @@ _METRIC_COLUMNS = (
     _Column("max path err. [mm]", "max_cross_track_error", 1e3),
     _Column("lap / target", "pace"),
     _Column("max lag [s]", "max_lag"),
-    _Column("max wheel ratio", "max_wheel_speed_ratio"),
-    _Column("limit viol.", "limit_violations"),
-    _Column("accel viol.", "accel_violations"),
-    _Column("max steer-rate ratio", "max_steer_rate_ratio"),
-    _Column("steer viol.", "steer_violations"),
-    _Column("failures", "failures"),
+    _Column("peak wheel / limit", "max_wheel_speed_ratio"),
+    _Column("limit viol. [ticks]", "limit_violations"),
+    _Column("accel viol. [ticks]", "accel_violations"),
+    _Column("peak steer rate / limit", "max_steer_rate_ratio"),
+    _Column("steer viol. [ticks]", "steer_violations"),
+    _Column("failures [ticks]", "failures"),
     _Column("tick p50 [ms]", "tick_time_p50", 1e3),
     _Column("tick p99 [ms]", "tick_time_p99", 1e3),
-    _Column("deadline misses", "deadline_misses"),
+    _Column("deadline misses [ticks]", "deadline_misses"),
 )
-TABLE_HEADERS = ("layout", "trajectory", "heading", "speed", "peak ratio", "controller") + tuple(
+TABLE_HEADERS = ("layout", "trajectory", "heading", "speed", "reference peak / limit",
+                 "controller") + tuple(
     column.title for column in _METRIC_COLUMNS
 )
 RMS_CELL = TABLE_HEADERS.index("RMS pos. err. [mm]")

@@ -1,0 +1,109 @@
+"""What won where: per scenario, the controller with the lowest RMS position error.
+
+The report opens with this (beyond the wheel limits where the results have such
+scenarios: that is where controllers differ). Plain data, no matplotlib.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from .results import Run, metric_value, scenario_of
+
+Scenario = tuple[str, str, str, str]  # layout, trajectory, heading, speed
+
+
+@dataclass(frozen=True)
+class Ranking:
+    """One scenario's controllers from the lowest RMS position error [m] up (NaN last).
+
+    Attributes:
+        scenario: (layout, trajectory, heading, speed).
+        peak_ratio: the reference's peak wheel speed / limit (NaN: unknown).
+        entries: (controller, RMS position error [m], run index), best first.
+    """
+
+    scenario: Scenario
+    peak_ratio: float
+    entries: tuple[tuple[str, float, int], ...]
+
+    @property
+    def beyond(self) -> bool:
+        """The reference asks more than the wheel limits (peak ratio > 1, or labelled so)."""
+        if math.isfinite(self.peak_ratio):
+            return self.peak_ratio > 1.0
+        return self.scenario[3] == "beyond"
+
+    @property
+    def winner(self) -> str | None:
+        """The controller with the lowest finite RMS position error, None if none has one."""
+        if not self.entries or not math.isfinite(self.entries[0][1]):
+            return None
+        return self.entries[0][0]
+
+
+def _peak_ratio(run: Run) -> float:
+    value = run.get("peak_ratio")
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return math.nan
+    return float(value)
+
+
+def rankings(runs: Sequence[Run]) -> list[Ranking]:
+    """Every scenario's ranking, in order of first appearance."""
+    groups: dict[Scenario, list[int]] = {}
+    for index, run in enumerate(runs):
+        groups.setdefault(scenario_of(run), []).append(index)
+    out = []
+    for scenario, members in groups.items():
+        entries = [(str(runs[i]["controller"]), metric_value(runs[i], "rms_position_error"), i)
+                   for i in members]
+        entries.sort(key=lambda entry: (not math.isfinite(entry[1]), entry[1]))
+        out.append(Ranking(scenario, _peak_ratio(runs[members[0]]), tuple(entries)))
+    return out
+
+
+@dataclass(frozen=True)
+class Headline:
+    """The report's opening: which scenarios it speaks of and who won them.
+
+    Attributes:
+        focus: ``"beyond the wheel limits"`` or ``"in every scenario"``.
+        rankings: the scenarios in focus.
+        wins: per controller, the scenarios in focus where it has the lowest RMS
+            position error, most first.
+    """
+
+    focus: str
+    rankings: tuple[Ranking, ...]
+    wins: tuple[tuple[str, int], ...]
+
+    @property
+    def sentence(self) -> str:
+        """``"Beyond the wheel limits, mpc-path has the lowest RMS position error in 3 of
+        4 scenarios; mpc-daqp in 1."``"""
+        total = len(self.rankings)
+        if not self.wins:
+            return f"No controller has a finite RMS position error {self.focus}."
+        parts = [f"{name} in {count}" for name, count in self.wins[1:]]
+        first, count = self.wins[0]
+        lead = self.focus[0].upper() + self.focus[1:]
+        tail = f"; {', '.join(parts)}" if parts else ""
+        noun = "scenario" if total == 1 else "scenarios"
+        return (f"{lead}, {first} has the lowest RMS position error in {count} of {total} "
+                f"{noun}{tail}.")
+
+
+def headline(runs: Sequence[Run]) -> Headline:
+    """The scenarios beyond the wheel limits if there are any, else all, and their winners."""
+    every = rankings(runs)
+    beyond = [ranking for ranking in every if ranking.beyond]
+    chosen, focus = (beyond, "beyond the wheel limits") if beyond else (every, "in every scenario")
+    wins = Counter(ranking.winner for ranking in chosen if ranking.winner is not None)
+    order = {name: index for index, name in enumerate(dict.fromkeys(
+        str(run["controller"]) for run in runs))}
+    ordered = sorted(wins.items(), key=lambda item: (-item[1], order[item[0]]))
+    return Headline(focus, tuple(chosen), tuple(ordered))

@@ -1,0 +1,77 @@
+"""The report's terms: the settings with their units and meaning, and what the words mean.
+
+Plain text and numbers, no matplotlib and no HTML.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+#: Unit and meaning of each setting a results document may hold in ``meta.settings``.
+SETTING_TERMS: dict[str, tuple[str, str]] = {
+    "horizon": ("ticks", "prediction horizon N, in control ticks"),
+    "dt": ("s", "control tick (the controller's period)"),
+    "polygon_sides": ("sides", "polygon inscribed in a swerve module's speed disk (QP)"),
+    "duration": ("s", "simulated time per run (default: two laps at the target pace)"),
+    "plant": ("preset", "the simulated robot: ideal, or with lag, delay, noise, slip"),
+    "skip": ("s", "settling time at the start of each run, left out of the metrics"),
+    "headings": ("modes", "heading references: fixed, or tangent to the path"),
+    "seed": ("integer", "seed of the plant's noise and slip"),
+    "ticks": ("ticks", "ticks per run"),
+    "controller": ("name", "the controller the runs are shown under"),
+}
+UNKNOWN_TERM = ("(unit not stated)", "")
+
+TERMS_PARAGRAPH = (
+    "Inside and beyond (the speeds of mpc-bench): each scenario's reference is timed so that "
+    "its peak wheel speed, "
+    "on that robot, is a stated multiple of the wheel speed limit: inside asks 0.8\u00d7 the "
+    "limit (every controller can follow it exactly), beyond asks 1.3\u00d7 (no controller "
+    "can: the question is how gracefully each one falls behind). The peak wheel ratio in "
+    "the tables is what the controller actually commanded, peak |wheel command| / limit, "
+    "over the same ticks as the errors, so an exact tracker reads about 0.8 inside and at "
+    "most 1.0 beyond. The first skip seconds of every run (the start-up transient, shaded "
+    "grey on the time plots) are left out of every error metric and of the peak ratio. "
+    "Position error is time-indexed: the distance from the robot to where the reference is "
+    "at that instant, so falling behind on the right path counts. Path (contouring) error is "
+    "the distance to the nearest point of the reference's path, wherever along it: a robot "
+    "late on the path has a small path error and a large time-indexed error; one that cuts "
+    "corners has both. Lengths are in mm, angles in deg, times in ms unless stated."
+)
+
+
+def _number(value: object) -> str:
+    """Floats to 6 significant digits, None as ``none``, the rest as ``str``."""
+    if value is None:
+        return "none"
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def setting_rows(settings: Mapping[str, Any]) -> list[tuple[str, str, str, str]]:
+    """``(name, value, unit, meaning)`` for each setting; lists joined by commas."""
+    rows = []
+    for key, value in settings.items():
+        unit, meaning = SETTING_TERMS.get(key, UNKNOWN_TERM)
+        shown = (", ".join(map(str, value)) if isinstance(value, (list, tuple))
+                 else _number(value))
+        rows.append((str(key), shown, unit, meaning))
+    return rows
+
+
+def settings_line(settings: Mapping[str, Any]) -> str:
+    """The settings in one line with their units: ``"dt 0.05 s · horizon 20 ticks (1 s) ·
+    skip 1 s · plant ideal"``; empty when there are none."""
+    parts = []
+    for key, shown, unit, _ in setting_rows(settings):
+        if key in ("headings", "seed"):
+            continue
+        text = f"{key} {'default' if settings[key] is None else shown}"
+        if unit in ("s", "ticks", "sides") and shown != "none":
+            text += f" {unit}"
+        if key == "horizon" and isinstance(settings.get("dt"), (int, float)):
+            horizon = settings.get("horizon")
+            if isinstance(horizon, (int, float)) and not isinstance(horizon, bool):
+                text += f" ({_number(horizon * settings['dt'])} s)"
+        parts.append(text)
+    return " \u00b7 ".join(parts)

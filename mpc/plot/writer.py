@@ -1,0 +1,196 @@
+"""A report folder from one or many runs: figures, ``summary.md`` and ``index.html``.
+
+A report folder holds::
+
+    index.html              self-contained page (inline CSS, no JavaScript)
+    summary.md              the full table in Markdown
+    headline.png            lowest RMS position error per scenario (beyond the limits)
+    scenarios/<id>.png      every controller of a scenario on one path plot
+    summary.png             controllers compared across scenarios
+    pace.png                lap time against path error per scenario (periodic references)
+    figures/<run_id>.png    one 2x2 figure per run
+    results.json            the runs as data (written by :func:`report`; ``mpc-bench``
+                            keeps its own beside the report folder)
+
+:func:`write_report` draws a results document (``mpc-bench``'s ``results.json``);
+:func:`report` first packs results of your own (:class:`~mpc.sim.SimResult` from
+:func:`~mpc.sim.simulate` or :class:`~mpc.sim.Recorder`) into such a document.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import math
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from mpc.sim.result import SimResult
+
+from .compare import (
+    controllers_of,
+    headline_figure,
+    scenario_figure,
+    write_pace_figure,
+    write_summary_figure,
+)
+from .headline import headline, rankings
+from .page import ScenarioFigure, html_page, html_table
+from .record import run_record
+from .results import (
+    ReportError,
+    Run,
+    read_series,
+    safe_name,
+    scenario_title,
+    settings_value,
+    unique_run_ids,
+    validate_results,
+)
+from .run_figure import write_run_figure
+from .style import save
+from .tables import grouped_rows, markdown_table
+
+DEFAULT_DT = 0.05  # [s] for runs whose series and settings both lack a tick
+
+
+def write_report(results: Mapping[str, Any], out_dir: str | Path,
+                 on_figure: Callable[[int, int], None] | None = None) -> Path:
+    """Write the figures, ``summary.md`` and ``index.html`` of a results document into
+    ``out_dir`` (created); return the page's path.
+
+    Each run's figure is ``figures/<run_id>.png`` (repeated ids get ``-2``, ``-3``...).
+    ``on_figure(i, total)`` is called after each written figure, ``i`` from 1 to ``total``
+    = runs + scenarios + 2 (the headline and summary figures are the last).
+
+    Raises:
+        ReportError: ``results`` lacks ``"runs"`` or a required key of a run, a series
+            has the wrong shape, or there are no runs.
+    """
+    validate_results(results)
+    runs: list[Run] = list(results["runs"])
+    if not runs:
+        raise ReportError("results: no runs to report")
+    out = Path(out_dir)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    (out / "scenarios").mkdir(exist_ok=True)
+    ids = unique_run_ids(runs)
+    dt = settings_value(results, "dt")
+    skip = settings_value(results, "skip")
+    default_skip = skip if math.isfinite(skip) else 0.0
+    order = rankings(runs)
+    total = len(runs) + len(order) + 2
+    done = 0
+
+    def tick() -> None:
+        nonlocal done
+        done += 1
+        if on_figure is not None:
+            on_figure(done, total)
+
+    series = []
+    for run, rid in zip(runs, ids, strict=True):
+        data = read_series(run, rid, default_dt=dt if math.isfinite(dt) else DEFAULT_DT,
+                           default_skip=default_skip)
+        series.append(data)
+        write_run_figure(run, data, out / "figures" / f"{rid}.png")
+        tick()
+    controllers = controllers_of(runs)
+    scenarios = []
+    for ranking in order:
+        members = sorted(index for _, _, index in ranking.entries)
+        src = f"scenarios/{safe_name(ranking.scenario)}.png"
+        ratio = f"{ranking.peak_ratio:.2f}" if math.isfinite(ranking.peak_ratio) else "-"
+        save(scenario_figure([runs[i] for i in members], [series[i] for i in members],
+                             controllers, scenario_title(ranking.scenario, ratio)), out / src)
+        scenarios.append(ScenarioFigure(ranking, src))
+        tick()
+    lead = headline(runs)
+    save(headline_figure(lead, runs), out / "headline.png")
+    tick()
+    write_summary_figure(runs, dt, out / "summary.png")
+    pace = write_pace_figure(runs, out / "pace.png")
+    tick()
+    groups = grouped_rows(runs, ids)
+    (out / "summary.md").write_text(markdown_table(groups), encoding="utf-8")
+    index = out / "index.html"
+    index.write_text(html_page(results, ids, html_table(groups), lead, scenarios, pace),
+                     encoding="utf-8")
+    return index
+
+
+Results = SimResult | Mapping[str, Any] | Sequence[SimResult | Mapping[str, Any]]
+
+
+def results_document(results: Results, *, skip: float = 0.0,
+                     labels: Mapping[str, Any] | None = None,
+                     command: str = "mpc.plot.report") -> dict[str, Any]:
+    """Runs of your own as a results document (what :func:`write_report` draws).
+
+    Args:
+        results: one :class:`~mpc.sim.SimResult`; a mapping from controller name to a
+            result (several controllers on one scenario); a sequence of results (named
+            ``run 1``, ``run 2``...); run records of :func:`~mpc.plot.run_record` in place of
+            any result; or a whole document (``{"runs": [...]}``, returned as is).
+        skip: settling time [s] left out of the metrics of the results packed here.
+        labels: :func:`run_record` keywords for every result packed here (e.g.
+            ``layout``, ``trajectory``, ``speed``, ``peak_ratio``).
+        command: what made the runs, shown on the page.
+    """
+    if isinstance(results, Mapping) and "runs" in results:
+        return dict(results)
+    named: list[tuple[str | None, SimResult | Mapping[str, Any]]]
+    if isinstance(results, SimResult):
+        named = [(None, results)]
+    elif isinstance(results, Mapping) and "series" in results:
+        named = [(None, results)]
+    elif isinstance(results, Mapping):
+        named = [(str(name), value) for name, value in results.items()]
+    elif isinstance(results, Sequence) and not isinstance(results, (str, bytes)):
+        named = [(None if len(results) == 1 else f"run {i}", value)
+                 for i, value in enumerate(results, start=1)]
+    else:
+        raise ReportError("results must be a SimResult, a run record, a mapping of names to "
+                          f"them, a sequence of them or a results document; got {results!r}")
+    runs: list[dict[str, Any]] = []
+    dt = math.nan
+    for name, value in named:
+        if isinstance(value, SimResult):
+            keywords = dict(labels or {})
+            if name is not None:
+                keywords["controller"] = name
+            runs.append(run_record(value, skip=skip, **keywords))
+            dt = value.dt if math.isnan(dt) else dt
+        elif isinstance(value, Mapping) and "series" in value:
+            runs.append({**value, **({} if name is None else {"controller": name})})
+        else:
+            raise ReportError(f"results: {name or 'entry'} is neither a SimResult nor a run "
+                              f"record, got {type(value).__name__}")
+    settings: dict[str, Any] = {"skip": float(skip)}
+    if math.isfinite(dt):
+        settings = {"dt": dt, **settings}
+    created = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    return {"meta": {"command": command, "created": created, "settings": settings},
+            "runs": runs}
+
+
+def report(results: Results, out_dir: str | Path, *, skip: float = 0.0,
+           labels: Mapping[str, Any] | None = None,
+           on_figure: Callable[[int, int], None] | None = None) -> Path:
+    """Write the report page of one or many runs into ``out_dir``; return ``index.html``.
+
+    ``results`` is anything :func:`results_document` takes (a result, ``{name: result}``,
+    a list of results or run records, or a results document); ``skip`` [s] is the settling
+    time left out of the metrics and shaded on the time plots. The runs are also saved as
+    ``out_dir/results.json`` (``mpc-bench report`` redraws it).
+
+    Raises:
+        ReportError: ``results`` is none of those, or a run record is malformed.
+    """
+    document = results_document(results, skip=skip, labels=labels)
+    validate_results(document)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.json").write_text(json.dumps(document), encoding="utf-8")
+    return write_report(document, out, on_figure=on_figure)
