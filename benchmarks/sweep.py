@@ -33,13 +33,13 @@ import math
 import time
 from collections.abc import Mapping
 from dataclasses import asdict
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from benchmarks.cli import add_pool_arguments
 from benchmarks.executor import RunPool, RunSpec
+from benchmarks.outdir import add_force_argument, claim
 from benchmarks.scenarios import CONTROLLERS, Parser, ScenarioError, Settings, choose
 
 KINDS: tuple[str, ...] = ("omni", "mecanum", "swerve", "ball")
@@ -179,6 +179,7 @@ def _parser() -> Parser:
     parser.add_argument("--skip", type=float, default=2.0, help="settling seconds (2)")
     parser.add_argument("--horizon", type=int, default=20, help="MPC horizon (20)")
     parser.add_argument("--out", default="sweep-out", metavar="DIR", help="(sweep-out)")
+    add_force_argument(parser)
     add_pool_arguments(parser)
     return parser
 
@@ -191,6 +192,7 @@ def main(argv: list[str]) -> int:
     controllers = choose("controller", args.controllers, CONTROLLERS)
     specs = sample_cases(args.runs, kinds, controllers, args.seed, not args.no_faults,
                          args.duration, args.skip, Settings(horizon=args.horizon))
+    out = claim(args.out, ("sweep.json",), args.force)
     started = time.perf_counter()
     with RunPool(args.workers, args.scheduler) as pool:
         print(f"sweep: {args.runs} cases x {len(controllers)} controllers on {pool.description}",
@@ -199,8 +201,6 @@ def main(argv: list[str]) -> int:
     rows = summarise(results)
     print()
     print(table(rows))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     document = {"command": " ".join(["mpc-bench", "sweep", *argv]), "summary": rows,
                 "cases": [{"spec": asdict(spec), "result": result}
                           for spec, result in zip(specs, results, strict=True)]}

@@ -46,6 +46,7 @@ from typing import Any
 
 from benchmarks.cli import add_pool_arguments
 from benchmarks.executor import RunPool, RunSpec, optimal_lap
+from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import build_scenarios, describe_robot, run_pace
 from benchmarks.scenarios import (
     HEADINGS,
@@ -358,6 +359,7 @@ def _parser() -> Parser:
                         help="simulated seconds per run (default: two laps at the target pace)")
     parser.add_argument("--skip", type=float, default=2.0, help="settling seconds (2)")
     parser.add_argument("--out", default="tune-out", metavar="DIR", help="(tune-out)")
+    add_force_argument(parser)
     add_pool_arguments(parser)
     return parser
 
@@ -371,8 +373,8 @@ def main(argv: list[str]) -> int:
     if args.horizon < 1 or not args.dt > 0 or (args.duration is not None
                                                and not args.duration > args.skip >= 0):
         raise ScenarioError("--horizon must be >= 1, --dt > 0, --duration > --skip >= 0")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = claim(args.out, ("weights.toml", "study.json", "summary.md", "history.png",
+                           "importance.png"), args.force)
     with RunPool(args.workers, args.scheduler) as pool:
         tuner = Tuner(args, pool, print)
         result = study(tuner, args.trials, lambda line: print(line, flush=True))
