@@ -152,6 +152,11 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     controllers = choose("controller", args.controllers, CONTROLLERS, DEFAULT_CONTROLLERS)
     headings = choose("heading", args.heading, HEADINGS, DEFAULT_HEADINGS)
     speeds = parse_speeds(args.speeds)
+    for file in files:
+        if file.robot is not None and args.plant == "motor":
+            raise ScenarioError(f"--plant motor drives robots through their motor models; the "
+                                f"robot of {str(file.path)!r} has none (use --plant ideal or "
+                                "realistic)")
     csv_trajectory = csv_reference(args.trajectory_csv) if args.trajectory_csv else None
     settings = Settings(horizon=args.horizon, dt=args.dt, polygon_sides=args.polygon_sides)
     writes = ("results.json", "results.csv", *(() if args.no_report else ("report/index.html",)))

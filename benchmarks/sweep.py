@@ -40,6 +40,7 @@ import numpy as np
 from benchmarks.cli import add_pool_arguments
 from benchmarks.executor import RunPool, RunSpec
 from benchmarks.outdir import add_force_argument, claim
+from benchmarks.progress import Progress
 from benchmarks.scenarios import CONTROLLERS, Parser, ScenarioError, Settings, choose
 
 KINDS: tuple[str, ...] = ("omni", "mecanum", "swerve", "ball")
@@ -194,10 +195,10 @@ def main(argv: list[str]) -> int:
                          args.duration, args.skip, Settings(horizon=args.horizon))
     out = claim(args.out, ("sweep.json",), args.force)
     started = time.perf_counter()
-    with RunPool(args.workers, args.scheduler) as pool:
-        print(f"sweep: {args.runs} cases x {len(controllers)} controllers on {pool.description}",
-              flush=True)
-        results = pool.run(specs, lambda line: print(line, flush=True), progress_line)
+    with RunPool(args.workers, args.scheduler) as pool, Progress(len(specs), "runs") as bar:
+        bar.print(f"sweep: {args.runs} cases x {len(controllers)} controllers on "
+                  f"{pool.description}")
+        results = pool.run(specs, bar.advance, progress_line)
     rows = summarise(results)
     print()
     print(table(rows))

@@ -368,3 +368,11 @@ def test_two_trajectory_files_of_one_name_are_refused(tmp_path: Path,
     assert main(["--trajectory", str(first), "--trajectory", str(second),
                  "--out", str(tmp_path / "out")]) == 2
     assert "have one name, 'lane-change': rename one" in capsys.readouterr().err
+
+
+def test_motor_plant_and_a_choreo_robot_are_refused_up_front(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = choreo_file(tmp_path)
+    assert main(["--trajectory", str(path), "--plant", "motor",
+                 "--out", str(tmp_path / "out")]) == 2
+    assert f"the robot of {str(path)!r} has none (use --plant ideal" in capsys.readouterr().err
