@@ -29,7 +29,7 @@ def claim(out: str | Path, writes: Iterable[str], force: bool) -> Path:
     ``--force`` if one of them exists and ``force`` is False, or if ``out`` is a file."""
     folder = Path(out)
     if folder.exists() and not folder.is_dir():
-        raise ScenarioError(f"--out {str(folder)!r} is a file, not a folder")
+        raise ScenarioError(f"--out must be a folder, {str(folder)!r} is a file")
     held = [name for name in writes if (folder / name).exists()]
     if held and not force:
         raise ScenarioError(f"--out {str(folder)!r} already holds results ({', '.join(held)}); "

@@ -32,5 +32,5 @@ def test_a_folder_with_results_is_refused_without_force(tmp_path: Path) -> None:
 def test_other_files_do_not_count_and_a_file_is_not_a_folder(tmp_path: Path) -> None:
     (tmp_path / "perf.json").write_text("{}")
     assert claim(tmp_path, ("results.json",), force=False) == tmp_path
-    with pytest.raises(ScenarioError, match="is a file, not a folder"):
+    with pytest.raises(ScenarioError, match="--out must be a folder, .* is a file"):
         claim(tmp_path / "perf.json", ("results.json",), force=True)
