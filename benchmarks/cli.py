@@ -218,7 +218,10 @@ def _write_report(document: dict[str, Any], folder: Path) -> None:
 def _report_parser() -> Parser:
     parser = Parser(prog="mpc-bench report", description="Rebuild the report from a results.json.")
     parser.add_argument("results", help="path of results.json")
-    parser.add_argument("--out", help="report folder (default: 'report' beside the results)")
+    parser.add_argument("--out", metavar="DIR",
+                        help="report folder (default: 'report' beside the results, rebuilt in "
+                             "place; another folder that holds a report is refused without "
+                             "--force)")
     add_force_argument(parser)
     return parser
 
@@ -230,8 +233,9 @@ def report(argv: list[str]) -> int:
 
     path = Path(args.results)
     document = load_results(path)
+    # The report beside its own results.json is derived from it alone: rebuilt in place.
     folder = claim(Path(args.out) if args.out else path.parent / "report", ("index.html",),
-                   args.force)
+                   args.force or args.out is None)
     _write_report(document, folder)
     return 0
 

@@ -226,6 +226,9 @@ def test_force_overwrites(tmp_path: Path) -> None:
     assert main(["report", str(tmp_path / "results.json"), "--out", str(tmp_path / "r")]) == 2
     assert main(["report", str(tmp_path / "results.json"), "--out", str(tmp_path / "r"),
                  "--force"]) == 0
+    for _ in range(2):  # the report beside its results: derived from them, rebuilt in place
+        assert main(["report", str(tmp_path / "results.json")]) == 0
+    assert (tmp_path / "report" / "index.html").exists()
 
 
 @pytest.mark.parametrize(
