@@ -1,15 +1,17 @@
+# PYTHON_ARGCOMPLETE_OK  (argcomplete looks for this line in the console script's module)
 """``mpc-bench``: compare tracking controllers on holonomic robots.
 
-    mpc-bench [options]          run the benchmark (defaults: every layout,
-                                 circle and figure-eight, inside and 30% beyond
-                                 the wheel limits, MPC (OSQP, IPOPT) and baselines)
-    mpc-bench report RESULTS     rebuild the report from a results.json
-    mpc-bench perf [options]     tick time against horizon for both solver paths
-    mpc-bench soak [options]     memory and tick time over a long run
-    mpc-bench motors [options]   motor-aware MPC against kinematic control on the motor plant
-    mpc-bench fuzz [options]     seeded abuse of every robot and control path: unsafe commands
-    mpc-bench tune [options]     tune the MPC's cost weights for a robot (Optuna)
-    mpc-bench sweep [options]    Monte-Carlo over random robots, starts, plant faults
+    mpc-bench [options]          run the benchmark (the ``run`` command; defaults: every
+                                 layout, circle and figure-eight, inside and 30% beyond the
+                                 wheel limits, MPC (daqp, IPOPT, path mode) and baselines)
+    mpc-bench --trajectory FILE  run a Choreo .traj on its own robot (or a CSV on the layouts)
+    mpc-bench COMMAND [options]  one of :data:`COMMANDS` (``mpc-bench --help`` lists them)
+
+No option is matched by a prefix (``--speed 2`` is an error); a command refuses to write
+into an ``--out`` folder that holds its results already, unless given ``--force``. On a
+terminal, long commands draw a progress bar with an ETA (:mod:`benchmarks.progress`);
+elsewhere they print one plain line per finished run. Shell completion, if
+``argcomplete`` is installed: ``eval "$(register-python-argcomplete mpc-bench)"``.
 
 Runs are independent: ``--workers N`` spreads them over N local processes (default:
 the machine's cores) and ``--scheduler tcp://HOST:PORT`` over a Dask cluster, with the
@@ -19,14 +21,20 @@ same results run for run (see :mod:`benchmarks.executor`).
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
+import os
 import sys
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from benchmarks import fuzz, motors, perf, soak
 from benchmarks.executor import RunPool
+from benchmarks.outdir import add_force_argument, claim
+from benchmarks.progress import Progress
+from benchmarks.reference_files import file_scenarios, read_reference
 from benchmarks.runner import build_scenarios, results_document, run_all, summary_table, write_csv
 from benchmarks.scenarios import (
     ALL_TRAJECTORIES,
@@ -40,6 +48,7 @@ from benchmarks.scenarios import (
     Parser,
     ScenarioError,
     Settings,
+    applies,
     choose,
     csv_reference,
     parse_speeds,
@@ -60,12 +69,14 @@ def add_pool_arguments(parser: argparse.ArgumentParser) -> None:
                              "installed; pip install 'holonomic-mpc[sweeps]')")
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
+    """The options of ``mpc-bench [run]``."""
     parser = Parser(
-        prog="mpc-bench",
+        prog=prog, add_help=add_help,
         description="Benchmark MPC tracking against feedforward + P baselines on holonomic "
-                    "robots. Subcommands: 'report RESULTS', 'perf', 'soak', 'tune', 'sweep' "
-                    "(see --help of each).",
+                    "robots.",
+        epilog="Other commands: " + ", ".join(name for name in COMMANDS if name != "run")
+               + " (mpc-bench --help lists them; mpc-bench COMMAND --help for each).",
     )
     parser.add_argument("--layouts", help=f"comma list of {', '.join(PRESETS)} "
                                           f"(default: {', '.join(DEFAULT_LAYOUTS)})")
@@ -95,20 +106,31 @@ def _parser() -> argparse.ArgumentParser:
                              "pose noise, slip) or motor (the layouts' motor presets driven "
                              "through their DC motors; see also 'mpc-bench motors')")
     parser.add_argument("--robot", metavar="TOML", help="also run a robot from a TOML file")
+    parser.add_argument("--trajectory", action="append", metavar="FILE",
+                        help="run the reference in FILE: a Choreo .traj on the swerve robot it "
+                             "was planned for, a CSV (t,x,y,theta) on the chosen layouts; "
+                             "named after the file, run as given; repeatable. The built-in "
+                             "shapes then run only if --trajectories is given")
     parser.add_argument("--trajectory-csv", metavar="CSV",
-                        help="also run a waypoint trajectory from a CSV file (t,x,y,theta)")
+                        help="also run a waypoint trajectory from a CSV file (t,x,y,theta) on "
+                             "every layout, named 'csv' (older form of --trajectory FILE.csv)")
     parser.add_argument("--seed", type=int, default=0, help="seed for noise and slip (0)")
     parser.add_argument("--out", default="bench-out", metavar="DIR",
                         help="output folder (bench-out)")
+    add_force_argument(parser)
     parser.add_argument("--no-report", action="store_true", help="skip the figures and HTML page")
     parser.add_argument("--quick", action="store_true",
-                        help="smoke run in seconds: mecanum, figure8, 3 s per run")
+                        help="smoke run in seconds: mecanum, figure8, fixed heading, 3 s per "
+                             "run (with --trajectory: 3 s of each file)")
     add_pool_arguments(parser)
     return parser
 
 
-def run(argv: list[str]) -> int:
-    args = _parser().parse_args(argv)
+def run(argv: list[str], prog: str = "mpc-bench run") -> int:
+    """``mpc-bench [run] [options]``: the benchmark; results.json, results.csv, report/."""
+    args = _parser(prog).parse_args(argv)
+    files = [read_reference(path) for path in args.trajectory or []]
+    shapes = args.trajectories is not None or not files  # files alone: only the files
     if args.quick:
         args.layouts = args.layouts or "mecanum"
         args.trajectories = args.trajectories or "figure8"
@@ -130,29 +152,38 @@ def run(argv: list[str]) -> int:
     controllers = choose("controller", args.controllers, CONTROLLERS, DEFAULT_CONTROLLERS)
     headings = choose("heading", args.heading, HEADINGS, DEFAULT_HEADINGS)
     speeds = parse_speeds(args.speeds)
+    for file in files:
+        if file.robot is not None and args.plant == "motor":
+            raise ScenarioError(f"--plant motor drives robots through their motor models; the "
+                                f"robot of {str(file.path)!r} has none (use --plant ideal or "
+                                "realistic)")
     csv_trajectory = csv_reference(args.trajectory_csv) if args.trajectory_csv else None
     settings = Settings(horizon=args.horizon, dt=args.dt, polygon_sides=args.polygon_sides)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    writes = ("results.json", "results.csv", *(() if args.no_report else ("report/index.html",)))
+    out = claim(args.out, writes, args.force)
 
-    scenarios = build_scenarios(chosen_robots, trajectories, speeds, headings, csv_trajectory)
+    scenarios = [*build_scenarios(chosen_robots, trajectories if shapes else [], speeds,
+                                  headings, csv_trajectory),
+                 *file_scenarios(files, chosen_robots)]
+    total = sum(applies(name, scenario.robot) for scenario in scenarios for name in controllers)
     started = time.perf_counter()
     failed: list[dict[str, Any]] = []
-    with RunPool(args.workers, args.scheduler) as pool:
-        print(f"mpc-bench: {len(scenarios)} scenarios x {len(controllers)} controllers, "
-              f"plant {args.plant}, horizon {args.horizon}, dt {args.dt} s, "
-              f"on {pool.description}", flush=True)
+    with RunPool(args.workers, args.scheduler) as pool, Progress(total, "runs") as progress:
+        progress.print(f"mpc-bench: {len(scenarios)} scenarios x {len(controllers)} controllers "
+                       f"({total} runs), plant {args.plant}, horizon {args.horizon}, "
+                       f"dt {args.dt} s, on {pool.description}")
         for note in pool.notes:
-            print(f"mpc-bench: note: {note}", flush=True)
+            progress.print(f"mpc-bench: note: {note}")
         runs = run_all(scenarios, controllers, settings, args.duration, args.skip, args.plant,
-                       args.seed, lambda line: print(line, flush=True), pool, failed)
+                       args.seed, progress.advance, pool, failed)
     document = results_document(
         runs,
         command=" ".join(["mpc-bench", *argv]),
         settings={"horizon": args.horizon, "dt": args.dt, "polygon_sides": args.polygon_sides,
                   "duration": args.duration,
                   "plant": args.plant, "skip": args.skip, "headings": headings,
-                  "seed": args.seed},
+                  "seed": args.seed,
+                  "trajectory_files": [str(file.path) for file in files]},
     )
     if failed:  # kept beside the runs, out of the tables and figures
         document["meta"]["failed_runs"] = [
@@ -175,49 +206,124 @@ def run(argv: list[str]) -> int:
 def _write_report(document: dict[str, Any], folder: Path) -> None:
     from benchmarks.report import write_report  # matplotlib only when asked for
 
-    def progress(done: int, total: int) -> None:
-        if done == total or done % 10 == 0:
-            print(f"report: {done}/{total} figures", flush=True)
+    with Progress(0, "report figures") as progress:
+        def on_figure(done: int, total: int) -> None:
+            every = not progress.live and (done == total or done % 10 == 0)
+            progress.update(done, total, f"report: {done}/{total} figures" if every else None)
 
-    index = write_report(document, folder, on_figure=progress)
+        index = write_report(document, folder, on_figure=on_figure)
     print(f"wrote {index}")
 
 
-def report(argv: list[str]) -> int:
-    parser = Parser(prog="mpc-bench report",
-                                     description="Rebuild the report from a results.json.")
+def _report_parser() -> Parser:
+    parser = Parser(prog="mpc-bench report", description="Rebuild the report from a results.json.")
     parser.add_argument("results", help="path of results.json")
-    parser.add_argument("--out", help="report folder (default: 'report' beside the results)")
-    args = parser.parse_args(argv)
+    parser.add_argument("--out", metavar="DIR",
+                        help="report folder (default: 'report' beside the results, rebuilt in "
+                             "place; another folder that holds a report is refused without "
+                             "--force)")
+    add_force_argument(parser)
+    return parser
+
+
+def report(argv: list[str]) -> int:
+    """``mpc-bench report RESULTS``: the figures and HTML page of a results.json again."""
+    args = _report_parser().parse_args(argv)
     from benchmarks.report import load_results
 
     path = Path(args.results)
     document = load_results(path)
-    _write_report(document, Path(args.out) if args.out else path.parent / "report")
+    # The report beside its own results.json is derived from it alone: rebuilt in place.
+    folder = claim(Path(args.out) if args.out else path.parent / "report", ("index.html",),
+                   args.force or args.out is None)
+    _write_report(document, folder)
     return 0
 
 
-def _tune(argv: list[str]) -> int:
-    from benchmarks import tune  # Optuna only when asked for
+@dataclass(frozen=True)
+class Command:
+    """A subcommand: its one-line ``summary`` and the module (imported when used) whose
+    ``parser`` and ``main`` functions build its options and run it."""
 
-    return tune.main(argv)
+    summary: str
+    module: str
+    parser: str = "_parser"
+    main: str = "main"
+
+    def function(self, name: str) -> Callable[..., Any]:
+        return getattr(importlib.import_module(self.module), name)  # type: ignore[no-any-return]
 
 
-def _sweep(argv: list[str]) -> int:
-    from benchmarks import sweep
+#: Every subcommand, in the order ``mpc-bench --help`` lists them; ``run`` is the default.
+COMMANDS: dict[str, Command] = {
+    "run": Command("run the benchmark (the default: 'mpc-bench [options]' is 'mpc-bench run "
+                   "[options]')", "benchmarks.cli", "_parser", "run"),
+    "report": Command("rebuild the figures and HTML report from a results.json",
+                      "benchmarks.cli", "_report_parser", "report"),
+    "perf": Command("tick time against horizon for every solver path, per layout and mode",
+                    "benchmarks.perf"),
+    "soak": Command("memory and tick time over a long run", "benchmarks.soak"),
+    "motors": Command("motor-aware MPC against kinematic control on the motor plant",
+                      "benchmarks.motors"),
+    "fuzz": Command("seeded abuse of every robot and control path, counting unsafe commands",
+                    "benchmarks.fuzz"),
+    "tune": Command("tune the MPC's cost weights for a robot (Optuna)", "benchmarks.tune"),
+    "sweep": Command("Monte-Carlo over random robots, starts and plant faults",
+                     "benchmarks.sweep"),
+}
 
-    return sweep.main(argv)
+
+def command_parser() -> Parser:
+    """The whole command line as one argparse tree, for ``--help`` and shell completion:
+    the subcommands (each with its own options) and, at the top, the options of ``run``."""
+    parser = Parser(
+        prog="mpc-bench", usage="mpc-bench [COMMAND] [options]",
+        parents=[_parser("mpc-bench", add_help=False)],
+        description="Benchmark MPC tracking against feedforward + P baselines on holonomic "
+                    "robots. Without a COMMAND, runs the benchmark with the options below.",
+        epilog="'mpc-bench COMMAND --help' shows a command's options. An --out folder that "
+               "holds a command's results is not overwritten without --force. Shell "
+               "completion (pip install argcomplete): "
+               'eval "$(register-python-argcomplete mpc-bench)"',
+    )
+    parser._positionals.title = "commands"  # the subcommands, listed before the options
+    parser._optionals.title = "options of run (the default command)"
+    subparsers = parser.add_subparsers(prog="mpc-bench", metavar="COMMAND", dest="command")
+    for name, command in COMMANDS.items():
+        own: Parser = command.function(command.parser)()
+        subparsers.add_parser(name, parents=[own], add_help=False, help=command.summary,
+                              description=own.description, epilog=own.epilog,
+                              formatter_class=own.formatter_class)
+    return parser
+
+
+def _complete() -> None:
+    """Shell completion through argcomplete, if installed (it exits when completing)."""
+    try:
+        import argcomplete
+    except ImportError:
+        return
+    argcomplete.autocomplete(command_parser())
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mpc-bench`` console script."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    commands = {"report": report, "perf": perf.main, "soak": soak.main, "motors": motors.main,
-                "fuzz": fuzz.main, "tune": _tune, "sweep": _sweep}
+    if argv is None:
+        if "_ARGCOMPLETE" in os.environ:  # the shell asks for completions
+            _complete()
+        argv = sys.argv[1:]
+    argv = list(argv)
     try:
-        if argv and argv[0] in commands:
-            return commands[argv[0]](argv[1:])
-        return run(argv)
+        if argv and argv[0] in ("-h", "--help"):
+            command_parser().print_help()
+            return 0
+        if argv and argv[0] in COMMANDS:
+            command = COMMANDS[argv[0]]
+            return command.function(command.main)(argv[1:])  # type: ignore[no-any-return]
+        if argv and not argv[0].startswith("-"):
+            raise ScenarioError(f"unknown command {argv[0]!r}; commands: "
+                                f"{', '.join(COMMANDS)} (or options of run: mpc-bench --help)")
+        return run(argv, prog="mpc-bench")
     except (MpcError, OSError) as error:
         # Every bad option, file or value raises one of the project's errors (the
         # report's ReportError included) or an OSError: one line, no traceback.

@@ -45,7 +45,14 @@ from benchmarks.scenarios import (
 )
 from mpc.robots import Robot, from_dict, preset
 from mpc.sim import PlantConfig, TrackingController, simulate
-from trajectories import Circle, FigureEight, SpinHeading, Trajectory, Waypoints
+from trajectories import (
+    Circle,
+    FigureEight,
+    SampledTrajectory,
+    SpinHeading,
+    Trajectory,
+    Waypoints,
+)
 
 #: Environment of every worker process: single-threaded BLAS and OpenMP.
 THREAD_ENV: dict[str, str] = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
@@ -66,7 +73,9 @@ class RunSpec:
         robot: a preset name or a description (:func:`mpc.robots.from_dict`).
         trajectory: ``{"shape": "circle"|"figure8", "heading": "fixed"|"tangent"|"spin"}``
             with ``"period"`` [s] or ``"ratio"`` (peak wheel speed / limit), or
-            ``{"times": [...], "poses": [[x, y, theta], ...]}`` (waypoints).
+            ``{"times": [...], "poses": [[x, y, theta], ...]}`` (waypoints), or
+            ``{"samples": {"times", "poses", "velocities", "accelerations"}}`` (a
+            :class:`~trajectories.SampledTrajectory`, e.g. a Choreo file's).
         controller: a benchmark controller name (:data:`benchmarks.scenarios.CONTROLLERS`).
         labels: layout, trajectory, heading and speed names copied into the result.
         settings: horizon, dt and polygon sides.
@@ -107,6 +116,10 @@ def build_trajectory(spec: Mapping[str, Any], robot: Robot) -> Trajectory:
     """The reference of a trajectory spec (see :class:`RunSpec`)."""
     if "times" in spec:
         return Waypoints(spec["times"], spec["poses"])
+    if "samples" in spec:  # e.g. a Choreo file's samples (theta as sampled)
+        samples = spec["samples"]
+        return SampledTrajectory(samples["times"], samples["poses"], samples["velocities"],
+                                 samples.get("accelerations"))
     shape, heading = spec.get("shape"), spec.get("heading", "fixed")
     if shape not in ("circle", "figure8") or heading not in ("fixed", "tangent", "spin"):
         raise ScenarioError(f"unknown trajectory spec {dict(spec)!r}")

@@ -25,11 +25,11 @@ import json
 import math
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
 from benchmarks.scenarios import Parser, ScenarioError
 from mpc import Command, Controller, Status
@@ -172,15 +172,21 @@ def run(robot_name: str, configuration: tuple[str, str, dict[str, Any], float], 
     return tally
 
 
-def main(argv: list[str]) -> int:
+def _parser() -> Parser:
     parser = Parser(prog="mpc-bench fuzz", description=__doc__.split("\n")[0])
     parser.add_argument("--ticks", type=int, default=100_000,
                         help="ticks in all, shared out over robots and configurations (100000)")
     parser.add_argument("--seed", type=int, default=0, help="seed of every disturbance (0)")
     parser.add_argument("--out", default=None, metavar="DIR", help="also write fuzz.json here")
-    args = parser.parse_args(argv)
+    add_force_argument(parser)
+    return parser
+
+
+def main(argv: list[str]) -> int:
+    args = _parser().parse_args(argv)
     if args.ticks < 100:
         raise ScenarioError(f"--ticks must be >= 100, got {args.ticks}")
+    out = None if args.out is None else claim(args.out, ("fuzz.json",), args.force)
     shares = sum(c[3] for c in CONFIGURATIONS) * len(PRESETS)
     plan = [(robot, config, max(10, round(args.ticks * config[3] / shares)))
             for robot in PRESETS for config in CONFIGURATIONS]
@@ -207,9 +213,7 @@ def main(argv: list[str]) -> int:
           f"{sum(t.speed for t in tallies)} speed, {sum(t.acceleration for t in tallies)} "
           f"acceleration, {sum(t.steering for t in tallies)} steering) in "
           f"{time.perf_counter() - started:.0f} s")
-    if args.out is not None:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
+    if out is not None:
         document = {"ticks": ticks_run, "unsafe": unsafe, "seed": args.seed,
                     "machine": machine(), "runs": [vars(t) for t in tallies]}
         (out / "fuzz.json").write_text(json.dumps(document, indent=1))

@@ -31,11 +31,11 @@ import json
 import math
 import time
 from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
 from benchmarks.scenarios import Parser, ScenarioError, choose
 from benchmarks.scenarios import reference as scenario_reference
@@ -256,7 +256,7 @@ def perf(layouts: list[str], ticks: int, repeats: int, horizon: int = 20,
     return rows
 
 
-def main(argv: list[str]) -> int:
+def _parser() -> Parser:
     parser = Parser(prog="mpc-bench motors", description=__doc__.split("\n")[0])
     parser.add_argument("--layouts",
                         help=f"comma list of {', '.join(MOTOR_ROBOT_PRESETS)} (default: all)")
@@ -279,18 +279,22 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--repeats", type=int, default=3,
                         help="--perf: interleaved runs of each (3)")
     parser.add_argument("--out", default="bench-out", metavar="DIR",
-                        help="writes motors.json here")
-    args = parser.parse_args(argv)
+                        help="writes motors.json (--perf: motors-perf.json) here (bench-out)")
+    add_force_argument(parser)
+    return parser
+
+
+def main(argv: list[str]) -> int:
+    args = _parser().parse_args(argv)
     if not (args.ratio > 0 and args.size > 0 and args.laps > 0 and args.skip >= 0):
         raise ScenarioError("--ratio, --size and --laps must be > 0, --skip >= 0")
     layouts = choose("layout", args.layouts, MOTOR_ROBOT_PRESETS)
+    out = claim(args.out, ("motors-perf.json" if args.perf else "motors.json",), args.force)
     if args.perf:
         if args.ticks < 20 or args.repeats < 1:
             raise ScenarioError("--ticks must be >= 20 and --repeats >= 1")
         measured = perf(layouts, args.ticks, args.repeats,
                         log=lambda line: print(line, flush=True))
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
         (out / "motors-perf.json").write_text(json.dumps(
             {"command": " ".join(["mpc-bench", "motors", *argv]), "machine": machine(),
              "rows": measured}, indent=1))
@@ -306,8 +310,6 @@ def main(argv: list[str]) -> int:
     print("RMS position error [mm] / voltage-violation ticks / current-violation ticks / "
           "slip ticks")
     print(table(rows, controllers))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     (out / "motors.json").write_text(json.dumps(
         {"command": " ".join(["mpc-bench", "motors", *argv]), "machine": machine(),
          "rows": rows}, indent=1))

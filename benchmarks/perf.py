@@ -42,6 +42,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from benchmarks import peers
+from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
 from benchmarks.scenarios import (
     HEADINGS,
@@ -571,6 +572,7 @@ def _parser() -> Parser:
     parser.add_argument("--out", default="bench-out", metavar="DIR",
                         help="writes perf.json, perf.txt and tick_profile.txt/.json here "
                              "(bench-out)")
+    add_force_argument(parser)
     parser.add_argument("--quick", action="store_true",
                         help="smoke run in seconds: horizons 10,20, 40 ticks (IPOPT 20), "
                              "scenarios on mecanum only")
@@ -601,10 +603,8 @@ def main(argv: list[str]) -> int:
     for flag, value in (("--ticks", ticks), ("--ipopt-ticks", ipopt_ticks)):
         if value < 20:
             raise ScenarioError(f"{flag} must be >= 20, got {value}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ScenarioError(f"--out must be a folder, {str(out)!r} is a file")
-    out.mkdir(parents=True, exist_ok=True)
+    profiles = ("tick_profile.txt", "tick_profile.json") if "profile" in sections else ()
+    out = claim(args.out, ("perf.json", "perf.txt", *profiles), args.force)
 
     say = Printer()
     command = " ".join(["mpc-bench", "perf", *argv])

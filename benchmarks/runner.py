@@ -16,11 +16,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from benchmarks.scenarios import ScenarioError, Settings, applies, reference
+from benchmarks.table import Column, format_table
 from mpc.errors import MpcError
 from mpc.plot.record import run_record
 from mpc.robots import CasterRobot, Robot, SphericalRobot, SwedishRobot, SwerveRobot
 from mpc.sim import SimResult
-from trajectories import Trajectory, Waypoints, feasibility, time_optimal
+from trajectories import SampledTrajectory, Trajectory, Waypoints, feasibility, time_optimal
+from trajectories.sampled import _SampledHeading  # a sampled theta is described by the samples
 
 if TYPE_CHECKING:
     from benchmarks.executor import RunPool
@@ -135,16 +137,20 @@ def run_all(
                              "heading": scenarios[index].heading,
                              "speed": scenarios[index].speed})
              for index, name in plan]
-    results = executor.run(specs, log, line=_run_line)
+    widths = {key: max(len(str(spec.labels[key])) for spec in specs) if specs else 0
+              for key in ("layout", "trajectory", "heading", "speed")}
+    widths["controller"] = max((len(name) for _, name in plan), default=0)
+    results = executor.run(specs, log, line=functools.partial(_run_line, widths=widths))
     if failed is not None:
         failed.extend(result for result in results if "error" in result)
     return [result for result in results if "error" not in result]
 
 
-def _run_line(run: Mapping[str, Any]) -> str:
-    """The text of a run's progress line."""
-    names = (f"{run['layout']:8s} {run['trajectory']:8s} {run['heading']:7s} "
-             f"{run['speed']:7s} {run['controller']:14s}")
+def _run_line(run: Mapping[str, Any], widths: Mapping[str, int] | None = None) -> str:
+    """The text of a run's progress line, its names padded to ``widths`` (the longest of
+    each in the plan) so that the numbers line up."""
+    names = " ".join(f"{run[key]:{(widths or {}).get(key, 0)}s}"
+                     for key in ("layout", "trajectory", "heading", "speed", "controller"))
     if "error" in run:
         return f"{names} FAILED {run['error']}"
     metrics, pace = run["metrics"], run_pace(dict(run))
@@ -197,6 +203,14 @@ def describe_trajectory(scenario: Scenario) -> dict[str, Any]:
     trajectory = scenario.trajectory
     if isinstance(trajectory, Waypoints):
         return {"times": trajectory.times.tolist(), "poses": trajectory.poses.tolist()}
+    if (isinstance(trajectory, SampledTrajectory)
+            and isinstance(trajectory.heading, _SampledHeading)):  # its own theta, not a spec
+        accelerations = trajectory.accelerations
+        return {"samples": {"times": trajectory.times.tolist(),
+                            "poses": trajectory.poses.tolist(),
+                            "velocities": trajectory.velocities.tolist(),
+                            "accelerations": None if accelerations is None
+                            else accelerations.tolist()}}
     if scenario.trajectory_name in ("circle", "figure8") and trajectory.period is not None:
         return {"shape": scenario.trajectory_name, "heading": scenario.heading,
                 "period": trajectory.period}
@@ -271,32 +285,27 @@ def write_csv(runs: list[dict[str, Any]], path: Path) -> None:
                              *(metrics[key] for key in CSV_METRICS), by_status])
 
 
+#: The summary table's columns (every column as wide as its widest cell).
+SUMMARY_COLUMNS: tuple[Column, ...] = (
+    Column("layout", align="<"), Column("traj", align="<"), Column("heading", align="<"),
+    Column("speed", align="<"), Column("controller", align="<"), Column("rms pos", "[mm]"),
+    Column("max path", "[mm]"), Column("rms head", "[deg]"), Column("lap/target"),
+    Column("max lag", "[s]"), Column("peak", "[lim]"), Column("steer", "[lim]"),
+    Column("viol"), Column("fail"), Column("tick p50", "[ms]"), Column("tick p99", "[ms]"))
+
+
 def summary_table(runs: list[dict[str, Any]]) -> str:
-    """A fixed-width text table of the headline numbers (columns sized to the names)."""
-    width = max([14] + [len(str(run["controller"])) for run in runs])
-    traj = max([8] + [len(str(run["trajectory"])) for run in runs])
-    head = (("layout", 8, "", "s"), ("traj", traj, "", "s"), ("heading", 7, "", "s"),
-            ("speed", 7, "", "s"), ("controller", width, "", "s"), ("rms pos", 9, "[mm]", ">"),
-            ("max path", 9, "[mm]", ">"), ("rms head", 8, "[deg]", ">"),
-            ("lap/target", 10, "", ">"), ("max lag", 8, "[s]", ">"), ("peak", 6, "[lim]", ">"),
-            ("steer", 6, "[lim]", ">"), ("viol", 4, "", ">"), ("fail", 4, "", ">"),
-            ("tick p50", 9, "[ms]", ">"),
-            ("tick p99", 9, "[ms]", ">"))
-    header = " ".join(f"{title:{align if align != 's' else '<'}{size}}"
-                      for title, size, _, align in head)
-    units = " ".join(f"{unit:{align if align != 's' else '<'}{size}}"
-                     for _, size, unit, align in head)
-    lines = [header, units, "-" * len(header)]
+    """A text table of the headline numbers, one row per run (:data:`SUMMARY_COLUMNS`)."""
+    rows = []
     for run in runs:
-        m = run["metrics"]
-        pace = run_pace(run)
-        lines.append(
-            f"{run['layout']:8s} {run['trajectory']:{traj}s} {run['heading']:7s} {run['speed']:7s} "
-            f"{run['controller']:{width}s} {m['rms_position_error'] * 1e3:9.3g} "
-            f"{m['max_cross_track_error'] * 1e3:9.3g} {math.degrees(m['rms_heading_error']):8.3g} "
-            f"{'-' if pace is None else f'{pace:.3f}':>10s} {m['max_lag']:8.3f} "
-            f"{m['max_wheel_speed_ratio']:6.3f} {_ratio(m.get('max_steer_rate_ratio'))} "
-            f"{_violations(m):4d} "
-            f"{m['failures']:4d} {m['tick_time_p50'] * 1e3:9.3f} {m['tick_time_p99'] * 1e3:9.3f}"
-        )
-    return "\n".join(lines)
+        m, pace = run["metrics"], run_pace(run)
+        rows.append([
+            str(run["layout"]), str(run["trajectory"]), str(run["heading"]), str(run["speed"]),
+            str(run["controller"]), f"{m['rms_position_error'] * 1e3:.3g}",
+            f"{m['max_cross_track_error'] * 1e3:.3g}",
+            f"{math.degrees(m['rms_heading_error']):.3g}",
+            "-" if pace is None else f"{pace:.3f}", f"{m['max_lag']:.3f}",
+            f"{m['max_wheel_speed_ratio']:.3f}", _ratio(m.get("max_steer_rate_ratio")).strip(),
+            str(_violations(m)), str(m["failures"]), f"{m['tick_time_p50'] * 1e3:.3f}",
+            f"{m['tick_time_p99'] * 1e3:.3f}"])
+    return format_table(SUMMARY_COLUMNS, rows)

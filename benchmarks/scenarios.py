@@ -62,7 +62,12 @@ _PROBE_PERIOD = 10.0
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse, but a bad option is one line on stderr (no usage dump) and exit code 2."""
+    """argparse, but a bad option is one line on stderr (no usage dump) and exit code 2, and
+    no option is matched by a prefix (``--speed 2`` is an error, not ``--speeds 2``)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")

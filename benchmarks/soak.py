@@ -29,11 +29,15 @@ def _rss_mib() -> float:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def main(argv: list[str]) -> int:
+def _parser() -> Parser:
     parser = Parser(prog="mpc-bench soak", description=__doc__.split("\n")[0])
     parser.add_argument("--ticks", type=int, default=100_000, help="ticks in all (100000)")
     parser.add_argument("--blocks", type=int, default=10, help="report lines (10)")
-    args = parser.parse_args(argv)
+    return parser
+
+
+def main(argv: list[str]) -> int:
+    args = _parser().parse_args(argv)
     if args.ticks < args.blocks or args.blocks < 1:
         raise ScenarioError("--ticks must be >= --blocks >= 1")
     robot = preset("mecanum")

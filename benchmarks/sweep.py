@@ -33,14 +33,16 @@ import math
 import time
 from collections.abc import Mapping
 from dataclasses import asdict
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from benchmarks.cli import add_pool_arguments
 from benchmarks.executor import RunPool, RunSpec
+from benchmarks.outdir import add_force_argument, claim
+from benchmarks.progress import Progress
 from benchmarks.scenarios import CONTROLLERS, Parser, ScenarioError, Settings, choose
+from benchmarks.table import Column, format_table
 
 KINDS: tuple[str, ...] = ("omni", "mecanum", "swerve", "ball")
 QUANTILES: tuple[int, ...] = (50, 90, 99)
@@ -133,20 +135,17 @@ def summarise(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def table(rows: list[dict[str, Any]]) -> str:
-    """The summary as fixed-width text (mm and deg)."""
-    head = (f"{'controller':14s} {'kind':8s} {'runs':>5s} {'raised':>6s} {'fallbk':>6s} "
-            f"{'viol':>5s} {'rms pos p50/p90/p99 [mm]':>26s} {'rms head p50/p90/p99 [deg]':>27s}"
-            f" {'max path p50/p90/p99 [mm]':>26s}")
-    lines = [head, "-" * len(head)]
-    for row in rows:
-        lines.append(
-            f"{row['controller']:14s} {row['kind']:8s} {row['runs']:5d} {row['errors']:6d} "
-            f"{row['runs_with_fallbacks']:6d} "
-            f"{row['speed_violations'] + row['accel_violations']:5d} "
-            f"{_quantiles(row, 'rms_position_error', 1e3):>26s} "
-            f"{_quantiles(row, 'rms_heading_error', 180 / math.pi):>27s} "
-            f"{_quantiles(row, 'max_cross_track_error', 1e3):>26s}")
-    return "\n".join(lines)
+    """The summary as text, every column as wide as its widest cell (mm and deg)."""
+    columns = (Column("controller", align="<"), Column("kind", align="<"), Column("runs"),
+               Column("raised"), Column("fallbk"), Column("viol"),
+               Column("rms pos p50/p90/p99", "[mm]"), Column("rms head p50/p90/p99", "[deg]"),
+               Column("max path p50/p90/p99", "[mm]"))
+    return format_table(columns, [
+        [str(row["controller"]), str(row["kind"]), str(row["runs"]), str(row["errors"]),
+         str(row["runs_with_fallbacks"]), str(row["speed_violations"] + row["accel_violations"]),
+         _quantiles(row, "rms_position_error", 1e3),
+         _quantiles(row, "rms_heading_error", 180 / math.pi),
+         _quantiles(row, "max_cross_track_error", 1e3)] for row in rows])
 
 
 def _quantiles(row: dict[str, Any], key: str, scale: float) -> str:
@@ -179,6 +178,7 @@ def _parser() -> Parser:
     parser.add_argument("--skip", type=float, default=2.0, help="settling seconds (2)")
     parser.add_argument("--horizon", type=int, default=20, help="MPC horizon (20)")
     parser.add_argument("--out", default="sweep-out", metavar="DIR", help="(sweep-out)")
+    add_force_argument(parser)
     add_pool_arguments(parser)
     return parser
 
@@ -191,16 +191,15 @@ def main(argv: list[str]) -> int:
     controllers = choose("controller", args.controllers, CONTROLLERS)
     specs = sample_cases(args.runs, kinds, controllers, args.seed, not args.no_faults,
                          args.duration, args.skip, Settings(horizon=args.horizon))
+    out = claim(args.out, ("sweep.json",), args.force)
     started = time.perf_counter()
-    with RunPool(args.workers, args.scheduler) as pool:
-        print(f"sweep: {args.runs} cases x {len(controllers)} controllers on {pool.description}",
-              flush=True)
-        results = pool.run(specs, lambda line: print(line, flush=True), progress_line)
+    with RunPool(args.workers, args.scheduler) as pool, Progress(len(specs), "runs") as bar:
+        bar.print(f"sweep: {args.runs} cases x {len(controllers)} controllers on "
+                  f"{pool.description}")
+        results = pool.run(specs, bar.advance, progress_line)
     rows = summarise(results)
     print()
     print(table(rows))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     document = {"command": " ".join(["mpc-bench", "sweep", *argv]), "summary": rows,
                 "cases": [{"spec": asdict(spec), "result": result}
                           for spec, result in zip(specs, results, strict=True)]}

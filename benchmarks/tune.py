@@ -41,11 +41,14 @@ import argparse
 import json
 import math
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from benchmarks.cli import add_pool_arguments
 from benchmarks.executor import RunPool, RunSpec, optimal_lap
+from benchmarks.outdir import add_force_argument, claim
+from benchmarks.progress import Progress
 from benchmarks.runner import build_scenarios, describe_robot, run_pace
 from benchmarks.scenarios import (
     HEADINGS,
@@ -183,8 +186,9 @@ def _position(run: dict[str, Any]) -> float:
     return float(run["metrics"]["rms_position_error"]) if "metrics" in run else math.inf
 
 
-def study(tuner: Tuner, trials: int, log: Any) -> Any:
-    """Run the seeded study; trial 0 is the defaults. Returns the Optuna study."""
+def study(tuner: Tuner, trials: int, progress: Callable[[int, int, str], None]) -> Any:
+    """Run the seeded study; trial 0 is the defaults. Returns the Optuna study.
+    ``progress(done, trials, line)`` after each batch of trials."""
     try:
         import optuna
     except ImportError:
@@ -206,8 +210,9 @@ def study(tuner: Tuner, trials: int, log: Any) -> Any:
             result.tell(trial, cost)
         done = len(result.trials)
         eta = (time.perf_counter() - started) / done * (trials - done)
-        log(f"trial {done:3d}/{trials}  J {result.trials[-1].value:8.4g}  best "
-            f"{result.best_value:8.4g} (trial {result.best_trial.number})  eta {eta:.0f} s")
+        progress(done, trials, f"trial {done:3d}/{trials}  J {result.trials[-1].value:8.4g}  "
+                               f"best {result.best_value:8.4g} (trial "
+                               f"{result.best_trial.number})  eta {eta:.0f} s")
     return result
 
 
@@ -358,6 +363,7 @@ def _parser() -> Parser:
                         help="simulated seconds per run (default: two laps at the target pace)")
     parser.add_argument("--skip", type=float, default=2.0, help="settling seconds (2)")
     parser.add_argument("--out", default="tune-out", metavar="DIR", help="(tune-out)")
+    add_force_argument(parser)
     add_pool_arguments(parser)
     return parser
 
@@ -371,11 +377,11 @@ def main(argv: list[str]) -> int:
     if args.horizon < 1 or not args.dt > 0 or (args.duration is not None
                                                and not args.duration > args.skip >= 0):
         raise ScenarioError("--horizon must be >= 1, --dt > 0, --duration > --skip >= 0")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    with RunPool(args.workers, args.scheduler) as pool:
-        tuner = Tuner(args, pool, print)
-        result = study(tuner, args.trials, lambda line: print(line, flush=True))
+    out = claim(args.out, ("weights.toml", "study.json", "summary.md", "history.png",
+                           "importance.png"), args.force)
+    with RunPool(args.workers, args.scheduler) as pool, Progress(args.trials, "trials") as bar:
+        tuner = Tuner(args, pool, bar.print)
+        result = study(tuner, args.trials, bar.update)
         baselines = [(name, tuner.cost(runs)) for name, runs in tuner.baseline_runs.items()]
     command = " ".join(["mpc-bench", "tune", *argv])
     document = write_weights(result, args, command, out)

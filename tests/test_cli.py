@@ -2,14 +2,25 @@
 
 from __future__ import annotations
 
+import argparse
 import csv
 import json
+import os
+import re
+import shlex
+import subprocess
+import sys
+import time
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 
-from benchmarks.cli import main
+from benchmarks.cli import COMMANDS, command_parser, main
+from benchmarks.runner import summary_table
 from benchmarks.scenarios import DEFAULT_CONTROLLERS
+from trajectories import read_choreo
 
 
 @pytest.fixture(scope="module")
@@ -111,13 +122,19 @@ def test_robot_file_and_csv_trajectory(tmp_path: Path) -> None:
         (["--horizon", "0"], "--horizon must be >= 1"),
         (["--polygon-sides", "5"], "--polygon-sides must be an even integer >= 4, got 5"),
         (["--bogus"], "unrecognized arguments: --bogus"),
+        (["--speed", "2"], "unrecognized arguments: --speed 2"),  # not --speeds: no prefixes
+        (["--trajectory", "/no/such/path.traj"], "'/no/such/path.traj'"),
+        (["--trajectory", "/no/such/auto.json"],
+         "trajectory file '/no/such/auto.json': expected a Choreo .traj or a waypoint .csv"),
+        (["prf"], "unknown command 'prf'; commands: run, report, perf"),
     ],
 )
 def test_bad_arguments_are_one_line_and_exit_2(argv: list[str], message: str,
                                                capsys: pytest.CaptureFixture[str],
                                                tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exit_info:
-        code = main([*argv, "--out", str(tmp_path)] if argv[0] != "report" else argv)
+        code = main([*argv, "--out", str(tmp_path)] if argv[0] not in ("report", "prf")
+                    else argv)
         raise SystemExit(code)
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
@@ -134,3 +151,231 @@ def test_perf_and_soak_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert all(row["tick_p50"] >= row["solve_p50"] > 0 for row in perf["rows"])
     assert main(["soak", "--ticks", "200", "--blocks", "2"]) == 0
     assert "memory growth" in capsys.readouterr().out
+
+
+def test_help_lists_every_command_with_a_line(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--help"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: mpc-bench [COMMAND] [options]")
+    for name in COMMANDS:
+        assert re.search(rf"^ {{4}}{name} +\w", out, re.MULTILINE), name
+    assert "--layouts" in out and "--trajectory FILE" in out and "--force" in out
+    for name in COMMANDS:  # each command's own help, named after it
+        with pytest.raises(SystemExit) as exit_info:
+            main([name, "--help"])
+        assert exit_info.value.code == 0
+        assert capsys.readouterr().out.startswith(f"usage: mpc-bench {name} ")
+
+
+def test_every_command_and_option_is_in_the_tree() -> None:
+    tree = command_parser()
+    choices = next(action.choices for action in tree._actions
+                   if isinstance(action, argparse._SubParsersAction))
+    assert list(choices) == list(COMMANDS)
+    for name, parser in choices.items():
+        assert not parser.allow_abbrev, name
+    options = {option for action in choices["perf"]._actions for option in action.option_strings}
+    assert {"--sections", "--out", "--force"} <= options
+    with pytest.raises(SystemExit):  # a subcommand's options take no prefix either
+        main(["perf", "--section", "horizons"])
+
+
+def test_shell_completion_offers_commands_and_options(tmp_path: Path) -> None:
+    pytest.importorskip("argcomplete")
+
+    def complete(line: str) -> set[str]:
+        # what the shell hook does: the entry point with argcomplete's variables set, the
+        # completions read from file descriptor 8 (in a process of its own: argcomplete
+        # takes over descriptors 8 and 9)
+        out = tmp_path / "completions"
+        env = {**os.environ, "_ARGCOMPLETE": "1", "COMP_LINE": line,
+               "COMP_POINT": str(len(line)), "_ARGCOMPLETE_IFS": "\n"}
+        subprocess.run(f"{shlex.quote(sys.executable)} -m benchmarks 8>{shlex.quote(str(out))} "
+                       "9>/dev/null", shell=True, env=env, check=True, timeout=60)
+        return {word.strip() for word in out.read_text().splitlines()}
+
+    assert set(COMMANDS) <= complete("mpc-bench ")
+    assert complete("mpc-bench --lay") == {"--layouts"}
+    assert complete("mpc-bench perf --sec") == {"--sections"}
+
+
+def test_a_second_run_into_the_same_folder_is_refused(quick_run: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    before = (quick_run / "results.json").read_bytes()
+    assert main(["--quick", "--out", str(quick_run)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert f"--out {str(quick_run)!r} already holds results (results.json" in err
+    assert "--force" in err
+    assert (quick_run / "results.json").read_bytes() == before
+
+
+def test_force_overwrites(tmp_path: Path) -> None:
+    def run(*extra: str) -> int:
+        return main(["--layouts", "omni3", "--trajectories", "circle", "--speeds", "inside",
+                     "--heading", "fixed", "--controllers", "ff-p-clip", "--duration", "1",
+                     "--no-report", "--workers", "1", "--out", str(tmp_path), *extra])
+
+    assert run("--seed", "1") == 0
+    assert run("--seed", "2") == 2
+    assert json.loads((tmp_path / "results.json").read_text())["meta"]["settings"]["seed"] == 1
+    assert run("--seed", "2", "--force") == 0
+    assert json.loads((tmp_path / "results.json").read_text())["meta"]["settings"]["seed"] == 2
+    (tmp_path / "perf.json").write_text("{}")  # another command's results do not count
+    assert main(["report", str(tmp_path / "results.json"), "--out", str(tmp_path / "r")]) == 0
+    assert main(["report", str(tmp_path / "results.json"), "--out", str(tmp_path / "r")]) == 2
+    assert main(["report", str(tmp_path / "results.json"), "--out", str(tmp_path / "r"),
+                 "--force"]) == 0
+    for _ in range(2):  # the report beside its results: derived from them, rebuilt in place
+        assert main(["report", str(tmp_path / "results.json")]) == 0
+    assert (tmp_path / "report" / "index.html").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "held"),
+    [
+        (["perf", "--quick"], "perf.json"),
+        (["motors", "--layouts", "omni3"], "motors.json"),
+        (["motors", "--perf"], "motors-perf.json"),
+        (["fuzz", "--ticks", "100"], "fuzz.json"),
+        (["tune", "--trials", "2"], "study.json"),
+        (["sweep", "--runs", "1"], "sweep.json"),
+    ],
+)
+def test_every_command_that_writes_refuses_its_own_results(
+        argv: list[str], held: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / held).write_text("earlier")
+    started = time.perf_counter()
+    assert main([*argv, "--out", str(tmp_path)]) == 2
+    assert time.perf_counter() - started < 2.0  # refused before any work
+    err = capsys.readouterr().err
+    assert f"already holds results ({held})" in err and "--force" in err
+    assert (tmp_path / held).read_text() == "earlier"
+
+
+def test_summary_columns_line_up_with_long_names(quick_run: Path) -> None:
+    runs = json.loads((quick_run / "results.json").read_text())["runs"]
+    runs[0]["controller"] = "a-controller-with-a-very-long-name"
+    runs[1]["layout"] = "a-long-robot-name"
+    lines = summary_table(runs).splitlines()
+    # every row's "rms pos" column ends where its title ends
+    end = lines[0].index("rms pos") + len("rms pos")
+    for line in lines[3:]:
+        cells = line[:end].split()
+        assert line[end] == " " and re.fullmatch(r"[-+.e\d]+", cells[-1]), line
+
+
+CHOREO_CONFIG = {"frontLeft": {"x": 0.3, "y": 0.25}, "backLeft": {"x": -0.28, "y": 0.27},
+                 "mass": 60.0, "inertia": 6.0, "gearing": 6.5, "radius": 0.05, "vmax": 600.0,
+                 "tmax": 1.2, "cof": 1.5}
+
+
+def choreo_file(folder: Path, name: str = "lane-change", **changes: Any) -> Path:
+    """A Choreo .traj (schema 3, swerve): rest to rest over 2 s, 1.5 m ahead, 0.5 m left,
+    turning 0.5 rad (quintic smoothstep in each axis, sampled every 0.05 s)."""
+    duration, rows = 2.0, []
+    for t in np.linspace(0.0, duration, 41):
+        u = t / duration
+        s, ds, dds = (10 * u**3 - 15 * u**4 + 6 * u**5, (30 * u**2 - 60 * u**3 + 30 * u**4)
+                      / duration, (60 * u - 180 * u**2 + 120 * u**3) / duration**2)
+        rows.append({"t": t, "x": 1.5 * s, "y": 0.5 * s, "heading": 0.5 * s, "vx": 1.5 * ds,
+                     "vy": 0.5 * ds, "omega": 0.5 * ds, "ax": 1.5 * dds, "ay": 0.5 * dds,
+                     "alpha": 0.5 * dds})
+    document: dict[str, Any] = {
+        "name": name, "version": 3, "snapshot": None, "params": {}, "events": [],
+        "trajectory": {"sampleType": "Swerve", "config": dict(CHOREO_CONFIG),
+                       "samples": rows}}
+    for dotted, value in changes.items():  # e.g. version=2, trajectory__sampleType=...
+        *parents, key = dotted.split("__")
+        target = document
+        for parent in parents:
+            target = target[parent]
+        if value is None:
+            del target[key]
+        else:
+            target[key] = value
+    path = folder / f"{name}.traj"
+    path.write_text(json.dumps(document))
+    return path
+
+
+def test_choreo_trajectory_runs_on_its_own_robot(tmp_path: Path) -> None:
+    path = choreo_file(tmp_path)
+    out = tmp_path / "out"
+    # --quick: the file for 3 s (no built-in shape); two processes: the samples cross them
+    assert main(["--trajectory", str(path), "--quick", "--controllers",
+                 "mpc-daqp,ff-p-clip,ff-p-setpoint", "--workers", "2",
+                 "--out", str(out)]) == 0
+    document = json.loads((out / "results.json").read_text())
+    runs = document["runs"]
+    assert [run["controller"] for run in runs] == ["mpc-daqp", "ff-p-clip", "ff-p-setpoint"]
+    reference = read_choreo(path)
+    for run in runs:
+        assert (run["layout"], run["trajectory"], run["heading"], run["speed"]) == (
+            "lane-change", "lane-change", "choreo", "as-given")
+        assert run["robot"]["kind"] == "swerve"
+        np.testing.assert_allclose(run["robot"]["wheel_positions"],
+                                   reference.robot.wheel_positions, atol=1e-6)
+        series = run["series"]
+        assert len(series["time"]) == 60  # 3 s at 0.05 s
+        expected = np.array([reference.sample(t).pose for t in series["time"]])
+        np.testing.assert_allclose(series["reference"], expected, atol=1e-6)
+        assert run["metrics"]["max_wheel_speed_ratio"] < 1.0
+    mpc = runs[0]["metrics"]
+    assert mpc["rms_position_error"] < 5e-3 and mpc["limit_violations"] == 0
+    assert document["meta"]["settings"]["trajectory_files"] == [str(path)]
+    index = (out / "report" / "index.html").read_text()
+    assert "lane-change-lane-change-choreo-as-given-mpc-daqp" in index
+
+
+def test_trajectory_files_with_shapes_and_csv(tmp_path: Path) -> None:
+    csv_path = tmp_path / "wiggle.csv"
+    csv_path.write_text("t,x,y,theta\n0,0,0,0\n2,0.5,0.2,0.3\n4,1.0,0.0,0.0\n")
+    out = tmp_path / "out"
+    assert main(["--trajectory", str(choreo_file(tmp_path)), "--trajectory", str(csv_path),
+                 "--layouts", "omni3,mecanum", "--trajectories", "circle", "--speeds", "inside",
+                 "--heading", "fixed", "--controllers", "ff-p-desat", "--duration", "1",
+                 "--no-report", "--workers", "1", "--out", str(out)]) == 0
+    runs = json.loads((out / "results.json").read_text())["runs"]
+    assert {(run["layout"], run["trajectory"], run["heading"]) for run in runs} == {
+        ("omni3", "circle", "fixed"), ("mecanum", "circle", "fixed"),
+        ("omni3", "wiggle", "csv"), ("mecanum", "wiggle", "csv"),
+        ("lane-change", "lane-change", "choreo")}
+
+
+@pytest.mark.parametrize(
+    ("changes", "field"),
+    [
+        ({"version": 2}, "version: expected 3 (Choreo .traj schema 3), got 2"),
+        ({"trajectory__sampleType": "Differential"}, 'trajectory.sampleType: expected "Swerve"'),
+        ({"trajectory__config__vmax": None}, "trajectory.config.vmax: missing"),
+        ({"trajectory__samples": []}, "trajectory.samples: expected a list of at least 2"),
+    ],
+)
+def test_bad_choreo_file_is_one_line_naming_file_and_field(
+        changes: dict[str, Any], field: str, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    path = choreo_file(tmp_path, **changes)
+    assert main(["--trajectory", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err == f"mpc-bench: error: choreo file {str(path)!r}: {field}" + err.split(field)[1]
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert not (tmp_path / "out").exists()  # refused before anything was written
+
+
+def test_two_trajectory_files_of_one_name_are_refused(tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    first = choreo_file(tmp_path)
+    (tmp_path / "other").mkdir()
+    second = choreo_file(tmp_path / "other")
+    assert main(["--trajectory", str(first), "--trajectory", str(second),
+                 "--out", str(tmp_path / "out")]) == 2
+    assert "have one name, 'lane-change': rename one" in capsys.readouterr().err
+
+
+def test_motor_plant_and_a_choreo_robot_are_refused_up_front(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = choreo_file(tmp_path)
+    assert main(["--trajectory", str(path), "--plant", "motor",
+                 "--out", str(tmp_path / "out")]) == 2
+    assert f"the robot of {str(path)!r} has none (use --plant ideal" in capsys.readouterr().err
