@@ -43,7 +43,7 @@ from benchmarks.scenarios import (
     mpc_controller,
     reference,
 )
-from mpc.robots import Robot, from_dict, preset
+from mpc.robots import Robot, from_dict, motor_preset, preset
 from mpc.sim import PlantConfig, TrackingController, simulate
 from trajectories import (
     Circle,
@@ -109,6 +109,8 @@ class RunSpec:
 def build_robot(spec: str | Mapping[str, Any]) -> Robot:
     if isinstance(spec, str):
         return preset(spec)
+    if "motor_preset" in spec:
+        return motor_preset(str(spec["motor_preset"]))
     return from_dict({k: v for k, v in spec.items() if v is not None})
 
 

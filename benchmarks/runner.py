@@ -19,7 +19,15 @@ from benchmarks.scenarios import ScenarioError, Settings, applies, reference
 from benchmarks.table import Column, format_table
 from mpc.errors import MpcError
 from mpc.plot.record import run_record
-from mpc.robots import CasterRobot, Robot, SphericalRobot, SwedishRobot, SwerveRobot
+from mpc.robots import (
+    MOTOR_ROBOT_PRESETS,
+    CasterRobot,
+    Robot,
+    SphericalRobot,
+    SwedishRobot,
+    SwerveRobot,
+    motor_preset,
+)
 from mpc.sim import SimResult
 from trajectories import SampledTrajectory, Trajectory, Waypoints, feasibility, time_optimal
 from trajectories.sampled import _SampledHeading  # a sampled theta is described by the samples
@@ -165,8 +173,7 @@ def describe_robot(robot: Robot) -> dict[str, Any]:
     if robot.derating is not None:
         raise ScenarioError(f"robot {robot.name!r} is derated; describe the healthy robot")
     if getattr(robot, "dynamics", None) is not None:
-        raise ScenarioError(f"robot {robot.name!r} has a motor model; runs on other processes "
-                            "describe kinematic robots only")
+        return _describe_motor_preset(robot)
     if isinstance(robot, SwedishRobot):
         wheels = [{"alpha": w.alpha, "beta": w.beta, "gamma": w.gamma, "l": w.l,
                    "radius": w.radius, "max_speed": w.max_speed,
@@ -196,6 +203,20 @@ def describe_robot(robot: Robot) -> dict[str, Any]:
                 "max_wheel_speed": np.asarray(robot.max_speed).tolist(),
                 "max_wheel_accel": None if accel is None else np.asarray(accel).tolist()}
     raise ScenarioError(f"cannot describe a robot of kind {robot.kind!r} as plain data")
+
+
+def _describe_motor_preset(robot: Robot) -> dict[str, Any]:
+    """A robot with motors as ``{"motor_preset": layout}`` when it is that shipped preset."""
+    layout = robot.name.removesuffix("-motors")
+    if layout in MOTOR_ROBOT_PRESETS:
+        shipped = motor_preset(layout)
+        if (shipped.name == robot.name and shipped.dynamics == robot.dynamics
+                and describe_robot(shipped.with_dynamics(None))
+                == describe_robot(robot.with_dynamics(None))):
+            return {"motor_preset": layout}
+    raise ScenarioError(f"robot {robot.name!r} has a motor model that is not a shipped motor "
+                        "preset; runs on other processes describe those and kinematic robots "
+                        "only (use --workers 1)")
 
 
 def describe_trajectory(scenario: Scenario) -> dict[str, Any]:

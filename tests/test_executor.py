@@ -172,3 +172,26 @@ def test_tuned_presets_load_and_drive_the_mpc_tuned_controller() -> None:
     with pytest.raises(ControllerError, match="no tuned weights for robot 'caster4'; tuned "
                                               "presets: ball3, mecanum"):
         tuned_weights("caster4")
+
+
+def test_motor_presets_are_described_for_other_processes() -> None:
+    """``--plant motor`` runs the motor presets on worker processes: each is described as
+    its preset and rebuilt identical; a motor model that is not a shipped preset is refused
+    with a message naming the way out."""
+    from dataclasses import replace
+
+    from benchmarks.executor import build_robot
+    from mpc.robots import MOTOR_ROBOT_PRESETS, motor_preset
+
+    for name in MOTOR_ROBOT_PRESETS:
+        robot = motor_preset(name)
+        spec = describe_robot(robot)
+        assert spec == {"motor_preset": name}
+        again = build_robot(spec)
+        assert again.dynamics == robot.dynamics
+        assert np.array_equal(again.wheel_blocks, robot.wheel_blocks)
+    robot = motor_preset("mecanum")
+    assert robot.dynamics is not None
+    heavier = robot.with_dynamics(replace(robot.dynamics, mass=robot.dynamics.mass + 1.0))
+    with pytest.raises(ScenarioError, match="not a shipped motor preset.*--workers 1"):
+        describe_robot(heavier)
