@@ -8,9 +8,12 @@ import math
 import numpy as np
 import pytest
 
+from mpc import Controller, Status
 from mpc.control.clamp import clamp_command
+from mpc.model import integrate
 from mpc.robots import SwerveRobot, preset
 from mpc.robots.swerve_limits import steering_fraction, turns
+from trajectories import Waypoints
 
 DT = 0.05
 
@@ -75,3 +78,22 @@ def test_clamped_commands_never_turn_a_module_too_fast() -> None:
         assert np.all(np.abs(speeds) <= robot.max_wheel_speed * (1 + 1e-9))
         last = robot.forward_kinematics(speeds, new_angles)
         angles = new_angles
+
+
+def test_exact_path_solves_through_the_end_of_a_reference_that_ends_at_speed() -> None:
+    """Waypoints that end while moving: the horizon reaches past the end, where the plan
+    must stop every module. The exact steering rows were a cone with no gradient at rest
+    and IPOPT stalled there (a fallback on most ticks after the end); with the rows
+    loosened below a tenth of the speed limit it solves every tick, and the robot comes
+    to rest on the last pose."""
+    robot = preset("swerve")
+    reference = Waypoints([0.0, 1.0, 2.0], [[0.0, 0.0, 0.0], [0.5, 0.2, 0.5], [1.0, 0.0, 0.5]])
+    control = Controller(robot, reference, dt=0.02, solver="ipopt")
+    pose = reference.sample(1.2).pose
+    statuses = []
+    for k in range(60, 120):
+        command = control.step(pose, k * 0.02)
+        statuses.append(command.status)
+        pose = integrate(pose, command.twist, 0.02)
+    assert statuses == [Status.SOLVED] * 60
+    assert np.allclose(pose, [1.0, 0.0, 0.5], atol=2e-3)

@@ -14,6 +14,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.ticker import ScalarFormatter
 
 from .headline import Headline
 from .results import Run, Series, metric_value, pace_of, scenario_of
@@ -190,40 +191,38 @@ def write_summary_figure(runs: Sequence[Run], dt: float, path: Path) -> None:
 
 
 def write_pace_figure(runs: Sequence[Run], path: Path) -> bool:
-    """Lap time against path error, one panel per scenario with a lap to time: who is
-    fastest on the path. x: steady lap / the fastest lap the run could keep (1 = the
+    """Lap time against path error, every scenario with a lap to time, one panel per speed:
+    who is fastest on the path. x: steady lap / the fastest lap the run could keep (1 = the
     time-optimal lap, or the reference's own period where that is slower); y: the largest
     distance from the path after the settling time [mm]. Returns False if no run has a lap."""
     timed = [run for run in runs if math.isfinite(pace_of(run))]
     if not timed:
         return False
-    scenarios = list(dict.fromkeys(scenario_of(run) for run in timed))
+    speeds = list(dict.fromkeys(str(run["speed"]) for run in timed))
     controllers = controllers_of(runs)
-    columns = min(4, len(scenarios))
-    rows = math.ceil(len(scenarios) / columns)
-    figure = new_figure(3.2 * columns + 2.0, 2.8 * rows + 0.8, constrained=True)
-    axes = np.atleast_1d(figure.subplots(rows, columns, squeeze=False)).ravel()
-    for ax, scenario in zip(axes, scenarios, strict=False):
-        for run in timed:
-            if scenario_of(run) != scenario:
-                continue
+    figure = new_figure(5.2 * len(speeds) + 0.6, 4.4, constrained=True)
+    axes = np.atleast_1d(figure.subplots(1, len(speeds), squeeze=False)).ravel()
+    for ax, speed in zip(axes, speeds, strict=True):
+        chosen = [run for run in timed if str(run["speed"]) == speed]
+        for run in chosen:
             error = max(metric_value(run, "max_cross_track_error") * 1e3, 1e-3)
             ax.scatter(pace_of(run), error, color=colour(controllers, str(run["controller"])),
-                       s=40, zorder=3, label=str(run["controller"]))
+                       s=22, alpha=0.8, zorder=3)
         ax.axvline(1.0, color="0.5", lw=0.8, ls="--")
         ax.set_yscale("log")
-        ax.set_title(" / ".join(scenario), fontsize="small")
-        ax.grid(True, alpha=0.4)
-    for ax in axes[len(scenarios):]:
-        ax.set_visible(False)
-    for ax in axes[::columns]:
-        ax.set_ylabel("max path error [mm]")
-    for ax in axes[-columns:]:
+        paces = [pace_of(run) for run in chosen]
+        ax.set_xlim(min(min(paces), 0.98) - 0.01, max(max(paces), 1.02) + 0.01)  # >= 2 % wide
+        ax.xaxis.set_major_formatter(ScalarFormatter(useOffset=False))
+        scenarios = len({scenario_of(run) for run in chosen})
+        ax.set_title(f"{speed}: {scenarios} scenario{'s' if scenarios != 1 else ''}",
+                     fontsize="medium")
         ax.set_xlabel("lap / fastest possible lap")
+        ax.grid(True, alpha=0.4)
+    axes[0].set_ylabel("max path error after settling [mm]")
     handles = [Line2D([], [], marker="o", ls="", color=colour(controllers, name), label=name)
                for name in controllers]
-    figure.legend(handles=handles, loc="outside lower center", ncols=min(len(controllers), 6))
-    figure.suptitle("Pace and path error: left of 1 is faster than the path allows "
-                    "(it cuts corners), high is off the path", fontsize="medium")
+    figure.legend(handles=handles, loc="outside lower center", ncols=min(len(controllers), 7))
+    figure.suptitle("Pace and path error of every run: left of 1 is faster than the path "
+                    "allows (it cuts corners), high is off the path", fontsize="medium")
     save(figure, path)
     return True

@@ -201,7 +201,7 @@ def html_page(results: Mapping[str, Any], ids: Sequence[str], table: str, headli
                   "run could keep (the time-optimal lap under the same wheel limits, or the "
                   "reference's own period where that is slower) against the largest distance "
                   "from the path after the settling time.</p>\n"
-                  '<img src="pace.png" alt="lap time against path error per scenario">'
+                  '<img src="pace.png" alt="lap time against path error, a panel per speed">'
                   if pace else "")
     sections = "\n".join(_scenario_section(item, runs, ids) for item in scenarios)
     run_sections = "\n".join(_run_section(run, rid) for run, rid in zip(runs, ids, strict=True))

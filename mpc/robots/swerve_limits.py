@@ -9,12 +9,12 @@ For module ``i`` with velocity ``v = W_i u`` [rad/s] (ground velocity / r):
   turn: ``|v_k x v_{k-1}| <= sin(max_steer_rate dt) |v_k| |v_{k-1}|``.
 
 The NLP takes the disks and, between consecutive stages of the plan, the steering
-bound exactly (squared, so smooth). The QP takes each disk as a regular polygon
-(:meth:`SwerveRobot.qp_speed_rows`) and the steering rate as the cost on the change
-of module velocity (``Weights.module_rate``). For every command, the final clamp
-(:func:`mpc.control.clamp.clamp_command`) keeps every module within all three limits:
-the first command's turn against the present steer angles is the clamp's to keep,
-in both paths.
+bound (squared, so smooth; exact for modules at speed, see :data:`NLP_STEERING_SLACK`).
+The QP takes each disk as a regular polygon (:meth:`SwerveRobot.qp_speed_rows`) and the
+steering rate as the cost on the change of module velocity (``Weights.module_rate``).
+For every command, the final clamp (:func:`mpc.control.clamp.clamp_command`) keeps every
+module within all three limits: the first command's turn against the present steer
+angles is the clamp's to keep, in both paths.
 """
 
 from __future__ import annotations
@@ -32,6 +32,16 @@ if TYPE_CHECKING:
     from mpc.robots.swerve import SwerveRobot
 
 
+#: The NLP's steering rows, in module speed over its limit (``a = v / max``, ``b = w / max``:
+#: rows of order 1 for IPOPT), hold ``(a x b)^2 - sin^2 |a|^2 |b|^2 <= NLP_STEERING_SLACK^4``:
+#: exact for modules at speed, looser below about this fraction of the limit at both ends
+#: of a change (at 0.2 of it a 0.24 rad limit reads 0.35 rad; at 0.5, 0.24 rad). The exact
+#: row is a cone with its apex at rest, where it has no gradient: IPOPT stalled on it (a
+#: swerve reference that ends at speed failed most ticks after the horizon reached its
+#: end). The first command's turn is the clamp's to keep, exactly, in any case.
+NLP_STEERING_SLACK = 0.1
+
+
 def nlp_stage_limits(robot: SwerveRobot, twists: ca.SX, last: ca.SX, steer_angles: ca.SX | None,
                      change_times: FloatArray
                      ) -> tuple[list[ca.SX], list[FloatArray], list[FloatArray]]:
@@ -39,6 +49,7 @@ def nlp_stage_limits(robot: SwerveRobot, twists: ca.SX, last: ca.SX, steer_angle
     following ``u_{k-1}`` by ``change_times[k]`` [s] (the ``dt`` of the module docstring)."""
     blocks = [ca.DM(block) for block in robot.wheel_blocks]
     speed, accel = robot.max_wheel_speed, robot.max_wheel_accel
+    slack = NLP_STEERING_SLACK**4  # of the rows in speed / limit
     values: list[ca.SX] = []
     lower: list[FloatArray] = []
     upper: list[FloatArray] = []
@@ -67,8 +78,9 @@ def nlp_stage_limits(robot: SwerveRobot, twists: ca.SX, last: ca.SX, steer_angle
                 add(ca.sumsqr(v - w), float(accel[i] * dt) ** 2)
             if k > 0:
                 sine2 = math.sin(min(robot.max_steer_rate * dt, math.pi / 2)) ** 2
-                cross = v[0] * w[1] - v[1] * w[0]
-                add(cross**2 - sine2 * ca.sumsqr(v) * ca.sumsqr(w), 0.0)
+                a, b = v / float(speed[i]), w / float(speed[i])  # O(1) rows for IPOPT
+                cross = a[0] * b[1] - a[1] * b[0]
+                add(cross**2 - sine2 * ca.sumsqr(a) * ca.sumsqr(b), slack)
     return values, lower, upper
 
 
