@@ -4,6 +4,7 @@
   motor lag, delay, noise, slip and steering rate);
 - :mod:`.motor_plant`: the robot driven through its DC motors (voltage, current,
   back-EMF, battery sag, traction and slip), ``plant="motor"``;
+- :mod:`.motor_substep`: its physics, one implicit-Euler sub-step of body, wheels and contacts;
 - :mod:`.simulate`: the closed loop, :func:`simulate`;
 - :mod:`.recorder`: :class:`Recorder`, the same record from a loop of your own;
 - :mod:`.result`: :class:`SimResult` and its metrics;
