@@ -9,7 +9,8 @@
 - :mod:`.recorder`: :class:`Recorder`, the same record from a loop of your own;
 - :mod:`.result`: :class:`SimResult` and its metrics;
 - :mod:`.baselines`: feedforward + P controllers with per-wheel clipping or desaturation;
-- :mod:`.setpoint`: feedforward + P through a swerve setpoint generator (Team 254 style);
+- :mod:`.setpoint`: feedforward + P through a swerve setpoint generator (Team 254 style,
+  :mod:`.setpoint_generator`);
 - :mod:`.bag`: :func:`write_bag`, a run as a ROS 2 bag (MCAP) for Foxglove or RViz (the
   ``ros`` extra, imported only when called).
 """
