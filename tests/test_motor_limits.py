@@ -236,7 +236,7 @@ def test_sag_lowers_the_planned_voltage_bound() -> None:
 def test_sag_rows_against_finite_differences() -> None:
     """The voltage rows carry the bus's sag linearised around the guess: their change of
     value with the plan is the sagged bound's, by central differences of B(P(u))."""
-    from mpc.robots.motor_limits import _sag
+    from mpc.robots.bus_sag import sag as _sag
 
     robot = motor_preset("mecanum")
     times = np.array([0.05, 0.1])

@@ -13,7 +13,6 @@ they need; the others return themselves.
 from __future__ import annotations
 
 import abc
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple, TypeAlias
@@ -24,14 +23,13 @@ import numpy.typing as npt
 from ._validation import FloatArray, finite_number, is_real_scalar, shown
 from .errors import TrajectoryError
 from .path import PathDerivatives, TimedPath
+from .tangent_branch import MIN_TANGENT_SPEED, TWO_PI, TangentBranch, tangent_branch
 
-TWO_PI = 2.0 * math.pi
+__all__ = ["FINITE_DIFFERENCE_STEP", "MIN_TANGENT_SPEED", "SECOND_DIFFERENCE_STEP", "TWO_PI",
+           "FixedHeading", "FunctionHeading", "HeadingDerivatives", "HeadingProfile",
+           "HeadingSpec", "SpinHeading", "TangentHeading", "make_heading"]
 
-MIN_TANGENT_SPEED = 1e-9  # [m/s] below this on the grid the tangent is undefined
 _STILL_SPEED_SQUARED = 1e-24  # [m^2/s^2] at evaluation: fall back to the grid branch
-_MAX_GRID_STEP = math.pi / 8.0  # [rad] largest tangent turn between grid points
-_INITIAL_GRID_STEPS = 1024
-_MAX_GRID_STEPS = _INITIAL_GRID_STEPS * 8**3
 
 FINITE_DIFFERENCE_STEP = 1e-5  # [s] central differences for a missing first derivative
 SECOND_DIFFERENCE_STEP = 1e-4  # [s] central second difference of the angle
@@ -163,25 +161,6 @@ def _call(function: Callable[[FloatArray], npt.ArrayLike], t: FloatArray, name: 
 
 
 @dataclass(frozen=True)
-class _TangentBranch:
-    """Unwrapped tangent angles on a dense grid: picks the 2*pi branch at any time."""
-
-    start: float  # [s] grid origin
-    times: FloatArray  # [s] grid, relative to start, from 0 to one period or the span
-    angles: FloatArray  # [rad] unwrapped tangent angle on the grid
-    period: float | None  # [s]
-    winding: float  # [rad] growth of the tangent angle over one period
-
-    def reference(self, t: FloatArray) -> FloatArray:
-        """A continuous approximation of the tangent angle, within pi/8 of the exact one."""
-        tau = t - self.start if self.start != 0.0 else t
-        if self.period is None:
-            return np.interp(tau, self.times, self.angles)
-        turns, phase = np.divmod(tau, self.period)
-        return np.interp(phase, self.times, self.angles) + turns * self.winding
-
-
-@dataclass(frozen=True)
 class TangentHeading(HeadingProfile):
     """theta = atan2(ydot, xdot) + offset: the robot faces along its path.
 
@@ -202,7 +181,7 @@ class TangentHeading(HeadingProfile):
     """
 
     offset: float = 0.0  # [rad] added to the tangent angle
-    _branch: _TangentBranch | None = field(default=None, init=False, repr=False, compare=False)
+    _branch: TangentBranch | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(
@@ -212,7 +191,7 @@ class TangentHeading(HeadingProfile):
     def bind(self, trajectory: TimedPath) -> TangentHeading:
         """A copy holding the unwrapped tangent angle of ``trajectory`` on a grid."""
         bound = TangentHeading(self.offset)
-        object.__setattr__(bound, "_branch", _tangent_branch(trajectory))
+        object.__setattr__(bound, "_branch", tangent_branch(trajectory))
         return bound
 
     def evaluate(self, t: FloatArray, path: PathDerivatives) -> HeadingDerivatives:
@@ -244,71 +223,6 @@ class TangentHeading(HeadingProfile):
         rate = cross_va / speed_squared
         accel = cross_vj / speed_squared - 2.0 * rate * dot_va / speed_squared
         return HeadingDerivatives(angle + self.offset, rate, accel)
-
-
-def _tangent_branch(trajectory: TimedPath) -> _TangentBranch:
-    period = trajectory.period
-    start = trajectory.start_time
-    end = trajectory.end_time
-    if period is not None:
-        span = period
-    elif end is not None:
-        span = end - start
-    else:
-        raise TrajectoryError(
-            "tangent heading needs a periodic or finite trajectory, got one with "
-            "period None and end_time None"
-        )
-    steps = _INITIAL_GRID_STEPS
-    while True:
-        times = np.linspace(0.0, span, steps + 1)
-        angles = _grid_tangent_angles(trajectory, start + times, periodic=period is not None)
-        turns = np.abs(np.diff(angles))
-        if turns.max() <= _MAX_GRID_STEP:
-            break
-        if steps >= _MAX_GRID_STEPS:
-            k = int(np.argmax(turns))
-            raise TrajectoryError(
-                "tangent heading needs a path whose direction turns smoothly, but it turns "
-                f"by {turns[k]:.3g} rad between t={start + times[k]:.9g} s and "
-                f"t={start + times[k + 1]:.9g} s even on a grid of {steps} steps "
-                "(the path stops or reverses there)"
-            )
-        steps *= 8
-    winding = 0.0
-    if period is not None:
-        winding = TWO_PI * round((angles[-1] - angles[0]) / TWO_PI)
-    times.flags.writeable = False
-    angles.flags.writeable = False
-    return _TangentBranch(start, times, angles, period, winding)
-
-
-def _grid_tangent_angles(trajectory: TimedPath, grid: FloatArray, periodic: bool) -> FloatArray:
-    """Unwrapped direction of motion on ``grid`` [rad]; raises where the path stops."""
-    path = trajectory.path(grid)
-    direction = np.array(path.velocity)
-    speed = np.hypot(direction[:, 0], direction[:, 1])
-    if not periodic:
-        # A finite path may start or end at rest; near the start v ~ a*tau (or
-        # j*tau^2/2), near the end v ~ -a*tau (or j*tau^2/2): take that limit.
-        for index, sign in ((0, 1.0), (-1, -1.0)):
-            if speed[index] >= MIN_TANGENT_SPEED:
-                continue
-            a = path.acceleration[index]
-            j = path.jerk[index]
-            if np.hypot(a[0], a[1]) >= MIN_TANGENT_SPEED:
-                direction[index] = sign * a
-            elif np.hypot(j[0], j[1]) >= MIN_TANGENT_SPEED:
-                direction[index] = j
-            speed[index] = np.hypot(direction[index, 0], direction[index, 1])
-    slow = np.flatnonzero(speed < MIN_TANGENT_SPEED)
-    if slow.size:
-        k = int(slow[0])
-        raise TrajectoryError(
-            "tangent heading needs a moving path, but the path speed is "
-            f"{speed[k]:.3g} m/s < {MIN_TANGENT_SPEED:g} m/s at t={grid[k]:.9g} s"
-        )
-    return np.unwrap(np.arctan2(direction[:, 1], direction[:, 0]))
 
 
 HeadingSpec: TypeAlias = float | str | HeadingProfile | Callable[[FloatArray], npt.ArrayLike]

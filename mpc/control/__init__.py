@@ -1,6 +1,9 @@
 """The thin :class:`Controller` and its collaborators.
 
 - :mod:`.controller`: wiring and the tick (validate, predict, fill, solve, clamp, command);
+- :mod:`.settings`: the constructor's settings checked, and the solver they choose;
+- :mod:`.measurements`: what ``step()`` receives each tick, checked;
+- :mod:`.wheel_output`: the clamped twist as wheel speeds, steer angles and joint rates;
 - :mod:`.timing`: which stretch of the reference each plan tracks (time-indexed or scaled);
 - :mod:`.warm_start`: the shifted previous plan as the next guess;
 - :mod:`.fallback`: what to command when the solver fails;

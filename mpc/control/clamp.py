@@ -63,6 +63,14 @@ def clamp_command(
         over = speed - limit > _SPEED_SLACK  # the test above, element by element (rounding)
         # The smallest limit / speed over the wheels; a failed wheel (limit 0) stops the robot.
         safe = safe * (limit[over] / speed[over]).min() * (1.0 - _SPEED_SLACK)
+    safe = _limit_step(robot, safe, last, dt, steer_angles, limit)
+    return safe, bool(safe is not target and not np.array_equal(safe, target))
+
+
+def _limit_step(robot: Robot, safe: FloatArray, last: FloatArray, dt: float,
+                steer_angles: FloatArray | None, limit: FloatArray) -> FloatArray:
+    """Steps 2-4 of :func:`clamp_command`: the step from ``last`` towards ``safe`` (within
+    the speed limits ``limit``) shortened for acceleration, motors and steering."""
     accel = robot.max_wheel_accel
     if accel is not None:
         step = safe - last
@@ -82,4 +90,4 @@ def clamp_command(
         fraction = robot.steering_fraction(last, safe, steer_angles, dt)
         if fraction < 1.0:
             safe = last + fraction * (safe - last)
-    return safe, bool(safe is not target and not np.array_equal(safe, target))
+    return safe

@@ -14,8 +14,20 @@ from mpc.control.clamp import clamp_command
 from mpc.control.command import Command, Status
 from mpc.control.delay import DelayCompensator
 from mpc.control.fallback import FallbackPolicy
+from mpc.control.measurements import check_pose, check_steer_angles, check_time
+from mpc.control.settings import (
+    DEFAULT_POLYGON_SIDES,
+    MODES,
+    SOLVERS,
+    check_mode,
+    check_progress_rate,
+    check_stage_dt,
+    check_trajectory,
+    make_solver,
+)
 from mpc.control.timing import PathProgress, ReferenceWindow, TimeIndexed
 from mpc.control.warm_start import WarmStart
+from mpc.control.wheel_output import feedforward_fields, wheel_commands
 from mpc.errors import ControllerError
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
@@ -23,33 +35,11 @@ from mpc.model.weights import Weights, make_weights
 from mpc.profiling import TickProfile
 from mpc.robots.base import Robot
 from mpc.robots.motor_step import first_step_feedforward
-from mpc.solvers import DenseSolver, NlpSolver, QpSolver, SolveResult, TrackingSolver
-from mpc.validation import (
-    MAX_COORDINATE,
-    MAX_DELAY_TICKS,
-    MAX_HORIZON,
-    MAX_ITERATIONS,
-    MAX_POLYGON_SIDES,
-    MAX_TIME,
-    finite_vector,
-    flag,
-    integer_in,
-    is_finite_number,
-    is_integer,
-    non_negative,
-    positive,
-)
+from mpc.solvers import SolveResult
+from mpc.validation import MAX_DELAY_TICKS, MAX_HORIZON, finite_vector, integer_in, positive
 from trajectories import Trajectory, TrajectoryError
 
-#: Valid ``solver=`` names: the fast paths (daqp on the condensed QP, OSQP on the sparse
-#: QP) and the exact IPOPT path.
-SOLVERS: tuple[str, ...] = ("daqp", "osqp", "ipopt")
-
-#: Valid ``mode=`` names: track the reference in time, or follow its path.
-MODES: tuple[str, ...] = ("time", "path")
-
-#: Sides of the polygon standing in for a swerve module's speed disk in the QP.
-DEFAULT_POLYGON_SIDES = 16
+__all__ = ["DEFAULT_POLYGON_SIDES", "MODES", "SOLVERS", "Controller"]
 
 
 class Controller:
@@ -126,23 +116,20 @@ class Controller:
     ) -> None:
         if not isinstance(robot, Robot):
             raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
-        _check_trajectory(trajectory)
+        check_trajectory(trajectory)
         self.robot = robot
         self.horizon = integer_in("horizon", horizon, 1, MAX_HORIZON, ControllerError)
         self.dt = positive("dt [s]", dt, ControllerError)
         self.delay_ticks = integer_in("delay_ticks", delay_ticks, 0, MAX_DELAY_TICKS,
                                       ControllerError)
-        self.mode = _check_mode(mode, time_scaling)
-        self.stage_dt = _check_stage_dt(stage_dt, self.dt, self.mode)
-        rate = positive("max_progress_rate", max_progress_rate, ControllerError)
-        if rate < 1.0:
-            raise ControllerError(f"max_progress_rate must be >= 1 (the reference's own pace), "
-                                  f"got {max_progress_rate!r}")
+        self.mode = check_mode(mode, time_scaling)
+        self.stage_dt = check_stage_dt(stage_dt, self.dt, self.mode)
+        rate = check_progress_rate(max_progress_rate)
         self.weights = make_weights(weights)
         self.model = TrackingModel(robot, self.horizon, self.stage_dt, self.weights,
                                    path=self.mode == "path", max_progress_rate=rate,
                                    tick=self.dt)
-        self.solver = _make_solver(self.model, solver, polygon_sides, max_iter, time_limit)
+        self.solver = make_solver(self.model, solver, polygon_sides, max_iter, time_limit)
         self._profile: TickProfile | None = None
         self._tick = TickInput(self.model.layouts)
         self._warm = WarmStart(self._tick, self.model.offsets, self.dt)
@@ -179,7 +166,7 @@ class Controller:
     def trajectory(self, trajectory: Trajectory) -> None:
         """Track a new trajectory from the next tick on (the plan is dropped, the robot's
         present motion is kept)."""
-        _check_trajectory(trajectory)
+        check_trajectory(trajectory)
         self._set_reference(trajectory)
         self.reset(self._last, self._steer if not self.robot.steer_states else None)
 
@@ -225,19 +212,17 @@ class Controller:
         profile = self._profile
         if profile is not None:
             profile.start()
-        x0 = self._delay.predict(_check_pose(pose))
-        if not is_finite_number(t) or abs(t) > MAX_TIME:  # type: ignore[arg-type]
-            raise ControllerError(f"t must be a finite time in seconds within +-{MAX_TIME:g}, "
-                                  f"got {t!r}")
-        measured = _check_steer_angles(self.robot, steer_angles)
+        x0 = self._delay.predict(check_pose(pose))
+        t_now = check_time(t)
+        measured = check_steer_angles(self.robot, steer_angles)
         if measured is not None:
             self._steer = measured
         tick = self._tick
-        t_plan = float(t) + self.delay_ticks * self.dt
+        t_plan = t_now + self.delay_ticks * self.dt
         if profile is not None:
             profile.mark("check and predict")
         try:
-            reference_time = self._timing.fill(float(t), t_plan, float(x0[2]))
+            reference_time = self._timing.fill(t_now, t_plan, float(x0[2]))
         except TrajectoryError as error:  # the reference, not the caller: fall back
             reference_time, result = t_plan, self._unplanned(f"reference failed: {error}")
         else:
@@ -256,8 +241,9 @@ class Controller:
             if not math.isfinite(float(plan.sum())):
                 plan[:] = x0
         twist, clamped = clamp_command(self.robot, target, self._last, self.dt, self._steer)
-        twist, speeds, steer_rates, predicted_steer = self._wheel_commands(
-            twist, target, measured, result)
+        twist, speeds, steer_rates, predicted_steer, self._steer = wheel_commands(
+            self.robot, twist, target, self._steer, measured,
+            result.twists if result.success else None, self.dt, self.model.durations)
         feedforward = first_step_feedforward(self.robot, self._last, twist, self.dt, self._steer)
         self._last = twist
         self._delay.sent(twist)
@@ -270,27 +256,7 @@ class Controller:
             iterations=result.iterations, consecutive_failures=self._fallback.failures,
             clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time,
             steer_rates=steer_rates, predicted_steer_angles=predicted_steer,
-            **_feedforward(feedforward))
-
-    def _wheel_commands(self, twist: FloatArray, target: FloatArray, measured: FloatArray | None,
-                        result: SolveResult) -> tuple[FloatArray, FloatArray, FloatArray | None,
-                                                      FloatArray | None]:
-        """What the wheels are told for the clamped ``twist``: (the twist they will drive,
-        wheel speeds, caster steer rates, caster steer angles predicted along the plan);
-        updates the steer angles the controller believes in."""
-        if measured is not None:  # casters: joint rates held over the tick
-            speeds, steer_rates = _tick_rates(self.robot, twist, measured, self.dt)
-            self._steer = measured + steer_rates * self.dt
-            planned = result.twists if result.success else np.tile(twist, (self.horizon, 1))
-            predicted = self.robot.predict_steer_angles(measured, planned, self.model.durations)
-            return twist, speeds, steer_rates, predicted
-        previous = self._steer
-        speeds, self._steer = self.robot.wheel_commands(twist, self._steer, target, self.dt)
-        if self._steer is not None:  # steered wheels at rest: the twist they will drive
-            turning = None if previous is None else (
-                np.mod(self._steer - previous + math.pi, 2.0 * math.pi) - math.pi) / self.dt
-            twist = self.robot.steering_forward_kinematics(speeds, self._steer, turning)
-        return twist, speeds, None, None
+            **feedforward_fields(feedforward))
 
     def _solve(self, x0: FloatArray) -> SolveResult:
         """Plan from ``x0`` on the reference the tick holds (warm started; path mode: solved
@@ -323,135 +289,3 @@ class Controller:
         n = self.horizon
         return SolveResult(success=False, status=status, poses=np.full((n + 1, 3), np.nan),
                            twists=np.full((n, 3), np.nan), solve_time=0.0, iterations=0)
-
-
-def _feedforward(values: tuple[FloatArray, FloatArray, FloatArray] | None
-                 ) -> dict[str, FloatArray]:
-    """``Command``'s motor feedforward fields (none without dynamics)."""
-    if values is None:
-        return {}
-    forces, torques, currents = values
-    return {"wheel_forces": forces, "motor_torques": torques, "motor_currents": currents}
-
-
-def _check_mode(mode: object, time_scaling: object) -> str:
-    if time_scaling is not None:
-        import warnings
-
-        scaling = flag("time_scaling", time_scaling, ControllerError)
-        warnings.warn("time_scaling is deprecated: use mode='path' (path following, which "
-                      "replaces time scaling) or mode='time'", DeprecationWarning, stacklevel=3)
-        if scaling and mode == "time":
-            mode = "path"
-    if mode not in MODES:
-        raise ControllerError(f"unknown mode {mode!r}; expected one of {list(MODES)}")
-    return str(mode)
-
-
-def _check_stage_dt(stage_dt: object, dt: float, mode: str) -> float:
-    """``stage_dt`` [s] (if None: ``2 dt`` in time mode, ``dt`` in path mode), >= ``dt``."""
-    if stage_dt is None:
-        return 2.0 * dt if mode == "time" else dt
-    stage = positive("stage_dt [s]", stage_dt, ControllerError)
-    if stage < dt:
-        raise ControllerError(f"stage_dt must be >= dt = {dt!r} s (a stage is at least one "
-                              f"tick), got {stage_dt!r}")
-    return stage
-
-
-def _check_trajectory(trajectory: object) -> None:
-    if not isinstance(trajectory, Trajectory):
-        raise ControllerError(
-            f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}")
-
-
-def _tick_rates(robot: Robot, twist: FloatArray, angles: FloatArray,
-                dt: float) -> tuple[FloatArray, FloatArray]:
-    """Joint rates to hold over a tick for ``twist``, from the measured steer ``angles``.
-
-    The angles turn during the tick while the motors hold their rates. So the steer rates
-    are the ones that end the tick where ``twist`` turns the casters (the model's angle
-    flow over ``dt``), and the drive rates the average over the tick of what ``twist``
-    asks for along that flow (Simpson's rule). Measured on the caster preset's circle
-    this cuts the steady error from model mismatch several times against rates taken at
-    the measured angles. A rate that ends up past its limit (the clamp kept them within
-    at the measured angles; a leading caster's rate grows within the tick) scales them
-    all down together."""
-    flow = robot.predict_steer_angles(angles, np.tile(twist, (2, 1)),
-                                      np.array([0.5 * dt, 0.5 * dt]))
-    rows = [robot.joint_rows(flow[k])[0] @ twist for k in range(3)]
-    drive = (rows[0] + 4.0 * rows[1] + rows[2]) / 6.0
-    steer = (flow[2] - flow[0]) / dt
-    limit_steer = robot.max_steer_rates
-    magnitude = np.concatenate([np.abs(drive), np.abs(steer)])
-    bound = np.concatenate([robot.max_wheel_speed,
-                            limit_steer if limit_steer is not None else np.abs(steer)])
-    over = magnitude > bound
-    if over.any():
-        scale = float((bound[over] / magnitude[over]).min())
-        drive, steer = drive * scale, steer * scale
-    return drive, steer
-
-
-def _check_steer_angles(robot: Robot, steer_angles: ArrayLike | None) -> FloatArray | None:
-    """The measured steer angles of a robot whose angles are states (required), else None."""
-    if not robot.steer_states:
-        if steer_angles is not None:
-            raise ControllerError(
-                f"steer_angles is for robots whose steer angles are states (casters); robot "
-                f"{robot.name!r} ({robot.kind}) follows its own commanded angles: pass None")
-        return None
-    n = robot.n_wheels
-    if steer_angles is None:
-        raise ControllerError(f"robot {robot.name!r} ({robot.kind}) needs the measured steer "
-                              f"angles each tick: step(pose, t, steer_angles=<{n} angles [rad]>)")
-    try:
-        angles = np.array(steer_angles, dtype=float)
-    except (TypeError, ValueError):
-        raise ControllerError(f"steer_angles must be {n} numbers [rad], "
-                              f"got {steer_angles!r}") from None
-    if angles.shape != (n,):
-        raise ControllerError(f"steer_angles must have shape ({n},) [rad], one per caster, "
-                              f"got shape {angles.shape}")
-    if not np.all(np.isfinite(angles)):
-        raise ControllerError(f"steer_angles must be finite, got {angles.tolist()}")
-    return angles
-
-
-def _check_pose(pose: ArrayLike) -> FloatArray:
-    try:
-        x0 = np.array(pose, dtype=float)
-    except (TypeError, ValueError):
-        raise ControllerError(f"pose must be 3 numbers (x, y, theta), got {pose!r}") from None
-    if x0.shape != (3,):
-        raise ControllerError(f"pose must have shape (3,) as (x, y, theta), got shape {x0.shape}")
-    if not (math.isfinite(x0[0]) and math.isfinite(x0[1]) and math.isfinite(x0[2])):
-        raise ControllerError(f"pose must be finite, got {x0.tolist()}")
-    if not (abs(x0[0]) <= MAX_COORDINATE and abs(x0[1]) <= MAX_COORDINATE
-            and abs(x0[2]) <= MAX_COORDINATE):
-        raise ControllerError(f"pose must lie within +-{MAX_COORDINATE:g} (m, m, rad), "
-                              f"got {x0.tolist()}")
-    return x0
-
-
-def _make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
-                 max_iter: int | None, time_limit: float) -> TrackingSolver:
-    if name not in SOLVERS:
-        raise ControllerError(f"unknown solver {name!r}; expected one of {list(SOLVERS)}")
-    iterations = None if max_iter is None else integer_in("max_iter", max_iter, 1,
-                                                          MAX_ITERATIONS, ControllerError)
-    limit = non_negative("time_limit [s]", time_limit, ControllerError)
-    if name == "ipopt":
-        if polygon_sides is not None:
-            raise ControllerError("polygon_sides applies to the QP paths only; IPOPT uses "
-                                  "each swerve module's exact speed disk")
-        return NlpSolver(model, max_iter=iterations or 100, time_limit=limit)
-    sides = DEFAULT_POLYGON_SIDES if polygon_sides is None else polygon_sides
-    if not is_integer(sides) or sides < 4 or sides % 2:
-        raise ControllerError(f"polygon_sides must be an even integer >= 4, got {sides!r}")
-    integer_in("polygon_sides", sides, 4, MAX_POLYGON_SIDES, ControllerError)
-    if name == "daqp":
-        return DenseSolver(model, polygon_sides=int(sides), max_iter=iterations or 1000,
-                           time_limit=limit)
-    return QpSolver(model, polygon_sides=int(sides), max_iter=iterations or 500,
-                    time_limit=limit)

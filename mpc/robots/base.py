@@ -19,6 +19,10 @@ A layout owns everything that depends on its wheel type, as methods:
 
 A new wheel type is a subclass implementing the abstract methods plus a
 factory registered with :func:`mpc.robots.register`.
+
+:class:`Robot` also has the speed-limit checks of :mod:`mpc.robots.speed_checks`
+(``speed_ratio``, ``is_feasible``, ``desaturate``) and the steer-state joint defaults of
+:mod:`mpc.robots.steer_states`; derating is checked in :mod:`mpc.robots.derating`.
 """
 
 from __future__ import annotations
@@ -32,14 +36,20 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mpc.arrays import BoolArray, FloatArray, readonly
+from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
+from mpc.robots.checks import as_twists, check_holonomic
+from mpc.robots.derating import check_derating, merged_derating, rest_projector
 from mpc.robots.limits import SpeedRows, StageLimits, linear_stage_limits
-from mpc.validation import MAX_WHEELS, is_finite_number, is_integer
+from mpc.robots.speed_checks import SpeedLimitChecks
+from mpc.robots.steer_states import SteerStateJoints
+from mpc.validation import MAX_WHEELS
 
 if TYPE_CHECKING:
     from mpc.robots.dynamics import RobotDynamics
 
+
+__all__ = ["Robot", "SpeedRows", "WheelCommands", "as_twists", "check_holonomic"]
 
 RobotT = TypeVar("RobotT", bound="Robot")
 
@@ -51,34 +61,8 @@ class WheelCommands(NamedTuple):
     steer_angles: FloatArray | None
 
 
-def as_twists(twist: ArrayLike, name: str = "twist") -> FloatArray:
-    """A float array of shape (3,) or (k, 3), checked finite."""
-    try:
-        array = np.asarray(twist, dtype=float)
-    except (TypeError, ValueError):
-        raise RobotError(f"{name} must be numbers (vx, vy, omega), got {twist!r}") from None
-    if array.ndim not in (1, 2) or array.shape[-1] != 3:
-        raise RobotError(
-            f"{name} must have shape (3,) or (k, 3) as (vx, vy, omega), got shape {array.shape}"
-        )
-    if not np.all(np.isfinite(array)):
-        raise RobotError(f"{name} must be finite, got {array}")
-    return array
-
-
-def check_holonomic(stacked_rows: FloatArray, what: str) -> None:
-    """Raise RobotError unless the stacked wheel rows have rank 3."""
-    singular = np.linalg.svd(stacked_rows, compute_uv=False)
-    if singular.size < 3 or singular[2] <= 1e-9 * max(singular[0], 1e-300):
-        raise RobotError(
-            f"{what} is not holonomic: its wheel Jacobian has rank < 3 "
-            f"(singular values {np.round(singular, 12).tolist()}); "
-            "wheels that are all parallel or all at one point cannot drive every twist"
-        )
-
-
 @dataclass(frozen=True, eq=False)
-class Robot(abc.ABC):
+class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
     """Common interface of every drive layout (see the module docstring).
 
     Subclasses set ``wheel_blocks``, ``nominal_max_wheel_speed`` and
@@ -123,23 +107,11 @@ class Robot(abc.ABC):
         if self.derating is None:
             self._check_dynamics()
             return
-        try:
-            factors = np.asarray(self.derating, dtype=float)
-        except (TypeError, ValueError):
-            raise RobotError(
-                f"derating must be {self.n_wheels} numbers in [0, 1], got {self.derating!r}"
-            ) from None
-        if factors.shape != (self.n_wheels,) or not np.all(np.isfinite(factors)):
-            raise RobotError(
-                f"derating must be {self.n_wheels} finite factors, got {self.derating!r}"
-            )
-        if np.any(factors < 0.0) or np.any(factors > 1.0):
-            raise RobotError(f"derating factors must lie in [0, 1], got {self.derating!r}")
-        object.__setattr__(self, "derating", tuple(float(f) for f in factors))
-        failed = self.wheel_blocks[factors == 0.0].reshape(-1, 3)
-        if failed.size:
-            projector = np.eye(3) - np.linalg.pinv(failed) @ failed
-            object.__setattr__(self, "rest_projector", readonly(projector))
+        derating = check_derating(self.derating, self.n_wheels)
+        object.__setattr__(self, "derating", derating)
+        projector = rest_projector(self.wheel_blocks, derating)
+        if projector is not None:
+            object.__setattr__(self, "rest_projector", projector)
         self._check_dynamics()
 
     def _check_dynamics(self) -> None:
@@ -244,36 +216,6 @@ class Robot(abc.ABC):
         Default (no steered wheels): 1."""
         return 1.0
 
-    def joint_rates(self, twist: ArrayLike, steer_angles: ArrayLike) -> tuple[FloatArray,
-                                                                             FloatArray]:
-        """Robots whose steer angles are states (:attr:`steer_states`): drive rates and steer
-        rates [rad/s], each (n,), for one twist at the given steer angles."""
-        raise RobotError(f"robot {self.name!r} ({self.kind}) has no steer states")
-
-    def joint_rows(self, steer_angles: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Robots whose steer angles are states: drive rows ``D`` and steer rows ``S``, each
-        (..., n, 3), at steer angles (..., n) [rad]: ``phidot = D xi``, ``betadot = S xi``."""
-        raise RobotError(f"robot {self.name!r} ({self.kind}) has no steer states")
-
-    def joint_twist(self, drive_rates: FloatArray, steer_rates: FloatArray,
-                    steer_angles: FloatArray) -> FloatArray:
-        """Robots whose steer angles are states: the least-squares twist of drive and steer
-        rates [rad/s] (n,) at the angles (n,) [rad], unchecked (the plant's hot path)."""
-        raise RobotError(f"robot {self.name!r} ({self.kind}) has no steer states")
-
-    def predict_steer_angles(self, steer_angles: FloatArray, twists: FloatArray,
-                             durations: FloatArray) -> FloatArray:
-        """Robots whose steer angles are states: the angles (k+1, n) [rad] that twists
-        (k, 3), each held for its duration (k,) [s], turn the wheels through."""
-        raise RobotError(f"robot {self.name!r} ({self.kind}) has no steer states")
-
-    def clamp_joints(self, target: FloatArray, last: FloatArray, dt: float,
-                     steer_angles: FloatArray) -> FloatArray | None:
-        """Robots whose joint limits depend on measured steer angles (casters) bring the
-        step from ``last`` towards ``target`` within them here; None (the default): the
-        generic clamp of :func:`mpc.control.clamp.clamp_command` applies."""
-        return None
-
     @abc.abstractmethod
     def commands_from_velocities(self, velocities: FloatArray,
                                  steer_angles: FloatArray | None) -> WheelCommands:
@@ -343,40 +285,6 @@ class Robot(abc.ABC):
         Zero for wheels that are not steered."""
         return np.zeros((3, 3))
 
-    # ------------------------------------------------------------ limit checks
-    def speed_ratio(self, twist: ArrayLike) -> FloatArray | float:
-        """Peak ``|wheel speed| / limit`` over the wheels (1.0 = at the limit).
-
-        A failed wheel (limit 0) gives 0 at rest and ``inf`` otherwise.
-        """
-        magnitude = np.linalg.norm(self.wheel_velocities(twist), axis=-1)
-        limit = self.max_wheel_speed
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(
-                limit > 0.0,
-                magnitude / np.where(limit > 0.0, limit, 1.0),
-                np.where(magnitude > 1e-12, np.inf, 0.0),
-            )
-        peak = ratio.max(axis=-1)
-        return float(peak) if np.ndim(peak) == 0 else peak
-
-    def is_feasible(self, twist: ArrayLike, rtol: float = 1e-9) -> bool | BoolArray:
-        """Whether every wheel is within its speed limit (relative tolerance ``rtol``)."""
-        result = np.asarray(self.speed_ratio(twist)) <= 1.0 + rtol
-        return bool(result) if result.ndim == 0 else result
-
-    def desaturate(self, twist: ArrayLike) -> FloatArray:
-        """Scale twist(s) uniformly into the wheel limits, keeping the direction.
-
-        Twists already within the limits are returned unchanged. This is
-        WPILib's ``desaturateWheelSpeeds`` expressed on the twist.
-        """
-        xi = as_twists(twist)
-        ratio = np.asarray(self.speed_ratio(xi))
-        with np.errstate(divide="ignore"):
-            scale = np.where(ratio > 1.0, 1.0 / ratio, 1.0)
-        return xi * scale[..., None]
-
     # ------------------------------------------------------------ derating
     def derated(self, factors: dict[int, float] | ArrayLike) -> Robot:
         """A copy with per-wheel speed limits scaled by ``factors`` in [0, 1].
@@ -384,24 +292,7 @@ class Robot(abc.ABC):
         ``{2: 0.0}`` models wheel 2 failed and held at rest; ``{0: 0.5}`` a
         wheel that reaches only half its speed. Acceleration limits are kept.
         """
-        current = np.ones(self.n_wheels) if self.derating is None else np.array(self.derating)
-        if isinstance(factors, dict):
-            for index, value in factors.items():
-                if not is_integer(index) or not 0 <= index < self.n_wheels:
-                    raise RobotError(
-                        f"wheel index must be an integer in 0..{self.n_wheels - 1}, got {index!r}"
-                    )
-                if not is_finite_number(value):
-                    raise RobotError(f"derating of wheel {index} must be a number in [0, 1], "
-                                     f"got {value!r}")
-                current[int(index)] = float(value)
-            return self._with_derating(tuple(float(v) for v in current))
-        try:
-            values = np.asarray(factors, dtype=float)
-        except (TypeError, ValueError):
-            raise RobotError(f"derating factors must be {self.n_wheels} numbers in [0, 1], "
-                             f"got {factors!r}") from None
-        return self._with_derating(tuple(float(v) for v in np.atleast_1d(values)))
+        return self._with_derating(merged_derating(self.derating, factors, self.n_wheels))
 
     @abc.abstractmethod
     def _with_derating(self, derating: tuple[float, ...]) -> Robot: ...

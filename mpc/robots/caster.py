@@ -60,29 +60,16 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots import caster_limits
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
+from mpc.robots.caster_checks import (
+    check_distinct_contacts,
+    check_positions,
+    joint_vector,
+    per_caster,
+)
+from mpc.robots.caster_kinematics import joint_twist
 from mpc.robots.limits import StageLimits
 from mpc.robots.registry import register
 from mpc.validation import integer_at_least
-
-
-def _per_caster(name: str, value: object, count: int, unit: str) -> FloatArray:
-    """Finite numbers > 0 given as one number or one per caster, returned as (count,)."""
-    if isinstance(value, (bool, np.bool_)) or (
-            isinstance(value, (list, tuple)) and any(isinstance(v, bool) for v in value)):
-        raise RobotError(f"{name} must be a number or {count} numbers {unit}, got {value!r}")
-    try:
-        array = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise RobotError(f"{name} must be a number or {count} numbers {unit}, "
-                         f"got {value!r}") from None
-    if array.shape == ():
-        array = np.full(count, float(array))
-    if array.shape != (count,):
-        raise RobotError(f"{name} must be a number or {count} numbers (one per caster) {unit}, "
-                         f"got shape {array.shape}")
-    if not np.all(np.isfinite(array)) or np.any(array <= 0.0):
-        raise RobotError(f"{name} must be finite numbers > 0 {unit}, got {array.tolist()}")
-    return readonly(array)
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,41 +98,22 @@ class CasterRobot(Robot):
     _cache: dict[Any, Any] = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self) -> None:
-        try:
-            if isinstance(self.caster_positions, (bool, np.bool_)):
-                raise TypeError
-            positions = np.array(self.caster_positions, dtype=float)
-        except (TypeError, ValueError):
-            raise RobotError("positions must be an (n, 2) array of numbers [m], "
-                             f"got {self.caster_positions!r}") from None
-        if positions.ndim != 2 or positions.shape[1] != 2 or positions.shape[0] < 2:
-            raise RobotError("positions must have shape (n, 2) with n >= 2 casters, "
-                             f"got shape {positions.shape}")
-        if not np.all(np.isfinite(positions)):
-            raise RobotError(f"positions must be finite, got {positions.tolist()}")
+        positions = check_positions(self.caster_positions)
         n = positions.shape[0]
         object.__setattr__(self, "caster_positions", readonly(positions))
-        offset = _per_caster("offset", self.offset, n, "[m]")
+        offset = per_caster("offset", self.offset, n, "[m]")
         object.__setattr__(self, "offset", offset)
-        radius = _per_caster("wheel_radius", self.wheel_radius, n, "[m]")
+        radius = per_caster("wheel_radius", self.wheel_radius, n, "[m]")
         object.__setattr__(self, "wheel_radius", radius)
-        speed = _per_caster("max_wheel_speed", self.max_speed, n, "[rad/s]")
+        speed = per_caster("max_wheel_speed", self.max_speed, n, "[rad/s]")
         object.__setattr__(self, "max_speed", speed)
         object.__setattr__(self, "max_steer_rate",
-                           _per_caster("max_steer_rate", self.max_steer_rate, n, "[rad/s]"))
+                           per_caster("max_steer_rate", self.max_steer_rate, n, "[rad/s]"))
         accel = None
         if self.max_accel is not None:
-            accel = _per_caster("max_wheel_accel", self.max_accel, n, "[rad/s^2]")
+            accel = per_caster("max_wheel_accel", self.max_accel, n, "[rad/s^2]")
         object.__setattr__(self, "max_accel", accel)
-        gap = np.hypot(*(positions[:, None, :] - positions[None, :, :]).transpose(2, 0, 1))
-        reach = offset[:, None] + offset[None, :]
-        close = np.argwhere(np.triu(gap <= reach, k=1))
-        if close.size:
-            i, j = (int(v) for v in close[0])
-            raise RobotError(
-                f"casters {i} and {j} must have distinct contact points at every steer angle: "
-                f"their axes are {gap[i, j]:.6g} m apart, at most offset[{i}] + offset[{j}] = "
-                f"{reach[i, j]:.6g} m")
+        check_distinct_contacts(positions, offset)
         object.__setattr__(self, "wheel_blocks",
                            readonly(self.axis_maps() / radius[:, None, None]))
         object.__setattr__(self, "nominal_max_wheel_speed", speed)
@@ -216,22 +184,8 @@ class CasterRobot(Robot):
     def joint_twist(self, drive_rates: FloatArray, steer_rates: FloatArray,
                     steer_angles: FloatArray) -> FloatArray:
         """:meth:`twist` without the checks (the plant's hot path)."""
-        c, s = np.cos(steer_angles), np.sin(steer_angles)
-        d = self.offsets
-        along = self.radii * drive_rates
-        across = d * steer_rates
-        velocity = np.empty(2 * self.n_wheels)
-        velocity[0::2] = along * c - across * s
-        velocity[1::2] = along * s + across * c
-        positions = np.asarray(self.caster_positions)
-        contact_x = positions[:, 0] - d * c
-        contact_y = positions[:, 1] - d * s
-        rows = np.zeros((2 * self.n_wheels, 3))
-        rows[0::2, 0] = 1.0
-        rows[0::2, 2] = -contact_y
-        rows[1::2, 1] = 1.0
-        rows[1::2, 2] = contact_x
-        return np.asarray(np.linalg.lstsq(rows, velocity, rcond=None)[0], dtype=float)
+        return joint_twist(np.asarray(self.caster_positions), self.offsets, self.radii,
+                           drive_rates, steer_rates, steer_angles)
 
     def trailing_angles(self, twist: ArrayLike, current: ArrayLike | None = None) -> FloatArray:
         """Steer angles [rad] along each axis's velocity for ``twist`` (the casters trailing
@@ -247,17 +201,7 @@ class CasterRobot(Robot):
         return self._vector(name, steer_angles, "[rad]")
 
     def _vector(self, name: str, value: ArrayLike, unit: str) -> FloatArray:
-        try:
-            array = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise RobotError(f"{name} must be {self.n_wheels} numbers {unit}, "
-                             f"got {value!r}") from None
-        if array.shape != (self.n_wheels,):
-            raise RobotError(f"{name} must have shape ({self.n_wheels},) {unit}, one per "
-                             f"caster, got shape {array.shape}")
-        if not np.all(np.isfinite(array)):
-            raise RobotError(f"{name} must be finite, got {array.tolist()}")
-        return array
+        return joint_vector(name, value, self.n_wheels, unit)
 
     def wheel_speeds(self, twist: ArrayLike) -> FloatArray:
         """Drive rates of casters trailing their axes' motion, ``|v(P)| / r`` [rad/s] >= 0,

@@ -47,28 +47,9 @@ def _nlp_stage(forces: ForceMap, now: ca.SX, before: ca.SX, dt: float
         return ca.vertcat(-twist[2] * twist[1], twist[2] * twist[0], 0)
 
     turns = (coriolis_of(now), coriolis_of(before))
-    blocks = forces.robot.wheel_blocks
-    n = blocks.shape[0]
-    speeds: tuple[list[ca.SX], list[ca.SX]] = ([], [])
-    torques: tuple[list[ca.SX], list[ca.SX]] = ([], [])
-    for i in range(n):
-        block = ca.DM(blocks[i])
-        velocities = (block @ now, block @ before)
-        direction = None
-        if blocks.shape[1] == 2:
-            end = velocities[0]
-            direction = end / ca.sqrt(ca.sumsqr(end) + DIRECTION_SMOOTHING**2)
-        for side in (0, 1):
-            effort = (ca.DM(forces.drive_map[i]) @ change
-                      + ca.DM(forces.effort_map[i]) @ turns[side])
-            if direction is None:
-                speeds[side].append(velocities[side])
-                torques[side].append(effort)
-            else:
-                speeds[side].append(ca.dot(direction, velocities[side]))
-                torques[side].append(ca.dot(direction, effort))
-    torque = (ca.vertcat(*torques[0]), ca.vertcat(*torques[1]))
-    voltage = tuple(ca.vertcat(*speeds[side]) / forces.kv
+    n = forces.robot.n_wheels
+    speeds, torque = _drive_terms(forces, now, before, change, turns)
+    voltage = tuple(speeds[side] / forces.kv
                     + forces.resistance * torque[side] / forces.kt for side in (0, 1))
     out: list[tuple[ca.SX, FloatArray, FloatArray]] = []
     if dyn.battery_resistance > 0.0:
@@ -97,3 +78,31 @@ def _nlp_stage(forces: ForceMap, now: ca.SX, before: ca.SX, dt: float
             else:
                 out.append((ca.sumsqr(contact), np.array([-np.inf]), np.array([keep**2])))
     return out
+
+
+def _drive_terms(forces: ForceMap, now: ca.SX, before: ca.SX, change: ca.SX,
+                 turns: tuple[ca.SX, ca.SX]) -> tuple[tuple[ca.SX, ca.SX], tuple[ca.SX, ca.SX]]:
+    """Every wheel's drive speed and torque at the change's end and start: ((speeds at
+    the end, at the start), (torques at the end, at the start)), each (n,); a steered
+    wheel's along its (smoothed) drive direction at the end."""
+    blocks = forces.robot.wheel_blocks
+    speeds: tuple[list[ca.SX], list[ca.SX]] = ([], [])
+    torques: tuple[list[ca.SX], list[ca.SX]] = ([], [])
+    for i in range(blocks.shape[0]):
+        block = ca.DM(blocks[i])
+        velocities = (block @ now, block @ before)
+        direction = None
+        if blocks.shape[1] == 2:
+            end = velocities[0]
+            direction = end / ca.sqrt(ca.sumsqr(end) + DIRECTION_SMOOTHING**2)
+        for side in (0, 1):
+            effort = (ca.DM(forces.drive_map[i]) @ change
+                      + ca.DM(forces.effort_map[i]) @ turns[side])
+            if direction is None:
+                speeds[side].append(velocities[side])
+                torques[side].append(effort)
+            else:
+                speeds[side].append(ca.dot(direction, velocities[side]))
+                torques[side].append(ca.dot(direction, effort))
+    return ((ca.vertcat(*speeds[0]), ca.vertcat(*speeds[1])),
+            (ca.vertcat(*torques[0]), ca.vertcat(*torques[1])))

@@ -16,27 +16,12 @@ Module ``i`` at body position ``p_i = (x_i, y_i)`` [m] moves at
   ``angle + pi`` and drives backwards instead (exactly 90 degrees does not
   flip); a module at (near) zero speed keeps its angle.
 
-**Axle-offset modules** (``axle_offset = L > 0`` [m], Neobotix MPO-700, Care-O-bot 3): the
-wheel sits ``L`` along its axle to the right of the steer axis, contact
-``C = P + L (sin b, -cos b)`` for steer angle ``b`` (the wheel's rolling heading
-``e = (cos b, sin b)``). No lateral slip still aligns ``e`` with ``v_i`` (the offset adds
-``omega L e`` to the contact's velocity, along the wheel), so the steer angle and the flip
-rule are those of a centred module; the wheel's speed is corrected for the body's
-rotation and for the module's own steering::
-
-    r * phidot = e . v(C) + L * betadot = e . v_i + L * (omega + betadot)
-
-(``betadot`` the steer rate [rad/s]; one open-source driver omits the ``L betadot``
-term). Limits: the drive rate before steering is bounded by ``|v_i| + L |omega|``
-(either sign of ``e``), so the speed limit becomes ``|v_i| + L |omega| <= r max`` (a cone:
-exact in the NLP as smooth rows, the polygon rows doubled with ``+-L omega`` in the QP).
-The steering term is not in the plan (it depends on the change of twist); the final
-clamp keeps every command's corrected drive rate within the limit.
+Axle-offset modules (``axle_offset > 0``, Neobotix MPO-700): :mod:`mpc.robots.swerve_axle`.
+Module states (flip rule, modules at rest, aiming): :mod:`mpc.robots.swerve_states`.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 
 import casadi as ca
@@ -47,19 +32,12 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
 from mpc.robots.registry import register
-from mpc.robots.swerve_limits import (
-    STOPPED_MODULE_SPEED,
-    nlp_stage_limits,
-    steering_fraction,
-    turns,
-)
-from mpc.validation import integer_at_least, non_negative, positive
+from mpc.robots.swerve_axle import axle_forward_kinematics, axle_speed_ratio
+from mpc.robots.swerve_limits import nlp_stage_limits, qp_speed_rows, steering_fraction
+from mpc.robots.swerve_states import aimed_angles, module_states, wrap_angle
+from mpc.validation import non_negative, positive
 
-
-def wrap_angle(angle: ArrayLike) -> FloatArray:
-    """Wrap angle(s) into (-pi, pi] [rad]."""
-    wrapped = np.mod(np.asarray(angle, dtype=float) + math.pi, 2.0 * math.pi) - math.pi
-    return np.where(wrapped == -math.pi, math.pi, wrapped)
+__all__ = ["SwerveRobot", "swerve", "wrap_angle"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -157,14 +135,7 @@ class SwerveRobot(Robot):
         ``(|v_i| + L |omega|) / r`` (see :meth:`wheel_speeds`)."""
         if not self.axle_offset:
             return super().speed_ratio(twist)
-        xi = as_twists(twist)
-        limit = self.max_wheel_speed
-        magnitude = self.wheel_speeds(xi)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(limit > 0.0, magnitude / np.where(limit > 0.0, limit, 1.0),
-                             np.where(magnitude > 1e-12, np.inf, 0.0))
-        peak = ratio.max(axis=-1)
-        return float(peak) if np.ndim(peak) == 0 else peak
+        return axle_speed_ratio(self, twist)
 
     def module_velocities(self, twist: ArrayLike) -> FloatArray:
         """Module ground velocities ``v_i`` [m/s], shape (..., n, 2)."""
@@ -199,19 +170,7 @@ class SwerveRobot(Robot):
 
     def _states(self, velocities: FloatArray,
                 steer_angles: FloatArray | None) -> tuple[FloatArray, FloatArray]:
-        speed = np.hypot(velocities[:, 0], velocities[:, 1])
-        angle = np.arctan2(velocities[:, 1], velocities[:, 0])
-        if steer_angles is None:
-            current = np.zeros(self.n_wheels)
-        else:
-            current = steer_angles
-            flip = np.abs(wrap_angle(angle - current)) > math.pi / 2
-            angle = np.where(flip, angle + math.pi, angle)
-            speed = np.where(flip, -speed, speed)
-        stopped = np.abs(speed) * self.wheel_radius < STOPPED_MODULE_SPEED
-        angle = np.where(stopped, current, angle)
-        speed = np.where(stopped, 0.0, speed)
-        return speed, wrap_angle(angle)
+        return module_states(velocities, steer_angles, self.wheel_radius)
 
     def states_from_velocities(
         self, velocities: FloatArray, current_angles: ArrayLike | None = None
@@ -262,18 +221,7 @@ class SwerveRobot(Robot):
         L betadot_i`` and ``n_i . v_i = 0`` over the modules; else :meth:`forward_kinematics`."""
         if not self.axle_offset:
             return self.forward_kinematics(wheel_speeds, steer_angles)
-        c, s = np.cos(steer_angles), np.sin(steer_angles)
-        ground = self.ground_maps()
-        rows = np.empty((2 * self.n_wheels, 3))
-        rows[0::2] = c[:, None] * ground[:, 0] + s[:, None] * ground[:, 1]
-        rows[0::2, 2] += self.axle_offset
-        rows[1::2] = -s[:, None] * ground[:, 0] + c[:, None] * ground[:, 1]
-        rolling = self.wheel_radius * np.asarray(wheel_speeds, dtype=float)
-        if steer_rates is not None:
-            rolling = rolling - self.axle_offset * steer_rates
-        values = np.zeros(2 * self.n_wheels)
-        values[0::2] = rolling
-        return np.asarray(np.linalg.lstsq(rows, values, rcond=None)[0], dtype=float)
+        return axle_forward_kinematics(self, wheel_speeds, steer_angles, steer_rates)
 
     def axle_correction(self, twist: FloatArray, steer_rates: FloatArray | None) -> FloatArray:
         """The drive-rate correction of an axle offset [rad/s] (n,):
@@ -282,24 +230,9 @@ class SwerveRobot(Robot):
         return self.axle_offset * (float(twist[2]) + rates) / self.wheel_radius
 
     def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
-        """A regular polygon with ``polygon_sides`` sides (even, >= 4; half as many two-sided
-        rows per module) midway between the ones inscribed in and circumscribed about the
-        disk: its edges' middles at ``R (1 + c) / 2``, its vertices at ``R (1 + c) / (2 c)``,
-        ``c = cos(pi / sides)`` (within about 1 % of the disk at 16 sides). Measured on the
-        benchmark's swerve runs 30 % beyond the limits it tracks closer to the exact disk
-        than the inscribed polygon; the clamp keeps every command inside the disk."""
-        sides = integer_at_least("polygon_sides", polygon_sides, 4, RobotError)
-        if sides % 2:
-            raise RobotError(f"polygon_sides must be an even integer >= 4, got {polygon_sides!r}")
-        angles = 2.0 * math.pi * np.arange(sides // 2) / sides
-        normals = np.stack([np.cos(angles), np.sin(angles)], axis=1)  # (M/2, 2)
-        rows = np.einsum("md,ndj->nmj", normals, self.wheel_blocks)
-        if self.axle_offset:  # |c . v| + L |omega| <= b as the pair c . v +- L omega
-            spin = np.zeros(3)
-            spin[2] = self.axle_offset / self.wheel_radius
-            rows = np.concatenate([rows + spin, rows - spin], axis=1)
-        wheel = np.repeat(np.arange(self.n_wheels), rows.shape[1])
-        return SpeedRows(rows.reshape(-1, 3), wheel, 0.5 * (1.0 + math.cos(math.pi / sides)))
+        """A regular polygon midway between the ones inscribed in and circumscribed about
+        each module's disk (:func:`~mpc.robots.swerve_limits.qp_speed_rows`)."""
+        return qp_speed_rows(self, polygon_sides)
 
     def casadi_limits(self, twist: ca.SX, bounds: FloatArray) -> tuple[ca.SX, FloatArray,
                                                                          FloatArray]:
@@ -326,16 +259,7 @@ class SwerveRobot(Robot):
             speeds = speeds + self.axle_correction(twist, turning)
         if aim is None or dt is None or steer_angles is None or self.axle_offset:
             return WheelCommands(speeds, angles)
-        goal = self.wheel_blocks @ aim
-        wanted = np.arctan2(goal[:, 1], goal[:, 0])
-        # turn the short way, flipping beyond 90 deg (exactly 90 deg: no flip), at most
-        # one tick's worth
-        turn = wrap_angle(wanted - steer_angles)
-        turn = np.where(np.abs(turn) > math.pi / 2, turn - np.sign(turn) * math.pi, turn)
-        reach = self.max_steer_rate * dt
-        waiting = (speeds == 0.0) & (turns(self, goal, steer_angles) > 0.0)
-        stepped = wrap_angle(steer_angles + np.clip(turn, -reach, reach))
-        return WheelCommands(speeds, np.where(waiting, stepped, angles))
+        return WheelCommands(speeds, aimed_angles(self, speeds, angles, aim, steer_angles, dt))
 
     def nlp_stage_limits(self, twists: ca.SX, last: ca.SX, steer_angles: ca.SX | None,
                          change_times: FloatArray
@@ -369,7 +293,8 @@ def swerve(
         max_steer_rate: steering rate limit [rad/s].
         max_wheel_accel: [rad/s^2] or None (bounds the module velocity vector's change).
         axle_offset: the wheel's offset along its axle from the steer axis [m] >= 0
-            (MPO-700-style modules; see the module docstring), 0 for centred modules.
+            (MPO-700-style modules; see :mod:`mpc.robots.swerve_axle`), 0 for centred
+            modules.
     """
     return SwerveRobot(module_positions, name=name, wheel_radius=wheel_radius,
                        max_speed=max_wheel_speed, max_steer_rate=max_steer_rate,

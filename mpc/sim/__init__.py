@@ -4,12 +4,14 @@
   motor lag, delay, noise, slip and steering rate);
 - :mod:`.motor_plant`: the robot driven through its DC motors (voltage, current,
   back-EMF, battery sag, traction and slip), ``plant="motor"``;
+- :mod:`.motor_substep`: its physics, one implicit-Euler sub-step of body, wheels and contacts;
 - :mod:`.simulate`: the closed loop, :func:`simulate`;
 - :mod:`.recorder`: :class:`Recorder`, the same record from a loop of your own (plot and
   report it with :mod:`mpc.plot`);
 - :mod:`.result`: :class:`SimResult` and its metrics;
 - :mod:`.baselines`: feedforward + P controllers with per-wheel clipping or desaturation;
-- :mod:`.setpoint`: feedforward + P through a swerve setpoint generator (Team 254 style);
+- :mod:`.setpoint`: feedforward + P through a swerve setpoint generator (Team 254 style,
+  :mod:`.setpoint_generator`);
 - :mod:`.bag`: :func:`write_bag`, a run as a ROS 2 bag (MCAP) for Foxglove or RViz (the
   ``ros`` extra, imported only when called).
 """

@@ -52,32 +52,16 @@ from mpc.errors import SimulationError
 from mpc.robots.base import Robot
 from mpc.robots.force_map import ForceMap, force_map
 from mpc.robots.swerve import wrap_angle
+from mpc.sim.motor_substep import MIN_WHEEL_INERTIA, SubStepModel
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.validation import is_finite_number
 
-#: [kg m^2] the plant's wheel inertia at least (massless wheels that slide with their current
-#: held have no speed to settle at).
-MIN_WHEEL_INERTIA = 1e-6
+__all__ = ["EVENT_KEYS", "MIN_WHEEL_INERTIA", "MotorPlant", "MotorPlantConfig"]
 
 #: Event series a :class:`MotorPlant` records per tick (:meth:`MotorPlant.events`).
 EVENT_KEYS: tuple[str, ...] = ("voltage_violation", "current_violation", "slip",
                                "peak_voltage_ratio", "peak_current_ratio", "bus_voltage",
                                "peak_traction_ratio")
-
-
-@dataclass(frozen=True)
-class _SubStep:
-    """One sub-step's outcome: the voltages applied [V] and currents drawn [A] (n,), and
-    what the wheel loops asked for against the limits."""
-
-    voltage: FloatArray
-    current: FloatArray
-    voltage_violation: bool
-    current_violation: bool
-    slipped: bool
-    voltage_ratio: float
-    current_ratio: float
-    traction_ratio: float
 
 
 @dataclass(frozen=True)
@@ -151,7 +135,6 @@ class MotorPlant(Plant):
                                    else config.battery_resistance)
         self.velocity_gain = (5.0 / forces.kv if config.velocity_gain is None
                               else config.velocity_gain)
-        self.current_limit = forces.torque_limit / forces.kt  # the gearbox's [A]
         self.twist = np.zeros(3)  # body twist [m/s, m/s, rad/s]
         self._battery_current = 0.0
         self._last_speeds = np.zeros(robot.n_wheels)  # last commanded wheel speeds
@@ -159,15 +142,9 @@ class MotorPlant(Plant):
         self._last_angles: FloatArray | None = None  # last commanded steer angles
         self._events: list[tuple[float, ...]] = []
         self._commands: deque[Command | None] = deque([None] * config.delay_ticks)
-        n = robot.n_wheels
-        mu = 1.0 if dyn.friction is None else dyn.friction
-        self._contact_strength = (mu * forces.normal_loads)[forces.contact_of]  # [N] per wheel
-        self._contact_points = robot.wheel_positions
-        self._mass_over_h = forces.mass_matrix * (config.substeps / dt)
-        # a sliding wheel held at its current limit needs some inertia to spin up against
-        self._inertia_over_h = max(dyn.wheel_inertia, MIN_WHEEL_INERTIA) * config.substeps / dt
-        self._damping = forces.kt / (forces.resistance * forces.kv)  # back-EMF [N m s/rad]
-        self._size = 3 + n
+        self._physics = SubStepModel.build(robot, forces, self.velocity_gain, config.slip_speed,
+                                           config.slip_ratio, config.substeps, dt)
+        self.current_limit = self._physics.current_limit  # the gearbox's [A]
 
     def set_motion(self, twist: FloatArray) -> None:
         """Put the robot in motion at body ``twist`` with its wheels rolling along (steered
@@ -186,15 +163,7 @@ class MotorPlant(Plant):
     # ------------------------------------------------------------ one tick
     def apply(self, command: Command) -> FloatArray:
         """Run one tick under ``command``; return the wheel speeds reached [rad/s]."""
-        self._commands.append(command)
-        delayed = self._commands.popleft()
-        if delayed is None:  # the delay line still holds the robot at rest
-            target_speeds, target_angles = np.zeros(self.robot.n_wheels), self.steer_angles
-            feedforward = self._feedforward(np.zeros(3), None, target_angles)
-        else:
-            target_speeds, target_angles = delayed.wheel_speeds, delayed.steer_angles
-            feedforward = self._feedforward(np.asarray(delayed.twist, dtype=float),
-                                            delayed.motor_torques, target_angles)
+        target_speeds, target_angles, feedforward = self._delayed_targets(command)
         config, forces = self.config, self.forces
         substeps = config.substeps
         h = self.dt / substeps
@@ -204,36 +173,19 @@ class MotorPlant(Plant):
         lowest = math.inf
         aims = target_angles if self.steer_angles is not None else None
         if aims is not None:  # the module velocity vectors the tick ramps between
-            if self._last_angles is not None:
-                before = self._last_angles
-            else:  # the first tick: from where the modules point
-                before = aims if self.steer_angles is None else self.steer_angles
-            begin = start[:, None] * np.stack([np.cos(before), np.sin(before)], axis=1)
-            finish = np.asarray(target_speeds)[:, None] * np.stack(
-                [np.cos(aims), np.sin(aims)], axis=1)
+            begin, finish = self._module_ramp(start, target_speeds, aims)
         for s in range(substeps):
             fraction = (s + 1.0) / substeps
             setpoint = start + (target_speeds - start) * fraction
             if aims is not None:
-                # each module steers along the velocity the ramp has reached (flip rule
-                # against its present angle; at rest, towards its commanded angle) and
-                # drives its component along the way it points
-                velocity = begin + (finish - begin) * fraction
-                speed = np.hypot(velocity[:, 0], velocity[:, 1])
-                angle = np.arctan2(velocity[:, 1], velocity[:, 0])
-                present = aims if self.steer_angles is None else self.steer_angles
-                flip = np.abs(wrap_angle(angle - present)) > math.pi / 2
-                angle = np.where(speed > 1e-9, np.where(flip, angle + math.pi, angle), aims)
-                self._steer(angle, h)
-                pointing = aims if self.steer_angles is None else self.steer_angles
-                setpoint = (velocity[:, 0] * np.cos(pointing)
-                            + velocity[:, 1] * np.sin(pointing))
+                setpoint = self._steer_modules(begin + (finish - begin) * fraction, aims, h)
             bus = self.robot.dynamics.battery_voltage - self.battery_resistance * (  # type: ignore[union-attr]
                 self._battery_current)
             lowest = min(lowest, bus)
             ahead = forces.voltage(feedforward, setpoint) + self.velocity_gain * setpoint
             previous = self.twist
-            sub = self._step(ahead, bus, h)
+            self.twist, self.wheel_speeds, sub = self._physics.step(
+                (self.twist, self.wheel_speeds), self.steer_angles, ahead, bus)
             flags[0] |= sub.voltage_violation
             flags[1] |= sub.current_violation
             flags[2] |= sub.slipped
@@ -248,6 +200,49 @@ class MotorPlant(Plant):
         self._events.append((float(flags[0]), float(flags[1]), float(flags[2]),
                              peaks[0], peaks[1], lowest, peaks[2]))
         return self.wheel_speeds.copy()
+
+    def _delayed_targets(self, command: Command
+                         ) -> tuple[FloatArray, FloatArray | None, FloatArray]:
+        """Queue ``command`` on the delay line; the wheel speeds, steer angles and wheel
+        torque feedforward of the command that comes out of it."""
+        self._commands.append(command)
+        delayed = self._commands.popleft()
+        if delayed is None:  # the delay line still holds the robot at rest
+            target_speeds, target_angles = np.zeros(self.robot.n_wheels), self.steer_angles
+            feedforward = self._feedforward(np.zeros(3), None, target_angles)
+        else:
+            target_speeds, target_angles = delayed.wheel_speeds, delayed.steer_angles
+            feedforward = self._feedforward(np.asarray(delayed.twist, dtype=float),
+                                            delayed.motor_torques, target_angles)
+        return target_speeds, target_angles, feedforward
+
+    def _module_ramp(self, start: FloatArray, target_speeds: FloatArray,
+                     aims: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The swerve modules' velocity vectors (n, 2) the tick ramps between: from the last
+        command's (the first tick: where the modules point) to this one's."""
+        if self._last_angles is not None:
+            before = self._last_angles
+        else:  # the first tick: from where the modules point
+            before = aims if self.steer_angles is None else self.steer_angles
+        begin = start[:, None] * np.stack([np.cos(before), np.sin(before)], axis=1)
+        finish = np.asarray(target_speeds)[:, None] * np.stack(
+            [np.cos(aims), np.sin(aims)], axis=1)
+        return begin, finish
+
+    def _steer_modules(self, velocity: FloatArray, aims: FloatArray, h: float) -> FloatArray:
+        """Steer each module for ``h`` seconds along the ``velocity`` (n, 2) the ramp has
+        reached (flip rule against its present angle; at rest, towards its commanded angle
+        ``aims``); the wheel loops' setpoints: its component along the way each points."""
+        speed = np.hypot(velocity[:, 0], velocity[:, 1])
+        angle = np.arctan2(velocity[:, 1], velocity[:, 0])
+        present = aims if self.steer_angles is None else self.steer_angles
+        flip = np.abs(wrap_angle(angle - present)) > math.pi / 2
+        angle = np.where(speed > 1e-9, np.where(flip, angle + math.pi, angle), aims)
+        self._steer(angle, h)
+        pointing = aims if self.steer_angles is None else self.steer_angles
+        setpoint: FloatArray = (velocity[:, 0] * np.cos(pointing)
+                                + velocity[:, 1] * np.sin(pointing))
+        return setpoint
 
     def _feedforward(self, twist: FloatArray, motor_torques: FloatArray | None,
                      angles: FloatArray | None) -> FloatArray:
@@ -266,125 +261,6 @@ class MotorPlant(Plant):
             torque = forces.drive_torques(self._last_twist, twist, self.dt, directions)
         self._last_twist = twist
         return torque
-
-    # ------------------------------------------------------------ physics
-    def _channels(self) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """Slip directions as rows on the twist (m, 3) [rad/s per twist unit], the wheel
-        each drives (m,) (-1: a swerve module's lateral direction, no wheel) and the
-        contact each belongs to (m,)."""
-        robot, forces = self.robot, self.forces
-        blocks = robot.wheel_blocks
-        n = robot.n_wheels
-        if robot.wheel_dim == 1:
-            return blocks[:, 0, :], np.arange(n, dtype=float), forces.contact_of.astype(float)
-        angles = self.steer_angles if self.steer_angles is not None else np.zeros(n)
-        along = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-        across = np.stack([-np.sin(angles), np.cos(angles)], axis=1)
-        rows = np.concatenate([np.einsum("nd,ndj->nj", along, blocks),
-                               np.einsum("nd,ndj->nj", across, blocks)])
-        wheel = np.concatenate([np.arange(n), np.full(n, -1)]).astype(float)
-        contact = np.concatenate([forces.contact_of, forces.contact_of]).astype(float)
-        return rows, wheel, contact
-
-    def _step(self, ahead: FloatArray, bus: float, h: float) -> _SubStep:
-        """One implicit-Euler sub-step of the twist and the wheel speeds ``w``.
-
-        Each wheel's loop asks for ``V = ahead - velocity_gain w`` (``w``: the speed the
-        sub-step reaches; a motor controller's loop runs much faster than a sub-step);
-        the controller clips it to the bus voltage, then holds the current at the limit;
-        a contact past traction slides. Which wheels and contacts saturate is found by
-        solving again with them saturated until nothing changes."""
-        forces, n = self.forces, self.robot.n_wheels
-        rows, wheel, contact = self._channels()
-        contact_index = contact.astype(int)
-        planar = np.linalg.norm(rows[:, :2], axis=1)  # rad/s per m/s along the direction
-        # [N per m/s] per contact: saturates at slip_speed + slip_ratio * ground speed
-        points = self._contact_points
-        ground = np.hypot(self.twist[0] - self.twist[2] * points[:, 1],
-                          self.twist[1] + self.twist[2] * points[:, 0])
-        creep = self.config.slip_speed + self.config.slip_ratio * ground  # type: ignore[attr-defined]
-        wheel_of = np.where(wheel >= 0, wheel, np.arange(len(wheel)) % n).astype(int)
-        stiffness = (self._contact_strength / creep)[wheel_of] / planar**2
-        actuated = wheel >= 0
-        select = np.zeros((rows.shape[0], n))
-        select[np.flatnonzero(actuated), wheel[actuated].astype(int)] = 1.0
-        turn = self.twist
-        coriolis = forces.mass_matrix @ np.array([-turn[2] * turn[1], turn[2] * turn[0], 0.0])
-        k_r = forces.kt / forces.resistance
-        gain = self.velocity_gain
-        # motor torque = drive - damping * w per wheel, by mode: 0 linear, 1 voltage
-        # clipped at +-bus, 2 current held at +-limit
-        mode = np.zeros(n, dtype=int)
-        sign = np.zeros(n)
-        fixed = np.zeros(rows.shape[0])  # efforts of sliding channels
-        sliding = np.zeros(rows.shape[0], dtype=bool)
-        limits = forces.friction_limits
-        size = self._size
-        demand_asked = asked = np.zeros(n)  # what the loops asked for on the first pass
-        traction = 0.0  # the largest contact force / (mu N) before any contact slid
-        for attempt in range(2 * n + forces.n_contacts + 2):
-            drive = np.select([mode == 0, mode == 1],
-                              [k_r * ahead, k_r * sign * bus], sign * forces.kt
-                              * self.current_limit)
-            damping = np.select([mode == 0, mode == 1],
-                                [k_r * (gain + 1.0 / forces.kv), self._damping], 0.0)
-            stick = np.where(sliding, 0.0, stiffness)
-            matrix = np.zeros((size, size))
-            matrix[:3, :3] = self._mass_over_h + (rows.T * stick) @ rows
-            matrix[:3, 3:] = -(rows.T * stick) @ select
-            matrix[3:, :3] = matrix[:3, 3:].T
-            matrix[3:, 3:] = (np.diag(self._inertia_over_h + damping)
-                              + (select.T * stick) @ select)
-            rhs = np.empty(size)
-            rhs[:3] = self._mass_over_h @ self.twist - coriolis + rows.T @ fixed
-            rhs[3:] = self._inertia_over_h * self.wheel_speeds + drive - select.T @ fixed
-            solution = np.asarray(np.linalg.solve(matrix, rhs), dtype=np.float64)
-            twist, speeds = solution[:3], solution[3:]
-            demand = ahead - gain * speeds
-            voltage = np.select([mode == 0, mode == 1], [demand, sign * bus],
-                                speeds / forces.kv + sign * forces.resistance
-                                * self.current_limit)
-            current = (voltage - speeds / forces.kv) / forces.resistance
-            if attempt == 0:  # what the loops ask for, before any saturation
-                demand_asked = demand
-                asked = (np.clip(demand, -bus, bus) - speeds / forces.kv) / forces.resistance
-            changed = False
-            clip = (mode == 0) & (np.abs(demand) > bus * (1.0 + 1e-12))
-            if np.any(clip):
-                mode[clip], sign[clip] = 1, np.sign(demand[clip])
-                changed = True
-            held = (mode < 2) & (np.abs(current) > self.current_limit * (1.0 + 1e-12))
-            if np.any(held):
-                mode[held], sign[held] = 2, np.sign(current[held])
-                changed = True
-            if not changed and limits is not None:
-                efforts = np.where(sliding, fixed, stick * (select @ speeds - rows @ twist))
-                force = np.zeros((forces.n_contacts, 2))
-                np.add.at(force, contact_index, rows[:, :2] * efforts[:, None])
-                magnitude = np.hypot(force[:, 0], force[:, 1])
-                slid = np.bincount(contact_index, weights=sliding.astype(float),
-                                   minlength=forces.n_contacts) > 0
-                if not np.any(slid):
-                    traction = max(traction, float((magnitude / limits).max()))
-                over = (magnitude > limits * (1.0 + 1e-9)) & ~slid
-                if np.any(over):
-                    scale = np.where(over, limits / np.maximum(magnitude, 1e-300), 1.0)
-                    newly = over[contact_index]
-                    fixed = np.where(newly, efforts * scale[contact_index], fixed)
-                    sliding |= newly
-                    changed = True
-            if not changed:
-                break
-        self.twist, self.wheel_speeds = twist, speeds
-        demand = demand_asked
-        return _SubStep(
-            voltage=voltage, current=current,
-            voltage_violation=bool(np.any(np.abs(demand) > bus * (1.0 + 1e-9))),
-            current_violation=bool(np.any(np.abs(asked) > self.current_limit * (1.0 + 1e-9))),
-            slipped=bool(np.any(sliding)),
-            voltage_ratio=float(np.abs(demand).max()) / bus,
-            current_ratio=float(np.abs(asked).max()) / self.current_limit,
-            traction_ratio=traction)
 
     # ------------------------------------------------------------ record
     def events(self) -> dict[str, FloatArray]:

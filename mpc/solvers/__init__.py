@@ -1,6 +1,7 @@
 """The solver paths behind one protocol (:class:`TrackingSolver`).
 
-- :mod:`.dense`: daqp on the QP condensed onto the inputs (:mod:`.condensed`);
+- :mod:`.dense`: daqp on the QP condensed onto the inputs (:mod:`.condensed`), its
+  Hessian rebuilt only when the terms moved (:mod:`.hessian_reuse`);
 - :mod:`.qp`: OSQP on the sparse QP, assembled once by the pure function
   :func:`~.qp_structure.assemble_qp` (which the condensed path starts from too);
 - :mod:`.nlp`: the exact IPOPT path (the yardstick).

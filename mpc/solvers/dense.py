@@ -9,14 +9,13 @@ The QP is posed in the step from the guess with the cost's exact gradient
 there, so the Hessian only shapes the step: it is rebuilt and refactorised
 only when the cost terms or an input sensitivity moved by more than
 :data:`COST_TOLERANCE` / :data:`SENSITIVITY_TOLERANCE` since the last
-build. References whose heading profile is steady need almost no
+build (:mod:`.hessian_reuse`). References whose heading profile is steady need almost no
 factorisations after the first tick.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import daqp
 import numpy as np
@@ -30,17 +29,10 @@ from mpc.profiling import TickProfile
 from mpc.robots.motor_limits import stage_limits, update_stage_limits
 from mpc.solvers.base import SolveResult
 from mpc.solvers.condensed import Condenser
+from mpc.solvers.hessian_reuse import COST_TOLERANCE, SENSITIVITY_TOLERANCE, HessianReuse
 from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds
 
-#: Largest change of an input sensitivity ``B_k`` [s] before the Hessian is rebuilt, as a
-#: fraction of ``dt`` (0.02: a heading that moved by 0.02 rad relative to the others). A
-#: stale Hessian slows the iteration's convergence; it does not move its fixed point (see
-#: :mod:`.condensed`); it is a trade of tracking precision (one step a tick) for speed.
-SENSITIVITY_TOLERANCE = 2e-2
-
-#: Largest change of a cost Hessian entry before the Hessian is rebuilt, as a fraction of
-#: the largest entry at set-up (path mode: the path's direction turns the contour terms).
-COST_TOLERANCE = 0.5
+__all__ = ["COST_TOLERANCE", "SENSITIVITY_TOLERANCE", "DenseSolver"]
 
 #: daqp's constraint flag for an equality row (active and immutable).
 _EQUALITY = 5
@@ -81,17 +73,14 @@ class DenseSolver:
         self._roll_for: TickInput | None = None
         self._roll: BufferedFunction | None = None
         self._lower, self._upper = structure.lower.copy(), structure.upper.copy()
-        self._cache: _HessianCache | None = None  # what the factorised Hessian was built from
+        self._reuse = HessianReuse(self._p_data, model.dt)
         self._scattered = np.full_like(self._p_data, np.nan)
-        self._p_stale = False  # the scattered cost terms differ from the cached Hessian's
         self._isotropic = False  # whether the cost weighs positions alike in every direction
         self._guess = np.zeros(model.layouts.variables.size)  # zbar
         layout = model.layouts.variables
         self._guess_poses = layout.view(self._guess, "poses")
         self._guess_twists = layout.view(self._guess, "twists")
         self._guess_progress = layout.view(self._guess, "progress") if model.path else None
-        self._tolerance = SENSITIVITY_TOLERANCE * model.dt
-        self._p_tolerance = COST_TOLERANCE * float(np.abs(self._p_data).max() or 1.0)
         self._settings = {"iter_limit": int(max_iter), "time_limit": float(time_limit)}
         self._solver: daqp.Model | None = None
         # Rows that move every tick (motor limits, mpc.robots.motor_limits): daqp gets the
@@ -107,7 +96,7 @@ class DenseSolver:
     def reset(self) -> None:
         """Forget the active set and the cached factorisation."""
         self._solver = None
-        self._cache = None
+        self._reuse.forget()
 
     def _bind(self, tick: TickInput) -> tuple[BufferedFunction, BufferedFunction]:
         """CasADi buffers that read the tick's vectors in place."""
@@ -167,7 +156,10 @@ class DenseSolver:
             self._isotropic = self.condenser.isotropic()
         displacement = np.subtract(self._rollout[1:, :2], self._rollout[:-1, :2],
                                    out=self._displacement)
-        rebuild = self._needs_rebuild(sensitivity, displacement, p_changed)
+        rebuild = self._reuse.needs_rebuild(self._p_data, sensitivity, displacement,
+                                            p_changed, self._isotropic)
+        if rebuild:
+            self.factorisations += 1
         self._guess_poses[:] = self._rollout
         self._guess_twists[:] = tick.guess_twists
         if tick.path is not None and self._guess_progress is not None:
@@ -292,29 +284,6 @@ class DenseSolver:
             solve_time=float(info["solve_time"]) + float(info["setup_time"]),
             iterations=int(info["iterations"]))
 
-    def _needs_rebuild(self, sensitivity: FloatArray, displacement: FloatArray,
-                       p_changed: bool) -> bool:
-        """Whether the Hessian must be rebuilt: the cost terms, a sensitivity or a step of
-        the rollout (times ``dt``, as it enters ``S``) moved by more than the tolerances
-        since the last build (then remember these). Where the cost weighs positions alike
-        in every direction, a rotation of the whole plan does not count."""
-        cache = self._cache
-        if cache is not None:
-            p_moved = (float(np.abs(self._p_data - cache.p_data).max())
-                       if p_changed or self._p_stale else 0.0)
-            self._p_stale = self._p_stale or p_changed
-            if p_moved <= self._p_tolerance:
-                if cache.close(sensitivity, displacement, self.model.dt, self._tolerance):
-                    return False
-                if self._isotropic and cache.close(
-                        *_unrotated(sensitivity, displacement), self.model.dt, self._tolerance,
-                        turned=True):
-                    return False
-        self._cache = _HessianCache.of(self._p_data, sensitivity, displacement)
-        self._p_stale = False
-        self.factorisations += 1
-        return True
-
     def _setup(self, hessian: FloatArray, gradient: FloatArray, upper: FloatArray,
                lower: FloatArray) -> daqp.Model:
         sense = np.zeros(upper.size, dtype=np.intc)
@@ -327,45 +296,3 @@ class DenseSolver:
         solver.settings = settings
         self._solver = solver
         return solver
-
-
-@dataclass(frozen=True, eq=False)
-class _HessianCache:
-    """The cost terms, sensitivities and rollout steps a Hessian was built from (as they
-    are and turned to stage 0's body frame)."""
-
-    p_data: FloatArray
-    sensitivity: FloatArray
-    displacement: FloatArray
-    turned_sensitivity: FloatArray
-    turned_displacement: FloatArray
-
-    @classmethod
-    def of(cls, p_data: FloatArray, sensitivity: FloatArray,
-           displacement: FloatArray) -> _HessianCache:
-        turned = _unrotated(sensitivity, displacement)
-        return cls(p_data.copy(), sensitivity.copy(), displacement.copy(), *turned)
-
-    def close(self, sensitivity: FloatArray, displacement: FloatArray, dt: float,
-              tolerance: float, turned: bool = False) -> bool:
-        """Whether both are within ``tolerance`` of the cached ones (steps times ``dt``)."""
-        b = self.turned_sensitivity if turned else self.sensitivity
-        d = self.turned_displacement if turned else self.displacement
-        return bool(np.abs(sensitivity - b).max() <= tolerance
-                    and np.abs(displacement - d).max() * dt <= tolerance)
-
-
-def _unrotated(sensitivity: FloatArray,
-               steps: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """The sensitivities (N, 3, 3) and planar steps (N, 2) with the world frame turned so
-    that stage 0's body x axis is the world x axis: equal for plans that differ by a
-    rotation of the whole plan."""
-    first = sensitivity[0]
-    angle = math.atan2(first[1, 0] - first[0, 1], first[0, 0] + first[1, 1])
-    c, s = math.cos(angle), math.sin(angle)
-    turned = sensitivity.copy()
-    turned[:, 0, :] = c * sensitivity[:, 0, :] + s * sensitivity[:, 1, :]
-    turned[:, 1, :] = c * sensitivity[:, 1, :] - s * sensitivity[:, 0, :]
-    planar = np.stack((c * steps[:, 0] + s * steps[:, 1], c * steps[:, 1] - s * steps[:, 0]),
-                      axis=1)
-    return turned, planar

@@ -1,0 +1,72 @@
+"""ROS 2 adapter on ``rosbags``' message types (optional extra ``ros``; no ROS install).
+
+Needs ``rosbags`` (``pip install 'holonomic-mpc[ros]'``). Inputs are read by field name,
+so rclpy messages work as they are; outputs are ``rosbags`` message dataclasses with the
+same fields (:func:`copy_message` copies one into an rclpy message).
+
+- Poses: ``Odometry``, ``PoseStamped``, ``Pose`` -> ``(x, y, yaw)`` (quaternion to yaw).
+  Twists: ``Twist`` / ``TwistStamped`` in and out; commands are body twists in
+  ``base_link`` (REP-105), stamped with the pose's stamp.
+- **Time base.** ROS stamps are seconds since the Unix epoch (~1.7e9); the controller's
+  ``t`` is seconds since the reference's start: ``controller.step(pose, 1.7e9)`` on a
+  periodic reference (a circle) silently tracks whatever phase 1.7e9 s falls on, and on
+  a finite one its end. :class:`ReferenceClock` converts (integer nanoseconds, starting
+  at the first stamp it sees unless told).
+- **Wheel order.** ros2_controllers' ``mecanum_drive_controller`` orders its wheels FL,
+  FR, RR, RL, ours FL, FR, RL, RR (same kinematics otherwise): :func:`to_ros2_mecanum`,
+  :func:`from_ros2_mecanum`; :func:`joint_group_command` for a
+  ``JointGroupVelocityController`` ([rad/s] in its ``joints`` order).
+- :class:`Nav2Controller`, shaped like a nav2 controller plugin: ``set_plan(path)``
+  (timed by the time-optimal retimer or at a constant speed),
+  ``compute_velocity_commands(pose, twist) -> TwistStamped``, ``set_speed_limit``.
+
+A node (not run here)::
+
+    import rclpy
+    from geometry_msgs.msg import TwistStamped
+    from nav_msgs.msg import Odometry, Path
+    from mpc.adapters.ros import Nav2Controller, copy_message
+    from mpc.robots import preset
+
+    rclpy.init()
+    node = rclpy.create_node("mpc")
+    follower = Nav2Controller(preset("mecanum"), dt=0.05)
+    publisher = node.create_publisher(TwistStamped, "cmd_vel", 10)
+    node.create_subscription(Path, "plan", follower.set_plan, 1)
+
+    def on_odometry(odometry: Odometry) -> None:  # in the plan's frame
+        if follower.has_plan:
+            command = follower.compute_velocity_commands(odometry, odometry.twist.twist)
+            publisher.publish(copy_message(command, TwistStamped()))
+
+    node.create_subscription(Odometry, "odom", on_odometry, 10)
+    rclpy.spin(node)
+
+The modules: :mod:`.messages` (messages out, wheel order), :mod:`.clock`
+(:class:`ReferenceClock`), :mod:`.nav2` (:class:`Nav2Controller`).
+"""
+
+from mpc.adapters.ros.clock import ReferenceClock
+from mpc.adapters.ros.messages import (
+    ROS2_MECANUM_ORDER,
+    copy_message,
+    from_ros2_mecanum,
+    joint_group_command,
+    time_message,
+    to_ros2_mecanum,
+    twist_message,
+    twist_stamped,
+)
+from mpc.adapters.ros.nav2 import Nav2Controller
+from trajectories.rosbag import (
+    pose_from_message,
+    quaternion_from_yaw,
+    stamp_nanoseconds,
+    twist_from_message,
+    yaw_from_quaternion,
+)
+
+__all__ = ["ROS2_MECANUM_ORDER", "Nav2Controller", "ReferenceClock", "copy_message",
+           "from_ros2_mecanum", "joint_group_command", "pose_from_message",
+           "quaternion_from_yaw", "stamp_nanoseconds", "time_message", "to_ros2_mecanum",
+           "twist_from_message", "twist_message", "twist_stamped", "yaw_from_quaternion"]

@@ -1,0 +1,95 @@
+"""The :class:`~mpc.control.Controller`'s settings, checked once at construction.
+
+The mode, the stage length, the progress rate, the trajectory's type, and the
+solver a ``solver=`` name chooses (with its iteration, time and polygon options).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+from mpc.errors import ControllerError
+from mpc.model.tracking import TrackingModel
+from mpc.solvers import DenseSolver, NlpSolver, QpSolver, TrackingSolver
+from mpc.validation import (
+    MAX_ITERATIONS,
+    MAX_POLYGON_SIDES,
+    flag,
+    integer_in,
+    is_integer,
+    non_negative,
+    positive,
+)
+from trajectories import Trajectory
+
+#: Valid ``solver=`` names: the fast paths (daqp on the condensed QP, OSQP on the sparse
+#: QP) and the exact IPOPT path.
+SOLVERS: tuple[str, ...] = ("daqp", "osqp", "ipopt")
+
+#: Valid ``mode=`` names: track the reference in time, or follow its path.
+MODES: tuple[str, ...] = ("time", "path")
+
+#: Sides of the polygon standing in for a swerve module's speed disk in the QP.
+DEFAULT_POLYGON_SIDES = 16
+
+
+def check_mode(mode: object, time_scaling: object) -> str:
+    if time_scaling is not None:
+        scaling = flag("time_scaling", time_scaling, ControllerError)
+        warnings.warn("time_scaling is deprecated: use mode='path' (path following, which "
+                      "replaces time scaling) or mode='time'", DeprecationWarning, stacklevel=3)
+        if scaling and mode == "time":
+            mode = "path"
+    if mode not in MODES:
+        raise ControllerError(f"unknown mode {mode!r}; expected one of {list(MODES)}")
+    return str(mode)
+
+
+def check_stage_dt(stage_dt: object, dt: float, mode: str) -> float:
+    """``stage_dt`` [s] (if None: ``2 dt`` in time mode, ``dt`` in path mode), >= ``dt``."""
+    if stage_dt is None:
+        return 2.0 * dt if mode == "time" else dt
+    stage = positive("stage_dt [s]", stage_dt, ControllerError)
+    if stage < dt:
+        raise ControllerError(f"stage_dt must be >= dt = {dt!r} s (a stage is at least one "
+                              f"tick), got {stage_dt!r}")
+    return stage
+
+
+def check_progress_rate(max_progress_rate: object) -> float:
+    """``max_progress_rate``, >= 1 (the reference's own pace)."""
+    rate = positive("max_progress_rate", max_progress_rate, ControllerError)
+    if rate < 1.0:
+        raise ControllerError(f"max_progress_rate must be >= 1 (the reference's own pace), "
+                              f"got {max_progress_rate!r}")
+    return rate
+
+
+def check_trajectory(trajectory: object) -> None:
+    if not isinstance(trajectory, Trajectory):
+        raise ControllerError(
+            f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}")
+
+
+def make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
+                max_iter: int | None, time_limit: float) -> TrackingSolver:
+    """The solver ``name`` (one of :data:`SOLVERS`) for ``model``, with its options checked."""
+    if name not in SOLVERS:
+        raise ControllerError(f"unknown solver {name!r}; expected one of {list(SOLVERS)}")
+    iterations = None if max_iter is None else integer_in("max_iter", max_iter, 1,
+                                                          MAX_ITERATIONS, ControllerError)
+    limit = non_negative("time_limit [s]", time_limit, ControllerError)
+    if name == "ipopt":
+        if polygon_sides is not None:
+            raise ControllerError("polygon_sides applies to the QP paths only; IPOPT uses "
+                                  "each swerve module's exact speed disk")
+        return NlpSolver(model, max_iter=iterations or 100, time_limit=limit)
+    sides = DEFAULT_POLYGON_SIDES if polygon_sides is None else polygon_sides
+    if not is_integer(sides) or sides < 4 or sides % 2:
+        raise ControllerError(f"polygon_sides must be an even integer >= 4, got {sides!r}")
+    integer_in("polygon_sides", sides, 4, MAX_POLYGON_SIDES, ControllerError)
+    if name == "daqp":
+        return DenseSolver(model, polygon_sides=int(sides), max_iter=iterations or 1000,
+                           time_limit=limit)
+    return QpSolver(model, polygon_sides=int(sides), max_iter=iterations or 500,
+                    time_limit=limit)

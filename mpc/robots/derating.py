@@ -1,0 +1,63 @@
+"""Per-wheel speed derating: factors in [0, 1] scaling each wheel's speed limit (0: a failed
+wheel held at rest), checked, merged, and the projector that keeps failed wheels at rest.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mpc.arrays import FloatArray, readonly
+from mpc.errors import RobotError
+from mpc.validation import is_finite_number, is_integer
+
+
+def check_derating(derating: object, n_wheels: int) -> tuple[float, ...]:
+    """``derating`` as ``n_wheels`` floats in [0, 1], or RobotError."""
+    try:
+        factors = np.asarray(derating, dtype=float)
+    except (TypeError, ValueError):
+        raise RobotError(
+            f"derating must be {n_wheels} numbers in [0, 1], got {derating!r}"
+        ) from None
+    if factors.shape != (n_wheels,) or not np.all(np.isfinite(factors)):
+        raise RobotError(
+            f"derating must be {n_wheels} finite factors, got {derating!r}"
+        )
+    if np.any(factors < 0.0) or np.any(factors > 1.0):
+        raise RobotError(f"derating factors must lie in [0, 1], got {derating!r}")
+    return tuple(float(f) for f in factors)
+
+
+def rest_projector(wheel_blocks: FloatArray, derating: tuple[float, ...]) -> FloatArray | None:
+    """``I - pinv(W_f) W_f`` over the failed wheels' blocks ``W_f`` (factor 0): projects a
+    twist onto those that keep them at rest; None when no wheel has failed."""
+    failed = wheel_blocks[np.asarray(derating, dtype=float) == 0.0].reshape(-1, 3)
+    if not failed.size:
+        return None
+    return readonly(np.eye(3) - np.linalg.pinv(failed) @ failed)
+
+
+def merged_derating(current: tuple[float, ...] | None, factors: dict[int, float] | ArrayLike,
+                    n_wheels: int) -> tuple[float, ...]:
+    """The derating after :meth:`~mpc.robots.base.Robot.derated` with ``factors``: a dict
+    of wheel index -> factor over ``current`` (None: every wheel 1.0), or all ``n_wheels``
+    factors (checked when the robot is built)."""
+    merged = np.ones(n_wheels) if current is None else np.array(current)
+    if isinstance(factors, dict):
+        for index, value in factors.items():
+            if not is_integer(index) or not 0 <= index < n_wheels:
+                raise RobotError(
+                    f"wheel index must be an integer in 0..{n_wheels - 1}, got {index!r}"
+                )
+            if not is_finite_number(value):
+                raise RobotError(f"derating of wheel {index} must be a number in [0, 1], "
+                                 f"got {value!r}")
+            merged[int(index)] = float(value)
+        return tuple(float(v) for v in merged)
+    try:
+        values = np.asarray(factors, dtype=float)
+    except (TypeError, ValueError):
+        raise RobotError(f"derating factors must be {n_wheels} numbers in [0, 1], "
+                         f"got {factors!r}") from None
+    return tuple(float(v) for v in np.atleast_1d(values))

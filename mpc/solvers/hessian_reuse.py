@@ -1,0 +1,109 @@
+"""When the condensed QP's Hessian is rebuilt: the real-time iteration keeps a factorised
+Hessian while the cost terms, the input sensitivities and the rollout's steps stay within
+tolerances of the ones it was built from (a stale Hessian slows the iteration's
+convergence; it does not move its fixed point, see :mod:`.condensed`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mpc.arrays import FloatArray
+
+#: Largest change of an input sensitivity ``B_k`` [s] before the Hessian is rebuilt, as a
+#: fraction of ``dt`` (0.02: a heading that moved by 0.02 rad relative to the others). A
+#: stale Hessian slows the iteration's convergence; it does not move its fixed point (see
+#: :mod:`.condensed`); it is a trade of tracking precision (one step a tick) for speed.
+SENSITIVITY_TOLERANCE = 2e-2
+
+#: Largest change of a cost Hessian entry before the Hessian is rebuilt, as a fraction of
+#: the largest entry at set-up (path mode: the path's direction turns the contour terms).
+COST_TOLERANCE = 0.5
+
+
+class HessianReuse:
+    """The Hessian a solver last built from, and whether a tick's terms are still close.
+
+    Args:
+        p_data: the cost Hessian's entries at set-up (their largest scales
+            :data:`COST_TOLERANCE`).
+        dt: the model's stage duration [s] (scales :data:`SENSITIVITY_TOLERANCE`).
+    """
+
+    def __init__(self, p_data: FloatArray, dt: float) -> None:
+        self.dt = dt
+        self._cache: _HessianCache | None = None  # what the factorised Hessian was built from
+        self._p_stale = False  # the scattered cost terms differ from the cached Hessian's
+        self._tolerance = SENSITIVITY_TOLERANCE * dt
+        self._p_tolerance = COST_TOLERANCE * float(np.abs(p_data).max() or 1.0)
+
+    def forget(self) -> None:
+        """Drop the cache: the next tick rebuilds."""
+        self._cache = None
+
+    def needs_rebuild(self, p_data: FloatArray, sensitivity: FloatArray,
+                      displacement: FloatArray, p_changed: bool, isotropic: bool) -> bool:
+        """Whether the Hessian must be rebuilt: the cost terms, a sensitivity or a step of
+        the rollout (times ``dt``, as it enters ``S``) moved by more than the tolerances
+        since the last build (then remember these). Where the cost weighs positions alike
+        in every direction (``isotropic``), a rotation of the whole plan does not count."""
+        cache = self._cache
+        if cache is not None:
+            p_moved = (float(np.abs(p_data - cache.p_data).max())
+                       if p_changed or self._p_stale else 0.0)
+            self._p_stale = self._p_stale or p_changed
+            if p_moved <= self._p_tolerance:
+                if cache.close(sensitivity, displacement, self.dt, self._tolerance):
+                    return False
+                if isotropic and cache.close(
+                        *_unrotated(sensitivity, displacement), self.dt, self._tolerance,
+                        turned=True):
+                    return False
+        self._cache = _HessianCache.of(p_data, sensitivity, displacement)
+        self._p_stale = False
+        return True
+
+
+@dataclass(frozen=True, eq=False)
+class _HessianCache:
+    """The cost terms, sensitivities and rollout steps a Hessian was built from (as they
+    are and turned to stage 0's body frame)."""
+
+    p_data: FloatArray
+    sensitivity: FloatArray
+    displacement: FloatArray
+    turned_sensitivity: FloatArray
+    turned_displacement: FloatArray
+
+    @classmethod
+    def of(cls, p_data: FloatArray, sensitivity: FloatArray,
+           displacement: FloatArray) -> _HessianCache:
+        turned = _unrotated(sensitivity, displacement)
+        return cls(p_data.copy(), sensitivity.copy(), displacement.copy(), *turned)
+
+    def close(self, sensitivity: FloatArray, displacement: FloatArray, dt: float,
+              tolerance: float, turned: bool = False) -> bool:
+        """Whether both are within ``tolerance`` of the cached ones (steps times ``dt``)."""
+        b = self.turned_sensitivity if turned else self.sensitivity
+        d = self.turned_displacement if turned else self.displacement
+        return bool(np.abs(sensitivity - b).max() <= tolerance
+                    and np.abs(displacement - d).max() * dt <= tolerance)
+
+
+def _unrotated(sensitivity: FloatArray,
+               steps: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The sensitivities (N, 3, 3) and planar steps (N, 2) with the world frame turned so
+    that stage 0's body x axis is the world x axis: equal for plans that differ by a
+    rotation of the whole plan."""
+    first = sensitivity[0]
+    angle = math.atan2(first[1, 0] - first[0, 1], first[0, 0] + first[1, 1])
+    c, s = math.cos(angle), math.sin(angle)
+    turned = sensitivity.copy()
+    turned[:, 0, :] = c * sensitivity[:, 0, :] + s * sensitivity[:, 1, :]
+    turned[:, 1, :] = c * sensitivity[:, 1, :] - s * sensitivity[:, 0, :]
+    planar = np.stack((c * steps[:, 0] + s * steps[:, 1], c * steps[:, 1] - s * steps[:, 0]),
+                      axis=1)
+    return turned, planar
