@@ -391,3 +391,18 @@ def test_screenshot_errors(tmp_path: Path) -> None:
     page.write_text("<p>hi</p>")
     with pytest.raises(ReportError, match="failed|no screenshot"):
         screenshot(page, tmp_path / "out.png", browser=str(tmp_path / "no-such-browser"))
+
+
+def test_headline_ranks_clock_keepers_and_states_path_followers_apart() -> None:
+    """A path follower's position error is against the point it tracks (its clock lags),
+    so it is not ranked on it: the headline gives its pace and path error instead."""
+    keeper = _run("mpc", 0.05, "beyond", 1.3)
+    follower = {**_run("mpc-path", 0.0005, "beyond", 1.3), "target_lap": 10.0}
+    follower["metrics"] = {"rms_position_error": 0.0005, "max_lag": 2.5, "lap_time": 10.1,
+                           "max_cross_track_error": 0.0021}
+    lead = headline([keeper, follower])
+    assert [entry[0] for entry in lead.rankings[0].entries] == ["mpc"]
+    assert lead.sentence == (
+        "Beyond the wheel limits, mpc has the lowest RMS position error in 1 of 1 scenario "
+        "(keeping the reference's clock). Following the path instead: mpc-path at "
+        "1.01-1.01\u00d7 the fastest possible lap, at most 2.1 mm off the path.")

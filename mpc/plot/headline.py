@@ -1,7 +1,11 @@
 """What won where: per scenario, the controller with the lowest RMS position error.
 
 The report opens with this (beyond the wheel limits where the results have such
-scenarios: that is where controllers differ). Plain data, no matplotlib.
+scenarios: that is where controllers differ). Only controllers that keep the reference's
+clock are ranked on that time-indexed error: a path follower (``mode="path"``, a run that
+lags) is measured against the reference point it tracks, so its position error is not
+comparable; the headline states its pace and path error instead. Plain data, no
+matplotlib.
 """
 
 from __future__ import annotations
@@ -11,7 +15,7 @@ from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from .results import Run, metric_value, scenario_of
+from .results import Run, metric_value, pace_of, scenario_of
 
 Scenario = tuple[str, str, str, str]  # layout, trajectory, heading, speed
 
@@ -52,11 +56,19 @@ def _peak_ratio(run: Run) -> float:
     return float(value)
 
 
+def follows_path(run: Run) -> bool:
+    """Whether the run trailed the reference's clock (a path follower: ``max_lag`` > 0)."""
+    lag = run.get("metrics", {}).get("max_lag")
+    return isinstance(lag, (int, float)) and not isinstance(lag, bool) and lag > 0.0
+
+
 def rankings(runs: Sequence[Run]) -> list[Ranking]:
-    """Every scenario's ranking, in order of first appearance."""
+    """Every scenario's ranking of the controllers that keep the reference's clock, in
+    order of first appearance."""
     groups: dict[Scenario, list[int]] = {}
     for index, run in enumerate(runs):
-        groups.setdefault(scenario_of(run), []).append(index)
+        if not follows_path(run):
+            groups.setdefault(scenario_of(run), []).append(index)
     out = []
     for scenario, members in groups.items():
         entries = [(str(runs[i]["controller"]), metric_value(runs[i], "rms_position_error"), i)
@@ -75,11 +87,14 @@ class Headline:
         rankings: the scenarios in focus.
         wins: per controller, the scenarios in focus where it has the lowest RMS
             position error, most first.
+        followers: per path follower in those scenarios, (controller, lowest and highest
+            lap / fastest possible lap, largest path error [m]).
     """
 
     focus: str
     rankings: tuple[Ranking, ...]
     wins: tuple[tuple[str, int], ...]
+    followers: tuple[tuple[str, float, float, float], ...] = ()
 
     @property
     def sentence(self) -> str:
@@ -93,8 +108,14 @@ class Headline:
         lead = self.focus[0].upper() + self.focus[1:]
         tail = f"; {', '.join(parts)}" if parts else ""
         noun = "scenario" if total == 1 else "scenarios"
-        return (f"{lead}, {first} has the lowest RMS position error in {count} of {total} "
-                f"{noun}{tail}.")
+        text = (f"{lead}, {first} has the lowest RMS position error in {count} of {total} "
+                f"{noun}{tail}")
+        if not self.followers:
+            return text + "."
+        paths = "; ".join(
+            f"{name} at {low:.2f}-{high:.2f}\u00d7 the fastest possible lap, at most "
+            f"{error * 1e3:.3g} mm off the path" for name, low, high, error in self.followers)
+        return f"{text} (keeping the reference's clock). Following the path instead: {paths}."
 
 
 def headline(runs: Sequence[Run]) -> Headline:
@@ -106,4 +127,20 @@ def headline(runs: Sequence[Run]) -> Headline:
     order = {name: index for index, name in enumerate(dict.fromkeys(
         str(run["controller"]) for run in runs))}
     ordered = sorted(wins.items(), key=lambda item: (-item[1], order[item[0]]))
-    return Headline(focus, tuple(chosen), tuple(ordered))
+    return Headline(focus, tuple(chosen), tuple(ordered), _followers(runs, chosen))
+
+
+def _followers(runs: Sequence[Run], chosen: Sequence[Ranking]
+               ) -> tuple[tuple[str, float, float, float], ...]:
+    scenarios = {ranking.scenario for ranking in chosen}
+    paces: dict[str, list[float]] = {}
+    errors: dict[str, list[float]] = {}
+    for run in runs:
+        if follows_path(run) and scenario_of(run) in scenarios:
+            name = str(run["controller"])
+            pace = pace_of(run)
+            if math.isfinite(pace):
+                paces.setdefault(name, []).append(pace)
+            errors.setdefault(name, []).append(metric_value(run, "max_cross_track_error"))
+    return tuple((name, min(paces[name]), max(paces[name]), max(errors[name]))
+                 for name in errors if name in paces)

@@ -37,7 +37,11 @@ TERMS_PARAGRAPH = (
     "at that instant, so falling behind on the right path counts. Path (contouring) error is "
     "the distance to the nearest point of the reference's path, wherever along it: a robot "
     "late on the path has a small path error and a large time-indexed error; one that cuts "
-    "corners has both. Lengths are in mm, angles in deg, times in ms unless stated."
+    "corners has both. A path follower (mode=\"path\") lets its clock trail the "
+    "reference's where the wheels cannot keep up: its position error is measured against "
+    "the reference point it tracks, so it is not ranked on it; its pace (lap time over "
+    "the fastest possible lap) and path error say how it did. Lengths are in mm, angles in "
+    "deg, times in ms unless stated."
 )
 
 
