@@ -72,7 +72,10 @@ def test_clamp_respects_speed_and_acceleration_and_moves_along_the_segment(
             _, off_target_line = segment_fraction(last, target, result)
             assert off_target_line <= 1e-9 * (1.0 + np.linalg.norm(target))
         if fraction < 1.0 - 1e-9:  # stopped short: some wheel is at its acceleration limit
-            assert accel_ratio(robot, result - last) == pytest.approx(1.0, abs=1e-9)
+            # (less what a command as sent may sit off W u at each end: command_snap)
+            assert robot.max_wheel_accel is not None
+            at_limit = 1.0 - 2.0 * robot.command_snap / float(np.max(robot.max_wheel_accel) * DT)
+            assert accel_ratio(robot, result - last) == pytest.approx(at_limit, abs=1e-9)
         assert changed == (not np.array_equal(result, target))
 
 
@@ -158,3 +161,32 @@ def test_clamp_on_derated_robot_from_a_feasible_last_keeps_acceleration() -> Non
         result, _ = clamp_command(robot, target, last, DT)
         assert robot.is_feasible(result)
         assert accel_ratio(robot, result - last) <= 1.0 + 1e-9
+
+
+def test_commands_as_sent_keep_the_acceleration_limit_when_a_module_stops() -> None:
+    """A swerve module slower than STOPPED_MODULE_SPEED is sent at rest, a hair off
+    ``W_i u``; the next command's change, as sent, must still be within the limit. Found by
+    ``mpc-bench sweep`` (case 18 of seed 0): the change measured from the module sent at
+    rest exceeded the limit by 6e-6 relative on the fourth tick."""
+    from benchmarks.executor import RunSpec, execute
+
+    robot = {"type": "swerve", "name": "random-swerve", "wheel_radius": 0.05141369571718998,
+             "module_positions": [[0.2234810639936394, 0.34191306749586836],
+                                  [0.2234810639936394, -0.34191306749586836],
+                                  [-0.2234810639936394, 0.34191306749586836],
+                                  [-0.2234810639936394, -0.34191306749586836]],
+             "max_wheel_speed": 21.876903068666124, "max_steer_rate": 11.131043410437314,
+             "max_wheel_accel": 36.84841710872171}
+    spec = RunSpec(robot=robot, controller="mpc-daqp", duration=10.0, seed=1468987151,
+                   trajectory={"shape": "circle", "heading": "fixed",
+                               "ratio": 0.8856856473286314},
+                   plant={"motor_lag": 0.04668844549784214, "delay_ticks": 0,
+                          "position_noise": 0.002471344075178315,
+                          "heading_noise": 0.008968012322637598,
+                          "slip": 0.029166002346173798},
+                   initial_offset=(-0.10888623753072177, -0.0656017921109265,
+                                   -0.37730933982392656))
+    result, _ = execute(spec)
+    metrics = result["metrics"]
+    assert metrics["accel_violations"] == 0
+    assert metrics["limit_violations"] == 0 and metrics["steer_violations"] == 0

@@ -75,7 +75,10 @@ def _limit_step(robot: Robot, safe: FloatArray, last: FloatArray, dt: float,
     if accel is not None:
         step = safe - last
         # Wheels' acceleration per tick as a fraction of their limit; the largest decides.
-        ratio = float((robot.wheel_magnitudes(step) / (accel * dt)).max())
+        # A command sent a little off W u (a stopped swerve module) may use up to
+        # command_snap of the limit at each end.
+        bound = np.maximum(accel * dt - 2.0 * robot.command_snap, 0.5 * accel * dt)
+        ratio = float((robot.wheel_magnitudes(step) / bound).max())
         if ratio > 1.0 and not (robot.wheel_magnitudes(last) - limit * (1 + 1e-9)
                                 ).max() > _SPEED_SLACK:
             safe = last + (1.0 - _SPEED_SLACK) / ratio * step

@@ -164,6 +164,13 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         """Per-wheel steering rate limit [rad/s] of steered wheels, else None."""
         return None
 
+    @property
+    def command_snap(self) -> float:
+        """How far a sent wheel velocity may sit from ``W_i u`` [rad/s] (0: exactly there).
+        The clamp keeps this much of each acceleration limit in hand at both ends of a
+        change, so the commands as sent stay within it."""
+        return 0.0
+
     # ------------------------------------------------------------ kinematics
     def wheel_velocities(self, twist: ArrayLike) -> FloatArray:
         """Wheel velocity vectors ``W_i @ twist`` [rad/s], shape (..., n, d)."""

@@ -33,7 +33,12 @@ from mpc.errors import RobotError
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
 from mpc.robots.registry import register
 from mpc.robots.swerve_axle import axle_forward_kinematics, axle_speed_ratio
-from mpc.robots.swerve_limits import nlp_stage_limits, qp_speed_rows, steering_fraction
+from mpc.robots.swerve_limits import (
+    STOPPED_MODULE_SPEED,
+    nlp_stage_limits,
+    qp_speed_rows,
+    steering_fraction,
+)
 from mpc.robots.swerve_states import aimed_angles, module_states, wrap_angle
 from mpc.validation import non_negative, positive
 
@@ -122,6 +127,11 @@ class SwerveRobot(Robot):
             spin = np.abs(as_twists(twist)[..., 2:3])
             speeds = speeds + self.axle_offset * spin / self.wheel_radius
         return speeds
+
+    @property
+    def command_snap(self) -> float:
+        """A module slower than :data:`STOPPED_MODULE_SPEED` is sent at rest [rad/s]."""
+        return STOPPED_MODULE_SPEED / self.wheel_radius
 
     def wheel_magnitudes(self, twist: FloatArray) -> FloatArray:
         velocity = self.flat_wheel_blocks @ twist
