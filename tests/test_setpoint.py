@@ -32,7 +32,9 @@ from trajectories import Circle, Trajectory
 
 SWERVE = preset("swerve")
 TURN = 12.0 * DT  # [rad] steering per tick
-REACH = 0.05 * 60.0 * DT  # [m/s] module velocity change per tick
+#: [m/s] module velocity change per tick: the limit, less what a command as sent may sit
+#: off W u at each end (a stopped module is sent at rest: Robot.command_snap, 2e-5 rad/s)
+REACH = 0.05 * (60.0 * DT - 2.0 * SWERVE.command_snap)
 
 #: [m] RMS position error after SETTLE, steering-rate-limited plant, 0.2 m / 0.3 rad off
 #: at the start. Measured: circle (fixed heading) 0.031 mm, figure-eight (tangent) 1.50 mm,

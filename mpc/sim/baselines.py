@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 from mpc.arrays import FloatArray
 from mpc.control.clamp import clamp_command
 from mpc.control.command import Command, Status
+from mpc.control.measurements import check_steer_angles
 from mpc.errors import ControllerError
 from mpc.robots.base import Robot
 from mpc.robots.swerve import wrap_angle
@@ -111,12 +112,9 @@ class FeedforwardPController:
         c, s = math.cos(x[2]), math.sin(x[2])
         target = np.array([c * world[0] + s * world[1], -s * world[0] + c * world[1],
                            ahead.velocity[2] + self.gains[1] * error[2]])
-        if self.robot.steer_states:
-            return self._joint_step(target, _measured(self.robot, steer_angles), reference.pose,
-                                    float(t), start)
-        if steer_angles is not None:
-            raise ControllerError(f"steer_angles is for robots whose steer angles are states "
-                                  f"(casters), not {self.robot.kind!r}: pass None")
+        measured = check_steer_angles(self.robot, steer_angles)  # casters' angles, else None
+        if measured is not None:
+            return self._joint_step(target, measured, reference.pose, float(t), start)
         if self.saturation == "desaturate":
             twist, clamped = clamp_command(self.robot, self.robot.desaturate(target),
                                            self._last, self.dt)
@@ -181,22 +179,6 @@ class FeedforwardPController:
             wheels = self._last_wheels + change * np.minimum(
                 1.0, bound / np.maximum(_norm(change), 1e-300))
         return wheels
-
-
-def _measured(robot: Robot, steer_angles: ArrayLike | None) -> FloatArray:
-    """A caster robot's measured steer angles, checked."""
-    if steer_angles is None:
-        raise ControllerError(f"robot {robot.name!r} ({robot.kind}) needs the measured steer "
-                              f"angles each tick: step(pose, t, steer_angles=...)")
-    try:
-        angles = np.array(steer_angles, dtype=float)
-    except (TypeError, ValueError):
-        raise ControllerError(f"steer_angles must be {robot.n_wheels} numbers [rad], "
-                              f"got {steer_angles!r}") from None
-    if angles.shape != (robot.n_wheels,) or not np.all(np.isfinite(angles)):
-        raise ControllerError(f"steer_angles must be {robot.n_wheels} finite angles [rad], "
-                              f"got {steer_angles!r}")
-    return angles
 
 
 def _norm(vectors: FloatArray) -> FloatArray:
