@@ -61,8 +61,9 @@ def headline_figure(headline: Headline, runs: Sequence[Run]) -> Figure:
         ax.set_xlim(10.0 ** math.floor(math.log10(min(finite)) - 0.3), 2.0 * max(finite))
     ax.set_xlabel("RMS position error after the settling time [mm] (log)")
     ax.grid(True, alpha=0.4)
+    ranked = {entry[0] for ranking in headline.rankings for entry in ranking.entries}
     handles = [Line2D([], [], marker="o", ls="", color=colour(controllers, name), label=name)
-               for name in controllers]
+               for name in controllers if name in ranked]  # path followers are not ranked
     ax.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
     ax.set_title(f"RMS position error {headline.focus} (winner outlined)", fontsize="medium")
     return figure
