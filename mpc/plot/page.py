@@ -67,7 +67,9 @@ class ScenarioFigure:
 
 
 def _wins_table(headline: Headline, runs: Sequence[Run]) -> str:
-    controllers = list(dict.fromkeys(str(run["controller"]) for run in runs))
+    ranked = {entry[0] for ranking in headline.rankings for entry in ranking.entries}
+    controllers = [name for name in dict.fromkeys(str(run["controller"]) for run in runs)
+                   if name in ranked]  # path followers are stated in the sentence instead
     wins = dict(headline.wins)
     rows = []
     for name in sorted(controllers, key=lambda n: -wins.get(n, 0)):

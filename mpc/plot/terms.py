@@ -20,6 +20,7 @@ SETTING_TERMS: dict[str, tuple[str, str]] = {
     "seed": ("integer", "seed of the plant's noise and slip"),
     "ticks": ("ticks", "ticks per run"),
     "controller": ("name", "the controller the runs are shown under"),
+    "trajectory_files": ("paths", "reference files run as their own scenarios (--trajectory)"),
 }
 UNKNOWN_TERM = ("(unit not stated)", "")
 
@@ -68,7 +69,7 @@ def settings_line(settings: Mapping[str, Any]) -> str:
     skip 1 s · plant ideal"``; empty when there are none."""
     parts = []
     for key, shown, unit, _ in setting_rows(settings):
-        if key in ("headings", "seed"):
+        if key in ("headings", "seed") or (key == "trajectory_files" and not shown):
             continue
         text = f"{key} {'default' if settings[key] is None else shown}"
         if unit in ("s", "ticks", "sides") and shown != "none":
