@@ -195,7 +195,7 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     print(f"\nwrote {out / 'results.json'} and {out / 'results.csv'} "
           f"({time.perf_counter() - started:.0f} s)")
     if not args.no_report:
-        _write_report(document, out / "report")
+        _write_report(document, out / "report", args.workers or os.cpu_count() or 1)
     if failed:
         print(f"mpc-bench: {len(failed)} run(s) failed (listed in results.json meta.failed_runs)",
               file=sys.stderr)
@@ -203,7 +203,7 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     return 0
 
 
-def _write_report(document: dict[str, Any], folder: Path) -> None:
+def _write_report(document: dict[str, Any], folder: Path, workers: int = 1) -> None:
     from benchmarks.report import write_report  # matplotlib only when asked for
 
     with Progress(0, "report figures") as progress:
@@ -211,7 +211,7 @@ def _write_report(document: dict[str, Any], folder: Path) -> None:
             every = not progress.live and (done == total or done % 10 == 0)
             progress.update(done, total, f"report: {done}/{total} figures" if every else None)
 
-        index = write_report(document, folder, on_figure=on_figure)
+        index = write_report(document, folder, on_figure=on_figure, workers=workers)
     print(f"wrote {index}")
 
 
@@ -236,7 +236,7 @@ def report(argv: list[str]) -> int:
     # The report beside its own results.json is derived from it alone: rebuilt in place.
     folder = claim(Path(args.out) if args.out else path.parent / "report", ("index.html",),
                    args.force or args.out is None)
-    _write_report(document, folder)
+    _write_report(document, folder, os.cpu_count() or 1)
     return 0
 
 

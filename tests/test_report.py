@@ -249,3 +249,22 @@ def test_pace_figure_and_column_for_runs_with_laps(tmp_path: Path) -> None:
     page = index.read_text(encoding="utf-8")
     assert 'src="pace.png"' in page
     assert "<td>1.05</td>" in page and "<td>1.1</td>" in page  # 6.3 / 6.0, 8.8 / 8.0
+
+
+def test_figures_drawn_on_processes_are_the_same_files(
+        report: tuple[Path, list[tuple[int, int]]], tmp_path: Path) -> None:
+    """workers=2 draws the runs' figures on spawned processes: the same files (PNGs of the
+    same size: bytes may differ with the drawing process's matplotlib state) and the same
+    progress count; a bad worker count is a ReportError."""
+    progress: list[tuple[int, int]] = []
+    index = write_report(_results(), tmp_path, lambda i, n: progress.append((i, n)), workers=2)
+    ours = sorted((index.parent / "figures").iterdir())
+    theirs = sorted((report[0].parent / "figures").iterdir())
+    assert [p.name for p in ours] == [p.name for p in theirs]
+    for a, b in zip(ours, theirs, strict=True):  # PNG signature, then IHDR width, height
+        assert a.read_bytes()[:24] == b.read_bytes()[:24]
+        assert a.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [n for _, n in progress] == [n for _, n in report[1]]
+    assert sorted(i for i, _ in progress) == [i for i, _ in report[1]]
+    with pytest.raises(ReportError, match="workers must be an integer >= 1, got 0"):
+        write_report(_results(), tmp_path / "bad", workers=0)

@@ -75,9 +75,10 @@ def report(results: Results, out_dir: str | Path, *, skip: float = 0.0,
 
 
 def write_report(results: Mapping[str, Any], out_dir: str | Path,
-                 on_figure: Callable[[int, int], None] | None = None) -> Path:
-    """Draw a results document (``mpc-bench``'s ``results.json``); see
-    :func:`mpc.plot.writer.write_report`."""
+                 on_figure: Callable[[int, int], None] | None = None,
+                 workers: int = 1) -> Path:
+    """Draw a results document (``mpc-bench``'s ``results.json``), the runs' figures on
+    ``workers`` processes; see :func:`mpc.plot.writer.write_report`."""
     from .writer import write_report as write
 
-    return write(results, out_dir, on_figure=on_figure)
+    return write(results, out_dir, on_figure=on_figure, workers=workers)

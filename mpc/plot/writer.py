@@ -22,7 +22,9 @@ from __future__ import annotations
 import datetime
 import json
 import math
+import multiprocessing
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -56,13 +58,15 @@ DEFAULT_DT = 0.05  # [s] for runs whose series and settings both lack a tick
 
 
 def write_report(results: Mapping[str, Any], out_dir: str | Path,
-                 on_figure: Callable[[int, int], None] | None = None) -> Path:
+                 on_figure: Callable[[int, int], None] | None = None,
+                 workers: int = 1) -> Path:
     """Write the figures, ``summary.md`` and ``index.html`` of a results document into
     ``out_dir`` (created); return the page's path.
 
     Each run's figure is ``figures/<run_id>.png`` (repeated ids get ``-2``, ``-3``...).
     ``on_figure(i, total)`` is called after each written figure, ``i`` from 1 to ``total``
-    = runs + scenarios + 2 (the headline and summary figures are the last).
+    = runs + scenarios + 2 (the headline and summary figures are the last). With
+    ``workers`` > 1 the runs' figures are drawn on that many processes (the same files).
 
     Raises:
         ReportError: ``results`` lacks ``"runs"`` or a required key of a run, a series
@@ -89,13 +93,10 @@ def write_report(results: Mapping[str, Any], out_dir: str | Path,
         if on_figure is not None:
             on_figure(done, total)
 
-    series = []
-    for run, rid in zip(runs, ids, strict=True):
-        data = read_series(run, rid, default_dt=dt if math.isfinite(dt) else DEFAULT_DT,
-                           default_skip=default_skip)
-        series.append(data)
-        write_run_figure(run, data, out / "figures" / f"{rid}.png")
-        tick()
+    series = [read_series(run, rid, default_dt=dt if math.isfinite(dt) else DEFAULT_DT,
+                          default_skip=default_skip) for run, rid in zip(runs, ids, strict=True)]
+    _draw_runs([(run, data, out / "figures" / f"{rid}.png")
+                for run, data, rid in zip(runs, series, ids, strict=True)], workers, tick)
     controllers = controllers_of(runs)
     scenarios = []
     for ranking in order:
@@ -118,6 +119,24 @@ def write_report(results: Mapping[str, Any], out_dir: str | Path,
     index.write_text(html_page(results, ids, html_table(groups), lead, scenarios, pace),
                      encoding="utf-8")
     return index
+
+
+def _draw_runs(jobs: Sequence[tuple[Run, Any, Path]], workers: int,
+               tick: Callable[[], None]) -> None:
+    """Each run's figure, here or on ``workers`` fresh processes (spawned: nothing of this
+    process's state, threads or open figures, is carried into them)."""
+    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
+        raise ReportError(f"workers must be an integer >= 1, got {workers!r}")
+    if workers == 1 or len(jobs) < 2 * workers:
+        for job in jobs:
+            write_run_figure(*job)
+            tick()
+        return
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+        for future in as_completed([pool.submit(write_run_figure, *job) for job in jobs]):
+            future.result()
+            tick()
 
 
 Results = SimResult | Mapping[str, Any] | Sequence[SimResult | Mapping[str, Any]]
