@@ -3,7 +3,8 @@
 
     mpc-bench [options]          run the benchmark (the ``run`` command; defaults: every
                                  layout, circle and figure-eight, inside and 30% beyond the
-                                 wheel limits, MPC (daqp, IPOPT, path mode) and baselines)
+                                 wheel limits, MPC (daqp with default and tuned weights,
+                                 IPOPT, path mode) and baselines)
     mpc-bench --trajectory FILE  run a Choreo .traj on its own robot (or a CSV on the layouts)
     mpc-bench COMMAND [options]  one of :data:`COMMANDS` (``mpc-bench --help`` lists them)
 
@@ -94,11 +95,12 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
     parser.add_argument("--horizon", type=int, default=20, help="MPC horizon in ticks (20)")
     parser.add_argument("--dt", type=float, default=0.05, help="control tick [s] (0.05)")
     parser.add_argument("--polygon-sides", type=int, default=16,
-                        help="sides of the polygon inscribed in a swerve module's speed disk in "
-                             "the OSQP path (even, >= 4; fewer: faster ticks, a little less "
-                             "speed; default 16)")
+                        help="sides of the polygon standing in for a swerve module's speed "
+                             "disk in the fast paths (even, >= 4; fewer: faster ticks, a "
+                             "little less speed; default 16)")
     parser.add_argument("--duration", type=float,
-                        help="simulated seconds per run (default: one lap + settling time)")
+                        help="simulated seconds per run (default: 2.2 laps at the fastest "
+                             "pace the wheels allow + --skip, at least 6 s)")
     parser.add_argument("--skip", type=float, default=2.0,
                         help="seconds of settling left out of the tracking errors (2.0)")
     parser.add_argument("--plant", default="ideal", choices=sorted(PLANT_PRESETS),
@@ -131,14 +133,27 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     args = _parser(prog).parse_args(argv)
     files = [read_reference(path) for path in args.trajectory or []]
     shapes = args.trajectories is not None or not files  # files alone: only the files
+    if files and not shapes:
+        ignored = [flag for flag, value in (("--speeds", args.speeds), ("--heading", args.heading))
+                   if value is not None]
+        if ignored:
+            raise ScenarioError(f"{' and '.join(ignored)} apply to the built-in shapes; files "
+                                "given with --trajectory run as timed (add --trajectories to "
+                                "run shapes too)")
     if args.quick:
         args.layouts = args.layouts or "mecanum"
         args.trajectories = args.trajectories or "figure8"
         args.heading = args.heading or "fixed"
         args.duration = args.duration or 3.0
         args.skip = min(args.skip, 1.0)
-    if args.horizon < 1 or not args.dt > 0 or (args.duration is not None and not args.duration > 0):
-        raise ScenarioError("--horizon must be >= 1, --dt and --duration > 0")
+    if args.horizon < 1:
+        raise ScenarioError(f"--horizon must be >= 1, got {args.horizon}")
+    if not args.dt > 0:
+        raise ScenarioError(f"--dt must be > 0 [s], got {args.dt}")
+    if args.duration is not None and not args.duration > 0:
+        raise ScenarioError(f"--duration must be > 0 [s], got {args.duration}")
+    if not args.skip >= 0:
+        raise ScenarioError(f"--skip must be >= 0 [s], got {args.skip}")
     if args.polygon_sides < 4 or args.polygon_sides % 2:
         raise ScenarioError(
             f"--polygon-sides must be an even integer >= 4, got {args.polygon_sides}"
@@ -148,6 +163,11 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     if args.plant == "motor":  # a motor plant drives robots with motors: the motor presets
         chosen_robots = {name: motor_preset(name) if name in layouts else robot
                          for name, robot in chosen_robots.items()}
+        for name, robot in chosen_robots.items():
+            if robot.dynamics is None:
+                raise ScenarioError(f"--plant motor drives robots through their motor models; "
+                                    f"robot {name!r} of --robot {args.robot!r} has none (add a "
+                                    "[dynamics] table, or use --plant ideal or realistic)")
     trajectories = choose("trajectory", args.trajectories, ALL_TRAJECTORIES, TRAJECTORIES)
     controllers = choose("controller", args.controllers, CONTROLLERS, DEFAULT_CONTROLLERS)
     headings = choose("heading", args.heading, HEADINGS, DEFAULT_HEADINGS)
@@ -166,6 +186,12 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
                                   headings, csv_trajectory),
                  *file_scenarios(files, chosen_robots)]
     total = sum(applies(name, scenario.robot) for scenario in scenarios for name in controllers)
+    skipped = sorted({f"{name} on {scenario.layout}" for scenario in scenarios
+                      for name in controllers if not applies(name, scenario.robot)})
+    if total == 0:
+        raise ScenarioError(f"no run: {', '.join(skipped)} do(es) not apply (--controllers "
+                            "and --layouts; mpc-tuned needs a preset with tuned weights, "
+                            "ff-p-setpoint a swerve robot)")
     started = time.perf_counter()
     failed: list[dict[str, Any]] = []
     with RunPool(args.workers, args.scheduler) as pool, Progress(total, "runs") as progress:
@@ -174,6 +200,8 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
                        f"dt {args.dt} s, on {pool.description}")
         for note in pool.notes:
             progress.print(f"mpc-bench: note: {note}")
+        if skipped:
+            progress.print(f"mpc-bench: note: not run, as they do not apply: {', '.join(skipped)}")
         runs = run_all(scenarios, controllers, settings, args.duration, args.skip, args.plant,
                        args.seed, progress.advance, pool, failed)
     document = results_document(
@@ -219,9 +247,13 @@ def _report_parser() -> Parser:
     parser = Parser(prog="mpc-bench report", description="Rebuild the report from a results.json.")
     parser.add_argument("results", help="path of results.json")
     parser.add_argument("--out", metavar="DIR",
-                        help="report folder (default: 'report' beside the results, rebuilt in "
-                             "place; another folder that holds a report is refused without "
-                             "--force)")
+                        help="report folder (default: 'report' beside the results, or the "
+                             "results' own folder when it is a report (mpc.plot.report "
+                             "writes its results.json there), rebuilt in place; another "
+                             "folder that holds a report is refused without --force)")
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="processes drawing the runs' figures (default: the machine's "
+                             "cores)")
     add_force_argument(parser)
     return parser
 
@@ -231,12 +263,16 @@ def report(argv: list[str]) -> int:
     args = _report_parser().parse_args(argv)
     from benchmarks.report import load_results
 
+    if args.workers is not None and args.workers < 1:
+        raise ScenarioError(f"--workers must be >= 1, got {args.workers}")
     path = Path(args.results)
     document = load_results(path)
     # The report beside its own results.json is derived from it alone: rebuilt in place.
-    folder = claim(Path(args.out) if args.out else path.parent / "report", ("index.html",),
+    # mpc.plot.report keeps results.json inside the report folder: that folder is the report.
+    mine = path.parent if (path.parent / "index.html").exists() else path.parent / "report"
+    folder = claim(Path(args.out) if args.out else mine, ("index.html",),
                    args.force or args.out is None)
-    _write_report(document, folder, os.cpu_count() or 1)
+    _write_report(document, folder, args.workers or os.cpu_count() or 1)
     return 0
 
 

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NoReturn
 
+import numpy as np
+
 from mpc import Controller
 from mpc.errors import MpcError
 from mpc.model.weights import Weights, tuned_layouts, tuned_weights
@@ -197,11 +199,23 @@ def mpc_controller(name: str, robot: Robot, trajectory: Trajectory, settings: Se
                       weights=chosen, mode=mode, polygon_sides=sides, delay_ticks=delay_ticks)
 
 
+def is_tuned_preset(robot: Robot) -> bool:
+    """Whether ``robot`` is a preset with tuned weights, as shipped (by its geometry and
+    limits, not only its name: a robot file named ``swerve`` is not the preset)."""
+    if robot.name not in tuned_layouts() or robot.dynamics is not None:
+        return False
+    shipped = preset(robot.name)
+    return (np.array_equal(robot.wheel_blocks, shipped.wheel_blocks)
+            and np.array_equal(robot.max_wheel_speed, shipped.max_wheel_speed)
+            and np.array_equal(np.asarray(robot.max_wheel_accel, dtype=float),
+                               np.asarray(shipped.max_wheel_accel, dtype=float)))
+
+
 def applies(name: str, robot: Robot) -> bool:
     """Whether controller ``name`` can drive ``robot`` (the setpoint generator: swerve, not
     casters, whose steer angles are states; ``mpc-tuned``: robots with a tuned preset)."""
     if name == "mpc-tuned":
-        return robot.name in tuned_layouts()
+        return is_tuned_preset(robot)
     return name not in STEERED_ONLY or (robot.steered and not robot.steer_states)
 
 

@@ -107,6 +107,9 @@ def test_robot_file_and_csv_trajectory(tmp_path: Path) -> None:
     assert not (out / "report").exists()
 
 
+DATA = Path(__file__).parent / "data"
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
@@ -127,6 +130,15 @@ def test_robot_file_and_csv_trajectory(tmp_path: Path) -> None:
         (["--trajectory", "/no/such/auto.json"],
          "trajectory file '/no/such/auto.json': expected a Choreo .traj or a waypoint .csv"),
         (["prf"], "unknown command 'prf'; commands: run, report, perf"),
+        (["--skip", "-1", "--quick"], "--skip must be >= 0 [s], got -1.0"),
+        (["--dt", "0"], "--dt must be > 0 [s], got 0.0"),
+        (["--layouts", "caster4", "--controllers", "mpc-tuned", "--quick"],
+         "no run: mpc-tuned on caster4 do(es) not apply"),
+        (["--trajectory", str(DATA / "minimal.traj"), "--speeds", "beyond"],
+         "--speeds apply to the built-in shapes"),
+        (["--plant", "motor", "--robot", str(DATA.parent.parent / "mpc" / "robots" / "presets"
+                                               / "omni3.toml"), "--layouts", "mecanum",
+          "--quick"], "--plant motor drives robots through their motor models"),
     ],
 )
 def test_bad_arguments_are_one_line_and_exit_2(argv: list[str], message: str,

@@ -150,6 +150,12 @@ def test_recorder_rejects_what_is_not_a_tick() -> None:
         recorder.record(0.05, [1.0, 0.0, 0.0], command)
     with pytest.raises(SimulationError, match=r"reference must have shape \(3,\)"):
         recorder.record(0.15, [1.0, 0.0, 0.0], command, reference=[1.0, 0.0])
+    # a refused call keeps nothing, not even its (valid) reference
+    with pytest.raises(SimulationError, match="wheel_actual"):
+        recorder.record(0.15, [1.0, 0.0, 0.0], command, wheel_actual=[1.0],
+                        reference=[9.0, 9.0, 0.0])
+    recorder.record(0.2, [1.0, 0.0, 0.0], command)
+    assert not np.allclose(recorder.result().reference[1], [9.0, 9.0, 0.0])
 
 
 def test_readme_loop(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

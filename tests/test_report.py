@@ -268,3 +268,19 @@ def test_figures_drawn_on_processes_are_the_same_files(
     assert sorted(i for i, _ in progress) == [i for i, _ in report[1]]
     with pytest.raises(ReportError, match="workers must be an integer >= 1, got 0"):
         write_report(_results(), tmp_path / "bad", workers=0)
+
+
+def test_report_takes_a_results_json_and_the_cli_rebuilds_it_in_place(tmp_path: Path) -> None:
+    """mpc.plot.report(path) draws a results.json; mpc.plot.report keeps its results.json
+    inside the report folder, and `mpc-bench report` rebuilds that folder, not a nested
+    report/."""
+    import mpc.plot
+    from benchmarks.cli import main
+
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps(_results()), encoding="utf-8")
+    index = mpc.plot.report(path, tmp_path / "mine")
+    assert index == tmp_path / "mine" / "index.html" and index.exists()
+    assert (tmp_path / "mine" / "results.json").exists()
+    assert main(["report", str(tmp_path / "mine" / "results.json"), "--workers", "1"]) == 0
+    assert not (tmp_path / "mine" / "report").exists()

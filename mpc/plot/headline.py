@@ -56,10 +56,21 @@ def _peak_ratio(run: Run) -> float:
     return float(value)
 
 
+#: A run whose clock trailed the reference's by more than this [s] is a path follower.
+LAG_TOLERANCE = 1e-6
+
+
 def follows_path(run: Run) -> bool:
-    """Whether the run trailed the reference's clock (a path follower: ``max_lag`` > 0)."""
+    """Whether the run trailed the reference's clock (a path follower: ``max_lag`` above
+    :data:`LAG_TOLERANCE`; a path follower that kept up is ranked like the others)."""
     lag = run.get("metrics", {}).get("max_lag")
-    return isinstance(lag, (int, float)) and not isinstance(lag, bool) and lag > 0.0
+    return (isinstance(lag, (int, float)) and not isinstance(lag, bool)
+            and lag > LAG_TOLERANCE)
+
+
+def _is_beyond(run: Run) -> bool:
+    ratio = _peak_ratio(run)
+    return ratio > 1.0 if math.isfinite(ratio) else str(run.get("speed")) == "beyond"
 
 
 def rankings(runs: Sequence[Run]) -> list[Ranking]:
@@ -101,46 +112,58 @@ class Headline:
         """``"Beyond the wheel limits, mpc-path has the lowest RMS position error in 3 of
         4 scenarios; mpc-daqp in 1."``"""
         total = len(self.rankings)
+        lead = self.focus[0].upper() + self.focus[1:]
         if not self.wins:
+            if self.followers:
+                return (f"{lead}, no controller that keeps the reference's clock to rank. "
+                        f"Following the path: {self._paths()}.")
             return f"No controller has a finite RMS position error {self.focus}."
         parts = [f"{name} in {count}" for name, count in self.wins[1:]]
         first, count = self.wins[0]
-        lead = self.focus[0].upper() + self.focus[1:]
         tail = f"; {', '.join(parts)}" if parts else ""
         noun = "scenario" if total == 1 else "scenarios"
         text = (f"{lead}, {first} has the lowest RMS position error in {count} of {total} "
                 f"{noun}{tail}")
         if not self.followers:
             return text + "."
-        paths = "; ".join(
-            f"{name} at {low:.2f}-{high:.2f}\u00d7 the fastest possible lap, at most "
-            f"{error * 1e3:.3g} mm off the path" for name, low, high, error in self.followers)
-        return f"{text} (keeping the reference's clock). Following the path instead: {paths}."
+        return (f"{text} (keeping the reference's clock). Following the path instead: "
+                f"{self._paths()}.")
+
+    def _paths(self) -> str:
+        parts = []
+        for name, low, high, error in self.followers:
+            pace = (f"at {low:.2f}-{high:.2f}\u00d7 the fastest possible lap, "
+                    if math.isfinite(low) else "")
+            parts.append(f"{name} {pace}at most {error * 1e3:.3g} mm off the path")
+        return "; ".join(parts)
 
 
 def headline(runs: Sequence[Run]) -> Headline:
     """The scenarios beyond the wheel limits if there are any, else all, and their winners."""
     every = rankings(runs)
-    beyond = [ranking for ranking in every if ranking.beyond]
-    chosen, focus = (beyond, "beyond the wheel limits") if beyond else (every, "in every scenario")
+    beyond = any(_is_beyond(run) for run in runs)
+    chosen = [ranking for ranking in every if ranking.beyond] if beyond else every
+    focus = "beyond the wheel limits" if beyond else "in every scenario"
     wins = Counter(ranking.winner for ranking in chosen if ranking.winner is not None)
     order = {name: index for index, name in enumerate(dict.fromkeys(
         str(run["controller"]) for run in runs))}
     ordered = sorted(wins.items(), key=lambda item: (-item[1], order[item[0]]))
-    return Headline(focus, tuple(chosen), tuple(ordered), _followers(runs, chosen))
+    focused = [run for run in runs if _is_beyond(run) or not beyond]
+    return Headline(focus, tuple(chosen), tuple(ordered), _followers(focused))
 
 
-def _followers(runs: Sequence[Run], chosen: Sequence[Ranking]
-               ) -> tuple[tuple[str, float, float, float], ...]:
-    scenarios = {ranking.scenario for ranking in chosen}
+def _followers(runs: Sequence[Run]) -> tuple[tuple[str, float, float, float], ...]:
+    """Per path follower among ``runs``: (name, lowest and highest pace (NaN if no run has
+    a lap to time), largest path error [m] (NaN if none is finite))."""
     paces: dict[str, list[float]] = {}
     errors: dict[str, list[float]] = {}
     for run in runs:
-        if follows_path(run) and scenario_of(run) in scenarios:
+        if follows_path(run):
             name = str(run["controller"])
-            pace = pace_of(run)
-            if math.isfinite(pace):
-                paces.setdefault(name, []).append(pace)
-            errors.setdefault(name, []).append(metric_value(run, "max_cross_track_error"))
-    return tuple((name, min(paces[name]), max(paces[name]), max(errors[name]))
-                 for name in errors if name in paces)
+            paces.setdefault(name, [])
+            if math.isfinite(pace := pace_of(run)):
+                paces[name].append(pace)
+            error = metric_value(run, "max_cross_track_error")
+            errors.setdefault(name, []).extend([error] if math.isfinite(error) else [])
+    return tuple((name, min(paces[name], default=math.nan), max(paces[name], default=math.nan),
+                  max(errors[name], default=math.nan)) for name in paces)

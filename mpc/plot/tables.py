@@ -10,6 +10,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from .headline import follows_path
 from .results import Run, format_value, metric_value, pace_of, peak_ratio_text, scenario_of
 
 # --------------------------------------------------------------------------- tables
@@ -83,11 +84,13 @@ def grouped_rows(runs: Sequence[Run], ids: Sequence[str]) -> list[list[Row]]:
     table = []
     for members in groups.values():
         rms = [metric_value(runs[i], "rms_position_error") for i in members]
-        finite = [value for value in rms if math.isfinite(value)]
+        # path followers' position error is against the point they track: not ranked
+        finite = [value for i, value in zip(members, rms, strict=True)
+                  if math.isfinite(value) and not follows_path(runs[i])]
         best = min(finite) if finite else math.nan
         table.append(
             [
-                (ids[i], _row_cells(runs[i]), value == best)
+                (ids[i], _row_cells(runs[i]), value == best and not follows_path(runs[i]))
                 for i, value in zip(members, rms, strict=True)
             ]
         )

@@ -12,7 +12,7 @@ from typing import Any
 SETTING_TERMS: dict[str, tuple[str, str]] = {
     "horizon": ("ticks", "prediction horizon N, in control ticks"),
     "dt": ("s", "control tick (the controller's period)"),
-    "polygon_sides": ("sides", "polygon inscribed in a swerve module's speed disk (QP)"),
+    "polygon_sides": ("sides", "polygon standing in for a swerve module's speed disk (QP)"),
     "duration": ("s", "simulated time per run (default: two laps at the target pace)"),
     "plant": ("preset", "the simulated robot: ideal, or with lag, delay, noise, slip"),
     "skip": ("s", "settling time at the start of each run, left out of the metrics"),
@@ -28,7 +28,7 @@ TERMS_PARAGRAPH = (
     "Inside and beyond (the speeds of mpc-bench): each scenario's reference is timed so that "
     "its peak wheel speed, "
     "on that robot, is a stated multiple of the wheel speed limit: inside asks 0.8\u00d7 the "
-    "limit (every controller can follow it exactly), beyond asks 1.3\u00d7 (no controller "
+    "limit (the wheels can follow it exactly), beyond asks 1.3\u00d7 (no controller "
     "can: the question is how gracefully each one falls behind). The peak wheel ratio in "
     "the tables is what the controller actually commanded, peak |wheel command| / limit, "
     "over the same ticks as the errors, so an exact tracker reads about 0.8 inside and at "

@@ -23,6 +23,7 @@ import datetime
 import json
 import math
 import multiprocessing
+import os
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -43,8 +44,10 @@ from .record import run_record
 from .results import (
     ReportError,
     Run,
+    load_results,
     read_series,
     safe_name,
+    scenario_of,
     scenario_title,
     settings_value,
     unique_run_ids,
@@ -66,7 +69,9 @@ def write_report(results: Mapping[str, Any], out_dir: str | Path,
     Each run's figure is ``figures/<run_id>.png`` (repeated ids get ``-2``, ``-3``...).
     ``on_figure(i, total)`` is called after each written figure, ``i`` from 1 to ``total``
     = runs + scenarios + 2 (the headline and summary figures are the last). With
-    ``workers`` > 1 the runs' figures are drawn on that many processes (the same files).
+    ``workers`` > 1 the runs' figures are drawn on that many spawned processes (the same
+    files); like any spawned process they import the calling script, so call this under
+    ``if __name__ == "__main__":`` in a script.
 
     Raises:
         ReportError: ``results`` lacks ``"runs"`` or a required key of a run, a series
@@ -100,7 +105,8 @@ def write_report(results: Mapping[str, Any], out_dir: str | Path,
     controllers = controllers_of(runs)
     scenarios = []
     for ranking in order:
-        members = sorted(index for _, _, index in ranking.entries)
+        members = [index for index, run in enumerate(runs)  # path followers drawn too
+                   if scenario_of(run) == ranking.scenario]
         src = f"scenarios/{safe_name(ranking.scenario)}.png"
         ratio = f"{ranking.peak_ratio:.2f}" if math.isfinite(ranking.peak_ratio) else "-"
         save(scenario_figure([runs[i] for i in members], [series[i] for i in members],
@@ -139,7 +145,8 @@ def _draw_runs(jobs: Sequence[tuple[Run, Any, Path]], workers: int,
             tick()
 
 
-Results = SimResult | Mapping[str, Any] | Sequence[SimResult | Mapping[str, Any]]
+Results = (SimResult | Mapping[str, Any] | Sequence[SimResult | Mapping[str, Any]] | str
+           | os.PathLike[str])
 
 
 def results_document(results: Results, *, skip: float = 0.0,
@@ -151,12 +158,15 @@ def results_document(results: Results, *, skip: float = 0.0,
         results: one :class:`~mpc.sim.SimResult`; a mapping from controller name to a
             result (several controllers on one scenario); a sequence of results (named
             ``run 1``, ``run 2``...); run records of :func:`~mpc.plot.run_record` in place of
-            any result; or a whole document (``{"runs": [...]}``, returned as is).
+            any result; a whole document (``{"runs": [...]}``, returned as is), or the
+            path of one (a ``results.json`` that ``mpc-bench`` or :func:`report` wrote).
         skip: settling time [s] left out of the metrics of the results packed here.
         labels: :func:`run_record` keywords for every result packed here (e.g.
             ``layout``, ``trajectory``, ``speed``, ``peak_ratio``).
         command: what made the runs, shown on the page.
     """
+    if isinstance(results, (str, os.PathLike)):
+        return load_results(results)
     if isinstance(results, Mapping) and "runs" in results:
         return dict(results)
     named: list[tuple[str | None, SimResult | Mapping[str, Any]]]

@@ -6,8 +6,9 @@ Module ``i`` at body position ``p_i = (x_i, y_i)`` [m] moves at
 (0 = forward, counter-clockwise positive).
 
 - Speed limit: the disk ``|v_i| <= r * max_wheel_speed``, exact in the
-  nonlinear problem, an inscribed regular polygon in the QP
-  (``cos(2 pi m / M) v_ix + sin(2 pi m / M) v_iy <= r * max * cos(pi / M)``).
+  nonlinear problem, a regular polygon midway between the inscribed and the
+  circumscribed one in the QP
+  (``cos(2 pi m / M) v_ix + sin(2 pi m / M) v_iy <= r * max * (1 + cos(pi / M)) / 2``).
 - Acceleration limit: ``max_wheel_accel`` bounds the change of the module's
   *velocity vector* per second, ``|v_i,k - v_i,k-1| <= r * max_wheel_accel * dt``
   (a disk too), not only the change of its speed: turning a moving module

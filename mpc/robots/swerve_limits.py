@@ -35,13 +35,14 @@ if TYPE_CHECKING:
     from mpc.robots.swerve import SwerveRobot
 
 
-#: The NLP's steering rows, in module speed over its limit (``a = v / max``, ``b = w / max``:
-#: rows of order 1 for IPOPT), hold ``(a x b)^2 - sin^2 |a|^2 |b|^2 <= NLP_STEERING_SLACK^4``:
-#: exact for modules at speed, looser below about this fraction of the limit at both ends
-#: of a change (at 0.2 of it a 0.24 rad limit reads 0.35 rad; at 0.5, 0.24 rad). The exact
-#: row is a cone with its apex at rest, where it has no gradient: IPOPT stalled on it (a
-#: swerve reference that ends at speed failed most ticks after the horizon reached its
-#: end). The first command's turn is the clamp's to keep, exactly, in any case.
+#: The NLP's steering rows, in module speed over its nominal limit (``a = v / max``,
+#: ``b = w / max``: rows of order 1 for IPOPT), hold
+#: ``(a x b)^2 - sin^2 |a|^2 |b|^2 <= NLP_STEERING_SLACK^4``: exact for modules at speed,
+#: looser below about this fraction of the limit at both ends of a change (at 0.2 of it a
+#: 0.24 rad limit reads 0.35 rad; at 0.5, 0.24 rad). The exact row is a cone with its apex
+#: at rest, where it has no gradient: IPOPT stalled on it (a swerve reference that ends at
+#: speed failed most ticks after the horizon reached its end). The first command's turn is
+#: the clamp's to keep, exactly, in any case.
 NLP_STEERING_SLACK = 0.1
 
 
@@ -81,7 +82,8 @@ def nlp_stage_limits(robot: SwerveRobot, twists: ca.SX, last: ca.SX, steer_angle
                 add(ca.sumsqr(v - w), float(accel[i] * dt) ** 2)
             if k > 0:
                 sine2 = math.sin(min(robot.max_steer_rate * dt, math.pi / 2)) ** 2
-                a, b = v / float(speed[i]), w / float(speed[i])  # O(1) rows for IPOPT
+                scale = float(robot.nominal_max_wheel_speed[i])  # not derated: never 0
+                a, b = v / scale, w / scale  # rows of order 1 for IPOPT
                 cross = a[0] * b[1] - a[1] * b[0]
                 add(cross**2 - sine2 * ca.sumsqr(a) * ca.sumsqr(b), slack)
     return values, lower, upper

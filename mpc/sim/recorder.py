@@ -78,12 +78,13 @@ class Recorder:
         true = finite_vector("pose", pose, 3, "(x, y, theta)", SimulationError)
         seen = true if measured is None else finite_vector(
             "measured", measured, 3, "(x, y, theta)", SimulationError)
-        if reference is not None:
-            self._references[len(self._rows)] = finite_vector(
-                "reference", reference, 3, "(x, y, theta)", SimulationError)
+        tracked = None if reference is None else finite_vector(
+            "reference", reference, 3, "(x, y, theta)", SimulationError)
         reached = command.wheel_speeds if wheel_actual is None else finite_vector(
             "wheel_actual", wheel_actual, self.robot.n_wheels, "wheel speeds", SimulationError)
-        tick = len(self._rows)
+        tick = len(self._rows)  # every argument checked: nothing of a refused call is kept
+        if tracked is not None:
+            self._references[tick] = tracked
         if self.predict_every and tick % self.predict_every == 0:
             plan = np.asarray(command.predicted_poses, dtype=float)
             if plan.ndim == 2 and plan.shape[0] > 1 and plan.shape[1] == 3:
