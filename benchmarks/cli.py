@@ -134,12 +134,14 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     files = [read_reference(path) for path in args.trajectory or []]
     shapes = args.trajectories is not None or not files  # files alone: only the files
     if files and not shapes:
-        ignored = [flag for flag, value in (("--speeds", args.speeds), ("--heading", args.heading))
+        own_robots = all(file.robot is not None for file in files)  # Choreo files only
+        ignored = [flag for flag, value in (("--speeds", args.speeds), ("--heading", args.heading),
+                                            ("--layouts", args.layouts if own_robots else None))
                    if value is not None]
         if ignored:
             raise ScenarioError(f"{' and '.join(ignored)} apply to the built-in shapes; files "
-                                "given with --trajectory run as timed (add --trajectories to "
-                                "run shapes too)")
+                                "given with --trajectory run as timed, a .traj on its own "
+                                "robot (add --trajectories to run shapes too)")
     if args.quick:
         args.layouts = args.layouts or "mecanum"
         args.trajectories = args.trajectories or "figure8"

@@ -136,6 +136,8 @@ DATA = Path(__file__).parent / "data"
          "no run: mpc-tuned on caster4 do(es) not apply"),
         (["--trajectory", str(DATA / "minimal.traj"), "--speeds", "beyond"],
          "--speeds apply to the built-in shapes"),
+        (["--trajectory", str(DATA / "minimal.traj"), "--layouts", "mecanum"],
+         "--layouts apply to the built-in shapes"),
         (["--plant", "motor", "--robot", str(DATA.parent.parent / "mpc" / "robots" / "presets"
                                                / "omni3.toml"), "--layouts", "mecanum",
           "--quick"], "--plant motor drives robots through their motor models"),
