@@ -187,22 +187,21 @@ def describe_robot(robot: Robot) -> dict[str, Any]:
                 "max_steer_rate": robot.max_steer_rate, "max_wheel_accel": robot.max_accel,
                 **({"axle_offset": robot.axle_offset} if robot.axle_offset else {})}
     if isinstance(robot, CasterRobot):
-        accel = robot.max_accel
-        return {"type": "caster", "name": robot.name,
-                "positions": np.asarray(robot.caster_positions).tolist(),
-                "offset": np.asarray(robot.offset).tolist(),
-                "wheel_radius": np.asarray(robot.wheel_radius).tolist(),
-                "max_wheel_speed": np.asarray(robot.max_speed).tolist(),
-                "max_steer_rate": np.asarray(robot.max_steer_rate).tolist(),
-                "max_wheel_accel": None if accel is None else np.asarray(accel).tolist()}
+        return {"type": "caster", "name": robot.name, **_listed(
+            positions=robot.caster_positions, offset=robot.offset,
+            wheel_radius=robot.wheel_radius, max_wheel_speed=robot.max_speed,
+            max_steer_rate=robot.max_steer_rate, max_wheel_accel=robot.max_accel)}
     if isinstance(robot, SphericalRobot):
-        accel = robot.max_accel
-        return {"type": "spherical", "name": robot.name,
-                "positions": np.asarray(robot.ball_positions).tolist(),
-                "wheel_radius": np.asarray(robot.wheel_radius).tolist(),
-                "max_wheel_speed": np.asarray(robot.max_speed).tolist(),
-                "max_wheel_accel": None if accel is None else np.asarray(accel).tolist()}
+        return {"type": "spherical", "name": robot.name, **_listed(
+            positions=robot.ball_positions, wheel_radius=robot.wheel_radius,
+            max_wheel_speed=robot.max_speed, max_wheel_accel=robot.max_accel)}
     raise ScenarioError(f"cannot describe a robot of kind {robot.kind!r} as plain data")
+
+
+def _listed(**values: Any) -> dict[str, Any]:
+    """Numbers and arrays as plain lists (None kept)."""
+    return {key: None if value is None else np.asarray(value).tolist()
+            for key, value in values.items()}
 
 
 def _describe_motor_preset(robot: Robot) -> dict[str, Any]:

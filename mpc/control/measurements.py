@@ -12,6 +12,7 @@ from numpy.typing import ArrayLike
 from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
 from mpc.robots.base import Robot
+from mpc.robots.caster_checks import joint_vector
 from mpc.validation import MAX_COORDINATE, MAX_TIME, is_finite_number
 
 
@@ -51,14 +52,5 @@ def check_steer_angles(robot: Robot, steer_angles: ArrayLike | None) -> FloatArr
     if steer_angles is None:
         raise ControllerError(f"robot {robot.name!r} ({robot.kind}) needs the measured steer "
                               f"angles each tick: step(pose, t, steer_angles=<{n} angles [rad]>)")
-    try:
-        angles = np.array(steer_angles, dtype=float)
-    except (TypeError, ValueError):
-        raise ControllerError(f"steer_angles must be {n} numbers [rad], "
-                              f"got {steer_angles!r}") from None
-    if angles.shape != (n,):
-        raise ControllerError(f"steer_angles must have shape ({n},) [rad], one per caster, "
-                              f"got shape {angles.shape}")
-    if not np.all(np.isfinite(angles)):
-        raise ControllerError(f"steer_angles must be finite, got {angles.tolist()}")
+    angles = joint_vector("steer_angles", steer_angles, n, "[rad]", ControllerError).copy()
     return angles

@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, readonly
-from mpc.errors import RobotError
+from mpc.errors import MpcError, RobotError
 
 
 def per_caster(name: str, value: object, count: int, unit: str) -> FloatArray:
@@ -62,16 +62,16 @@ def check_distinct_contacts(positions: FloatArray, offset: FloatArray) -> None:
             f"{reach[i, j]:.6g} m")
 
 
-def joint_vector(name: str, value: ArrayLike, n: int, unit: str) -> FloatArray:
-    """One finite number per caster as an (n,) float array, or RobotError."""
+def joint_vector(name: str, value: ArrayLike, n: int, unit: str,
+                 error: type[MpcError] = RobotError) -> FloatArray:
+    """One finite number per caster as an (n,) float array, or ``error``."""
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise RobotError(f"{name} must be {n} numbers {unit}, "
-                         f"got {value!r}") from None
+        raise error(f"{name} must be {n} numbers {unit}, got {value!r}") from None
     if array.shape != (n,):
-        raise RobotError(f"{name} must have shape ({n},) {unit}, one per "
-                         f"caster, got shape {array.shape}")
+        raise error(f"{name} must have shape ({n},) {unit}, one per caster, "
+                    f"got shape {array.shape}")
     if not np.all(np.isfinite(array)):
-        raise RobotError(f"{name} must be finite, got {array.tolist()}")
+        raise error(f"{name} must be finite, got {array.tolist()}")
     return array

@@ -108,13 +108,8 @@ def motor_step_fraction(robot: Robot, last: FloatArray, target: FloatArray, dt: 
                 np.concatenate([slope_end[2 * n:], slope[2 * n:]])),
         power=(start[:n], slope_end[:n], torque_scale * start[2 * n:3 * n],
                torque_scale * slope_end[2 * n:3 * n]))
-    traction = forces.friction_limits
-    if rows.disks and traction is not None and fraction > 0.0:
-        force0 = (forces.flat_contacts @ turn_start).reshape(-1, 2)
-        force1 = (forces.flat_contacts @ step).reshape(-1, 2) / dt
-        turned = (forces.flat_contacts @ (turn_end - turn_start)).reshape(-1, 2)
-        fraction = min(fraction, _disk_fraction(force0, force1 + turned, keep * traction),
-                       _disk_fraction(force0, force1, keep * traction))
+    if rows.disks:
+        fraction = _traction_fraction(forces, fraction, step, turn_start, turn_end, dt, keep)
     return max(0.0, fraction * (1.0 - 1e-12))
 
 
@@ -155,14 +150,23 @@ def _steered_step_fraction(forces: ForceMap, last: FloatArray, target: FloatArra
         others=(np.concatenate([torque0, torque0]) / limit,
                 np.concatenate([torque1 + turned, torque1]) / limit),
         power=(volts0, end_slope, torque0, torque1 + turned))
-    traction = forces.friction_limits
-    if traction is not None and fraction > 0.0:
-        force0 = (forces.flat_contacts @ turn_start).reshape(-1, 2)
-        force1 = (forces.flat_contacts @ step).reshape(-1, 2) / dt
-        chord = (forces.flat_contacts @ (turn_end - turn_start)).reshape(-1, 2)
-        fraction = min(fraction, _disk_fraction(force0, force1 + chord, keep * traction),
-                       _disk_fraction(force0, force1, keep * traction))
+    fraction = _traction_fraction(forces, fraction, step, turn_start, turn_end, dt, keep)
     return max(0.0, fraction * (1.0 - 1e-12))
+
+
+def _traction_fraction(forces: ForceMap, fraction: float, step: FloatArray,
+                       turn_start: FloatArray, turn_end: FloatArray, dt: float,
+                       keep: float) -> float:
+    """``fraction`` shortened so each contact force stays in its traction disk at both ends
+    of the change (the end's Coriolis term along the chord from start to target)."""
+    traction = forces.friction_limits
+    if traction is None or fraction <= 0.0:
+        return fraction
+    force0 = (forces.flat_contacts @ turn_start).reshape(-1, 2)
+    force1 = (forces.flat_contacts @ step).reshape(-1, 2) / dt
+    chord = (forces.flat_contacts @ (turn_end - turn_start)).reshape(-1, 2)
+    return min(fraction, _disk_fraction(force0, force1 + chord, keep * traction),
+               _disk_fraction(force0, force1, keep * traction))
 
 
 def _sag_fraction(forces: ForceMap, volts: tuple[FloatArray, FloatArray],
