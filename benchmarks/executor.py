@@ -21,7 +21,6 @@ with an ``"error"`` field; the other runs go on.
 from __future__ import annotations
 
 import concurrent.futures as cf
-import math
 import multiprocessing
 import os
 import time
@@ -36,20 +35,19 @@ import numpy as np
 from benchmarks.runner import Scenario, default_duration, pack_run
 from benchmarks.scenarios import _MPC as MPC_CONTROLLERS  # (solver, mode) by name
 from benchmarks.scenarios import (
-    SHAPE_SIZE,
+    ALL_TRAJECTORIES,
+    HEADINGS,
     ScenarioError,
     Settings,
     controller,
     mpc_controller,
     reference,
+    shape,
 )
 from mpc.robots import Robot, from_dict, motor_preset, preset
 from mpc.sim import PlantConfig, TrackingController, simulate
 from trajectories import (
-    Circle,
-    FigureEight,
     SampledTrajectory,
-    SpinHeading,
     Trajectory,
     Waypoints,
 )
@@ -122,17 +120,12 @@ def build_trajectory(spec: Mapping[str, Any], robot: Robot) -> Trajectory:
         samples = spec["samples"]
         return SampledTrajectory(samples["times"], samples["poses"], samples["velocities"],
                                  samples.get("accelerations"))
-    shape, heading = spec.get("shape"), spec.get("heading", "fixed")
-    if shape not in ("circle", "figure8") or heading not in ("fixed", "tangent", "spin"):
+    name, heading = spec.get("shape"), spec.get("heading", "fixed")
+    if name not in ALL_TRAJECTORIES or heading not in HEADINGS:
         raise ScenarioError(f"unknown trajectory spec {dict(spec)!r}")
     if "ratio" in spec:
-        return reference(shape, heading, robot, float(spec["ratio"]))
-    period = float(spec["period"])
-    profile: Any = {"fixed": 0.0, "tangent": "tangent"}.get(heading)
-    if heading == "spin":
-        profile = SpinHeading(rate=2.0 * math.pi / period)  # one turn per lap
-    kind = Circle if shape == "circle" else FigureEight
-    return kind(SHAPE_SIZE, period, heading=profile)
+        return reference(name, heading, robot, float(spec["ratio"]))
+    return shape(name, heading)(float(spec["period"]))
 
 
 def build_controller(spec: RunSpec, robot: Robot, trajectory: Trajectory) -> TrackingController:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from benchmarks.scenarios import ScenarioError, Settings, applies, reference
+from benchmarks.scenarios import ALL_TRAJECTORIES, ScenarioError, Settings, applies, reference
 from benchmarks.table import Column, format_table
 from mpc.errors import MpcError
 from mpc.plot.record import run_record
@@ -231,7 +231,7 @@ def describe_trajectory(scenario: Scenario) -> dict[str, Any]:
                             "velocities": trajectory.velocities.tolist(),
                             "accelerations": None if accelerations is None
                             else accelerations.tolist()}}
-    if scenario.trajectory_name in ("circle", "figure8") and trajectory.period is not None:
+    if scenario.trajectory_name in ALL_TRAJECTORIES and trajectory.period is not None:
         return {"shape": scenario.trajectory_name, "heading": scenario.heading,
                 "period": trajectory.period}
     raise ScenarioError(f"cannot describe trajectory {scenario.trajectory_name!r} as plain data")

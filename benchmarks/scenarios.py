@@ -133,7 +133,9 @@ def _heading(kind: str, period: float) -> object:
     return SpinHeading(rate=2.0 * math.pi / period)  # one turn per lap
 
 
-def _shape(name: str, heading: str) -> Callable[[float], Trajectory]:
+def shape(name: str, heading: str) -> Callable[[float], Trajectory]:
+    """The named shape (one of :data:`ALL_TRAJECTORIES`) with ``heading`` as a function of
+    its period [s]."""
     def make(period: float) -> Trajectory:
         spec = _heading(heading, period)
         if name == "circle":
@@ -148,7 +150,7 @@ def _shape(name: str, heading: str) -> Callable[[float], Trajectory]:
 
 def reference(name: str, heading: str, robot: Robot, ratio: float) -> Trajectory:
     """The named shape, timed so its peak wheel speed is ``ratio`` times the limit."""
-    make = _shape(name, heading)
+    make = shape(name, heading)
     probe = feasibility(make(_PROBE_PERIOD), robot).peak_ratio
     return make(_PROBE_PERIOD * probe / ratio)
 
@@ -221,6 +223,7 @@ def applies(name: str, robot: Robot) -> bool:
 
 __all__ = [
     "ALL_TRAJECTORIES", "CONTROLLERS", "DEFAULT_CONTROLLERS", "DEFAULT_HEADINGS", "mpc_controller",
+    "shape",
     "DEFAULT_LAYOUTS", "HEADINGS", "PRESETS", "SPEEDS", "TRAJECTORIES", "Parser",
     "ScenarioError", "Settings", "applies", "choose", "controller", "csv_reference",
     "parse_speeds", "reference", "robots",

@@ -195,3 +195,15 @@ def test_motor_presets_are_described_for_other_processes() -> None:
     heavier = robot.with_dynamics(replace(robot.dynamics, mass=robot.dynamics.mass + 1.0))
     with pytest.raises(ScenarioError, match="not a shipped motor preset.*--workers 1"):
         describe_robot(heavier)
+
+
+def test_out_and_back_runs_on_worker_processes() -> None:
+    """Every benchmark shape travels as plain data, out-and-back too (it did not: the caster
+    benchmark of the README failed on worker processes)."""
+    from benchmarks.executor import execute
+
+    spec = RunSpec(robot="caster4", controller="mpc-daqp", duration=2.0, skip=0.5,
+                   trajectory={"shape": "out-and-back", "heading": "fixed", "period": 8.0})
+    result, _ = execute(spec)
+    assert "error" not in result, result.get("error")
+    assert result["metrics"]["limit_violations"] == 0
