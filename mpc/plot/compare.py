@@ -16,7 +16,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import ScalarFormatter
 
-from .headline import Headline
+from .headline import Headline, follows_path
 from .results import Run, Series, metric_value, pace_of, scenario_of
 from .style import new_figure, save, shade_skip
 
@@ -75,7 +75,8 @@ def headline_figure(headline: Headline, runs: Sequence[Run]) -> Figure:
 def scenario_figure(runs: Sequence[Run], series: Sequence[Series], controllers: Sequence[str],
                     title: str) -> Figure:
     """Every controller of one scenario on one path plot [m], beside their position errors
-    over time [mm] (log) with the settling window shaded; 1000 x 420 px."""
+    over time [mm] (log; path followers' distance to the path, dashed) with the settling
+    window shaded; 1000 x 420 px."""
     figure = new_figure(10.0, 4.2, constrained=True)
     path, errors = figure.subplots(1, 2, width_ratios=[1.0, 1.25])
     if series:
@@ -88,11 +89,15 @@ def scenario_figure(runs: Sequence[Run], series: Sequence[Series], controllers: 
         name = str(run["controller"])
         path.plot(data.pose[:, 0], data.pose[:, 1], color=colour(controllers, name), lw=1.3,
                   label=name)
-        error = 1e3 * data.position_error
+        # a path follower's clock trails the reference's: its distance to the path instead
+        distance = data.path_error if follows_path(run) else None
+        along = distance is not None
+        error = 1e3 * (data.position_error if distance is None else distance)
         positive = error[error > 0]
         if positive.size:
             floor = min(floor, float(positive.min()))
-        errors.plot(data.time, error, color=colour(controllers, name), lw=1.1, label=name)
+        errors.plot(data.time, error, color=colour(controllers, name), lw=1.1,
+                    ls="--" if along else "-", label=name)
     path.set_aspect("equal", adjustable="datalim")
     path.set_xlabel("x [m]")
     path.set_ylabel("y [m]")
@@ -103,7 +108,8 @@ def scenario_figure(runs: Sequence[Run], series: Sequence[Series], controllers: 
         errors.set_yscale("log")
         errors.set_ylim(bottom=max(floor, 1e-4))
     errors.set_xlabel("time [s]")
-    errors.set_ylabel("position error, time-indexed [mm] (log)")
+    errors.set_ylabel("position error, time-indexed [mm] (log);\ndashed: path followers' "
+                      "distance to the path")
     errors.grid(True, alpha=0.4)
     errors.set_title("position error", fontsize="medium")
     if errors.patches:
