@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import math
 import os
 import sys
 import time
@@ -58,6 +59,7 @@ from benchmarks.scenarios import (
 from mpc.errors import MpcError
 from mpc.robots import motor_preset
 from mpc.sim import PLANT_PRESETS
+from mpc.validation import MAX_HORIZON, MAX_POLYGON_SIDES, MAX_SIMULATION_TICKS
 
 
 def add_pool_arguments(parser: argparse.ArgumentParser) -> None:
@@ -128,6 +130,25 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
     return parser
 
 
+def _check_run_numbers(args: argparse.Namespace) -> None:
+    """The run's numbers within the library's stated bounds, each error naming its flag."""
+    if not 1 <= args.horizon <= MAX_HORIZON:
+        raise ScenarioError(f"--horizon must be 1 to {MAX_HORIZON} ticks, got {args.horizon}")
+    if not (math.isfinite(args.dt) and args.dt > 0):
+        raise ScenarioError(f"--dt must be a finite number > 0 [s], got {args.dt}")
+    longest = MAX_SIMULATION_TICKS * args.dt
+    if args.duration is not None and not 0 < args.duration <= longest:
+        raise ScenarioError(f"--duration must be > 0 and at most {longest:g} s "
+                            f"({MAX_SIMULATION_TICKS} ticks), got {args.duration}")
+    if not (math.isfinite(args.skip) and args.skip >= 0):
+        raise ScenarioError(f"--skip must be a finite number >= 0 [s], got {args.skip}")
+    if not 4 <= args.polygon_sides <= MAX_POLYGON_SIDES or args.polygon_sides % 2:
+        raise ScenarioError(f"--polygon-sides must be an even integer 4 to "
+                            f"{MAX_POLYGON_SIDES}, got {args.polygon_sides}")
+    if args.seed < 0:
+        raise ScenarioError(f"--seed must be >= 0, got {args.seed}")
+
+
 def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     """``mpc-bench [run] [options]``: the benchmark; results.json, results.csv, report/."""
     args = _parser(prog).parse_args(argv)
@@ -142,24 +163,13 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
             raise ScenarioError(f"{' and '.join(ignored)} apply to the built-in shapes; files "
                                 "given with --trajectory run as timed, a .traj on its own "
                                 "robot (add --trajectories to run shapes too)")
-    if args.quick:
-        args.layouts = args.layouts or "mecanum"
-        args.trajectories = args.trajectories or "figure8"
-        args.heading = args.heading or "fixed"
-        args.duration = args.duration or 3.0
+    _check_run_numbers(args)
+    if args.quick:  # defaults for what was not given (a given value is kept, checked above)
+        args.layouts = "mecanum" if args.layouts is None else args.layouts
+        args.trajectories = "figure8" if args.trajectories is None else args.trajectories
+        args.heading = "fixed" if args.heading is None else args.heading
+        args.duration = 3.0 if args.duration is None else args.duration
         args.skip = min(args.skip, 1.0)
-    if args.horizon < 1:
-        raise ScenarioError(f"--horizon must be >= 1, got {args.horizon}")
-    if not args.dt > 0:
-        raise ScenarioError(f"--dt must be > 0 [s], got {args.dt}")
-    if args.duration is not None and not args.duration > 0:
-        raise ScenarioError(f"--duration must be > 0 [s], got {args.duration}")
-    if not args.skip >= 0:
-        raise ScenarioError(f"--skip must be >= 0 [s], got {args.skip}")
-    if args.polygon_sides < 4 or args.polygon_sides % 2:
-        raise ScenarioError(
-            f"--polygon-sides must be an even integer >= 4, got {args.polygon_sides}"
-        )
     layouts = choose("layout", args.layouts, PRESETS, DEFAULT_LAYOUTS)
     chosen_robots = robots(layouts, args.robot)
     if args.plant == "motor":  # a motor plant drives robots with motors: the motor presets

@@ -35,6 +35,8 @@ from trajectories import (
 
 #: Named speeds: the reference's peak wheel speed / limit.
 SPEEDS: dict[str, float] = {"inside": 0.8, "beyond": 1.3}
+#: Largest peak ratio a speed may name (a reference 10x beyond the wheel limits).
+MAX_SPEED_RATIO = 10.0
 TRAJECTORIES: tuple[str, ...] = ("circle", "figure8")
 #: Every trajectory the benchmark knows; ``out-and-back`` (2 m out along x, back 0.2 m to
 #: the left: every caster swings round at each end) runs on request.
@@ -108,8 +110,9 @@ def parse_speeds(requested: str | None) -> dict[str, float]:
             raise ScenarioError(
                 f"unknown speed {item!r}; valid: {', '.join(SPEEDS)} or a peak ratio like 1.2"
             ) from None
-        if not math.isfinite(ratio) or ratio <= 0:
-            raise ScenarioError(f"a speed ratio must be a finite number > 0, got {item!r}")
+        if not 0 < ratio <= MAX_SPEED_RATIO:
+            raise ScenarioError(f"--speeds: a peak ratio must be a number > 0 and at most "
+                                f"{MAX_SPEED_RATIO:g}, got {item!r}")
         speeds[f"x{ratio:g}"] = ratio
     if not speeds:
         raise ScenarioError(f"no speeds in {requested!r}")

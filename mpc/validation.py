@@ -119,15 +119,22 @@ def integer_in(name: str, value: object, low: int, high: int,
 def file_text(path: object, what: str, error: type[MpcError] = MpcError) -> str:
     """The UTF-8 text of the file at ``path`` (a byte-order mark allowed), or ``error`` naming
     the file: missing, a folder, larger than :data:`MAX_FILE_BYTES`, or not UTF-8."""
+    from os import PathLike
     from pathlib import Path
 
     try:
-        file = Path(path)  # type: ignore[arg-type]
-        size = file.stat().st_size
-        if size > MAX_FILE_BYTES:
+        if not isinstance(path, (str, PathLike)):
+            raise error(f"{what} file must be a path (str or os.PathLike), got {path!r}")
+        file = Path(path)
+        with file.open("rb") as stream:  # read at most the bound: devices report size 0
+            data = stream.read(MAX_FILE_BYTES + 1)
+        if len(data) > MAX_FILE_BYTES:
+            size = max(file.stat().st_size, len(data))
             raise error(f"{what} file {str(file)!r} is {size} bytes; at most "
                         f"{MAX_FILE_BYTES} are read")
-        return file.read_bytes().decode("utf-8-sig")
+        return data.decode("utf-8-sig")
+    except MpcError:
+        raise
     except UnicodeDecodeError as exc:
         raise error(f"{what} file {str(path)!r} is not UTF-8 text (byte {exc.start})") from None
     except FileNotFoundError:

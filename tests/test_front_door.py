@@ -276,3 +276,24 @@ def test_step_gives_a_safe_command_or_our_error(steps: list[tuple[Any, Any]]) ->
         change = robot.wheel_speeds(command.twist - last)
         assert np.all(np.abs(change) <= accel * DT * (1 + 1e-6))
         last = command.twist
+
+
+def test_inputs_the_second_adversarial_pass_found() -> None:
+    """Found by an independent pass of 692 inputs (2026-11-27): each now gets the project's
+    own error naming the input instead of a foreign one or silence."""
+    from mpc.model.weights import load_weights
+
+    with pytest.raises(RobotError, match="robot file must be a path"):
+        load(None)  # type: ignore[arg-type]
+    with pytest.raises(ControllerError, match="weights file must be a path"):
+        load_weights(123)  # type: ignore[arg-type]
+    if Path("/dev/zero").exists():  # a device reports size 0: the read itself is bounded
+        with pytest.raises(RobotError, match="bytes; at most 67108864 are read"):
+            load("/dev/zero")
+    with pytest.raises(ControllerError, match="'pose' and 'terminal' are all zero"):
+        Controller(preset("mecanum"), Circle(1.0, 10.0),
+                   weights={"pose": 0.0, "twist": 0.0, "rate": 0.0, "terminal": 0.0})
+    control = Controller(preset("mecanum"), Circle(1.0, 10.0))
+    for seed in (-1, 1.5, "a", True):
+        with pytest.raises(SimulationError, match="seed must be None or an integer >= 0"):
+            simulate(control, 1.0, seed=seed)  # type: ignore[arg-type]

@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
-from mpc.validation import is_finite_number
+from mpc.validation import file_text, is_finite_number
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -114,6 +114,9 @@ class Weights:
                 raise ControllerError(f"weight {name!r} must be a finite number >= 0, "
                                       f"got {value!r}")
             object.__setattr__(self, name, float(value))
+        if not (np.any(self.pose > 0.0) or np.any(self.terminal > 0.0)):
+            raise ControllerError("weights 'pose' and 'terminal' are all zero: nothing ties the "
+                                  "plan to the reference; give one of them a positive entry")
         along = self.along_track
         if not is_finite_number(along) or not 0.0 <= along <= 1.0:
             raise ControllerError(f"weight 'along_track' must be a number in [0, 1], "
@@ -149,14 +152,8 @@ def load_weights(path: str | Path) -> Weights:
     :class:`~mpc.errors.ControllerError` naming the file. Pass the result as
     ``Controller(..., weights=load_weights(path))``.
     """
+    text = file_text(path, "weights", ControllerError)
     file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8-sig")
-    except OSError as error:
-        raise ControllerError(f"cannot read weights file {str(file)!r}: {error.strerror}") from None
-    except UnicodeDecodeError as error:
-        raise ControllerError(f"weights file {str(file)!r} is not UTF-8 text: {error.reason} "
-                              f"at byte {error.start}") from None
     try:
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:

@@ -71,8 +71,8 @@ def from_dict(description: Mapping[str, Any], source: str = "robot description")
 
 def load(path: str | Path) -> Robot:
     """Load a robot from a TOML file (see the module docstring for the keys)."""
+    text = file_text(path, "robot", RobotError)
     file = Path(path)
-    text = file_text(file, "robot", RobotError)
     try:
         description = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:

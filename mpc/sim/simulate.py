@@ -89,6 +89,9 @@ def simulate(
         start = finite_vector("initial_pose", initial_pose, 3, "(x, y, theta)", SimulationError)
     true_robot = robot or controller.robot
     kind = MotorPlant if isinstance(config, MotorPlantConfig) else Plant
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
+                             or seed < 0):
+        raise SimulationError(f"seed must be None or an integer >= 0, got {seed!r}")
     sim = kind(true_robot, dt, start, config, np.random.default_rng(seed))
     if initial_steer_angles is not None:
         sim.steer_angles = finite_vector("initial_steer_angles", initial_steer_angles,
