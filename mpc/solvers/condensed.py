@@ -28,7 +28,6 @@ import numpy as np
 
 from mpc.arrays import FloatArray, IntArray
 from mpc.model.tracking import TrackingModel
-from mpc.robots.limits import StageLimits
 from mpc.solvers.qp_structure import QpStructure
 
 
@@ -60,6 +59,9 @@ class Condenser:
                                                       progress.start + progress.size)
         # later[j] = sum over stages k > j of a per-stage quantity: one small matrix product.
         self._after = (np.arange(n + 1)[None, :] > np.arange(n)[:, None]).astype(float)
+        self._before_stage = self._after.T[:, None, :, None].copy()  # (N+1, 1, N, 1): j < k
+        self._states = np.zeros((n + 1, 3, n, 3))  # S, stage by stage (N+1, 3, N, 3)
+        self._turned = np.zeros((n + 1, 2))  # sums of the rollout's steps turned 90 deg
         self._check_structure(structure)
         rows = structure.constraints[3 * (n + 1):, :]
         self.columns: IntArray = (np.r_[self._u, self._s] if self._s is not None
@@ -81,17 +83,6 @@ class Condenser:
         if structure.constraints[3 * (self.horizon + 1):, x].nnz:
             raise RuntimeError("condensing needs inequality rows free of the states")
 
-    def fill_limit_rows(self, limits: StageLimits) -> None:
-        """Write the stage limit rows' coefficients into :attr:`constraints` (their first
-        N m rows): stage ``k``'s rows on ``u_k`` and on ``u_{k-1}``."""
-        n, m = limits.horizon, limits.rows
-        rows = (m * np.arange(n)[:, None, None] + np.arange(m)[None, :, None]
-                + np.zeros(3, dtype=np.intp))  # (N, m, 3)
-        columns = 3 * np.arange(n)[:, None, None] + np.arange(3) + np.zeros((1, m, 1),
-                                                                             dtype=np.intp)
-        self.constraints[rows, columns] = limits.now
-        self.constraints[rows[1:], columns[:-1]] = limits.before[1:]
-
     def scatter(self, p_data: FloatArray) -> None:
         """Write the upper-triangle values of ``P`` into the dense symmetric ``P``."""
         self.dense[self._rows, self._cols] = p_data
@@ -110,18 +101,24 @@ class Condenser:
 
     def state_sensitivities(self, sensitivity: FloatArray,
                             displacement: FloatArray) -> FloatArray:
-        """``S`` as (N+1, 3, 3N): stage ``k``'s pose against every input (Gauss-Newton)."""
+        """``S`` as (N+1, 3, 3N): stage ``k``'s pose against every input (Gauss-Newton).
+
+        Written into one buffer kept between calls (the caller uses it before the next)."""
         n = self.horizon
-        mask = self._after.T[:, :, None, None]  # (N+1, N, 1, 1): input j acts before stage k
-        blocks = np.broadcast_to(sensitivity[None], (n + 1, n, 3, 3)) * mask
+        states = self._states
+        # S[k, :, j, :] = B_j for every input j acting before stage k (j < k).
+        np.multiply(sensitivity.transpose(1, 0, 2)[None], self._before_stage, out=states)
         # The heading row of B_j is (0, 0, dt_j): a heading change of omega_j dt turns the
         # steps of stages j+1 .. k-1, which moves x_k by sum of (-D_y, D_x) of those steps.
-        turned = np.concatenate((np.zeros((1, 2)), np.cumsum(
-            np.stack((-displacement[:, 1], displacement[:, 0]), axis=1), axis=0)))
-        lever = (turned[:, None, :] - turned[None, 1:, :]) * mask[:, :, :, 0]  # (N+1, N, 2)
-        blocks = blocks.copy()
-        blocks[:, :, :2, 2] += lever * sensitivity[None, :, 2, 2, None]
-        return blocks.transpose(0, 2, 1, 3).reshape(n + 1, 3, 3 * n)
+        turned = self._turned
+        np.cumsum(displacement[:, 1], out=turned[1:, 0])
+        np.negative(turned[1:, 0], out=turned[1:, 0])
+        np.cumsum(displacement[:, 0], out=turned[1:, 1])
+        lever = turned[:, :, None] - turned[None, 1:].transpose(0, 2, 1)  # (N+1, 2, N)
+        lever *= self._before_stage[:, :, :, 0]
+        lever *= sensitivity[:, 2, 2]
+        states[:, :2, :, 2] += lever
+        return states.reshape(n + 1, 3, 3 * n)
 
     def hessian(self, states: FloatArray) -> FloatArray:
         """``H`` for the state sensitivities ``S`` (N+1, 3, 3N), from the scattered ``P``."""
