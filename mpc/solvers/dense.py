@@ -6,16 +6,18 @@ condensed onto the inputs (:mod:`.condensed`) and daqp solves it, warm
 started from its own last active set (daqp keeps it between solves).
 
 The QP is posed in the step from the guess with the cost's exact gradient
-there, so the Hessian only shapes the step: it is rebuilt and refactorised
-only when the cost terms or an input sensitivity moved by more than
-:data:`COST_TOLERANCE` / :data:`SENSITIVITY_TOLERANCE` since the last
-build (:mod:`.hessian_reuse`). References whose heading profile is steady need almost no
-factorisations after the first tick.
+there, so the Hessian only shapes the step: a new one is begun only when the
+cost terms or an input sensitivity moved by :data:`REBUILD_EARLY` of
+:data:`COST_TOLERANCE` / :data:`SENSITIVITY_TOLERANCE` since the last build
+(:mod:`.hessian_reuse`), and built over three ticks so that no tick carries a
+whole rebuild. daqp sees the QP in whitened steps (Hessian the identity), so a
+new Hessian costs it new rows, not a refactorisation.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import daqp
 import numpy as np
@@ -32,7 +34,14 @@ from mpc.solvers.condensed import Condenser
 from mpc.solvers.hessian_reuse import COST_TOLERANCE, SENSITIVITY_TOLERANCE, HessianReuse
 from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds
 
-__all__ = ["COST_TOLERANCE", "SENSITIVITY_TOLERANCE", "DenseSolver"]
+__all__ = ["COST_TOLERANCE", "REBUILD_EARLY", "SENSITIVITY_TOLERANCE", "DenseSolver"]
+
+#: A new Hessian is begun once the sensitivities or the rollout's steps moved this
+#: multiple of their tolerance from the one in use; it is built over three ticks (``H``;
+#: its whitening; the switch), so no tick carries a whole rebuild. Cost terms that moved
+#: beyond their tolerance (path mode's contour directions) rebuild at once: a stale
+#: contour weighting slowed the progress.
+REBUILD_EARLY = 1.0
 
 #: daqp's constraint flag for an equality row (active and immutable).
 _EQUALITY = 5
@@ -90,12 +99,15 @@ class DenseSolver:
         # 1.1-1.6x faster on Mecanum and swerve, ticks without one unchanged).
         self._unwhiten = np.eye(self.condenser.size)  # L^{-T}: d = L^{-T} y
         self._whitened_rows = self.condenser.constraints.copy()
+        self._rebuild: Iterator[bool] | None = None  # a Hessian being built, stage by stage
+        self._rows_stale = True  # the whitened rows are not yet of the present L^{-T}
         self.factorisations = 0  # Hessian rebuilds so far (for benchmarks)
         self.profile: TickProfile | None = None  # phase stopwatch, set by the controller
 
     def reset(self) -> None:
         """Forget the active set and the cached factorisation."""
         self._solver = None
+        self._rebuild = None
         self._reuse.forget()
 
     def _bind(self, tick: TickInput) -> tuple[BufferedFunction, BufferedFunction]:
@@ -115,7 +127,7 @@ class DenseSolver:
     def solve(self, tick: TickInput) -> SolveResult:
         """Solve one tick around the guess twists (and progress) in ``tick``."""
         profile = self.profile
-        sensitivity, displacement, rebuild = self._linearise(tick)
+        sensitivity, displacement, (cost_drift, drift) = self._linearise(tick)
         if profile is not None:
             profile.mark("solve: model")
         gradient = self.condenser.gradient(self._q, self._guess, sensitivity, displacement)
@@ -123,13 +135,17 @@ class DenseSolver:
         lower, upper = self._step_bounds(tick)
         if profile is not None:
             profile.mark("solve: condense")
-        hessian = None
-        if self._solver is None or rebuild:
-            hessian = self.condenser.hessian(
-                self.condenser.state_sensitivities(sensitivity, displacement))
-            if profile is not None:
-                profile.mark("solve: hessian")
-        solver = self._update(hessian, gradient, lower, upper, rows_changed)
+        if self._solver is None or cost_drift > 1.0:  # none yet, or the cost moved: now
+            for _ in self._start_rebuild(sensitivity, displacement):  # all of it
+                pass
+            self._rebuild = None
+        elif drift > REBUILD_EARLY and self._rebuild is None:
+            self._start_rebuild(sensitivity, displacement)
+        elif self._rebuild is not None and not next(self._rebuild, False):
+            self._rebuild = None  # the new Hessian took over this tick
+        if profile is not None and self._rows_stale:
+            profile.mark("solve: hessian")
+        solver = self._update(gradient, lower, upper, rows_changed)
         step, _, flag, info = solver.solve()
         step = self._unwhiten @ np.asarray(step, dtype=float)
         if profile is not None:
@@ -140,10 +156,12 @@ class DenseSolver:
             profile.mark("solve: result")
         return result
 
-    def _linearise(self, tick: TickInput) -> tuple[FloatArray, FloatArray, bool]:
+    def _linearise(self, tick: TickInput
+                   ) -> tuple[FloatArray, FloatArray, tuple[float, float]]:
         """Evaluate the cost terms and roll the guess out: the sensitivities ``B_k``, the
-        rollout's planar steps, and whether the Hessian must be rebuilt. Leaves the guess
-        ``zbar`` in ``self._guess``."""
+        rollout's planar steps, and how far the cost terms and these moved from the
+        Hessian's (multiples of the tolerances, :meth:`HessianReuse.drift`). Leaves the
+        guess ``zbar`` in ``self._guess``."""
         evaluate_cost, roll = self._bind(tick)
         evaluate_cost()
         roll()
@@ -155,15 +173,38 @@ class DenseSolver:
             self._isotropic = self.condenser.isotropic()
         displacement = np.subtract(self._rollout[1:, :2], self._rollout[:-1, :2],
                                    out=self._displacement)
-        rebuild = self._reuse.needs_rebuild(self._p_data, sensitivity, displacement,
-                                            p_changed, self._isotropic)
-        if rebuild:
-            self.factorisations += 1
+        drift = self._reuse.drift(self._p_data, sensitivity, displacement, p_changed,
+                                  self._isotropic, REBUILD_EARLY)
         self._guess_poses[:] = self._rollout
         self._guess_twists[:] = tick.guess_twists
         if tick.path is not None and self._guess_progress is not None:
             self._guess_progress[:] = tick.path.guess_progress
-        return sensitivity, displacement, rebuild
+        return sensitivity, displacement, drift
+
+    def _start_rebuild(self, sensitivity: FloatArray,
+                       displacement: FloatArray) -> Iterator[bool]:
+        """Begin a new Hessian from this tick's terms: its first stage runs now; the rest
+        are returned (and kept in ``_rebuild``)."""
+        self.factorisations += 1
+        self._reuse.remember(self._p_data, sensitivity, displacement)
+        rebuild = self._rebuild_stages(sensitivity, displacement)
+        next(rebuild)
+        self._rebuild = rebuild
+        return rebuild
+
+    def _rebuild_stages(self, sensitivity: FloatArray,
+                        displacement: FloatArray) -> Iterator[bool]:
+        """A new Hessian in stages, one a tick (see :data:`REBUILD_EARLY`): ``H`` from
+        this tick's terms; its whitening ``L^{-T}``; then the switch (the rows are
+        whitened anew and daqp gets them with the same tick's gradient, so every QP is
+        posed with one Hessian)."""
+        hessian = self.condenser.hessian(
+            self.condenser.state_sensitivities(sensitivity, displacement))
+        yield True
+        unwhiten = _inverse_factor(hessian)
+        yield True
+        self._unwhiten = unwhiten
+        self._rows_stale = True
 
     def _refill_rows(self, tick: TickInput) -> bool:
         """Refill the limit rows of robots whose limits move (swerve); whether they did."""
@@ -195,20 +236,14 @@ class DenseSolver:
             values[n * m:] = condenser.constraints[n * m:] @ self._guess[condenser.columns]
         return values
 
-    def _update(self, hessian: FloatArray | None, gradient: FloatArray, lower: FloatArray,
-                upper: FloatArray, rows_changed: bool) -> daqp.Model:
+    def _update(self, gradient: FloatArray, lower: FloatArray, upper: FloatArray,
+                rows_changed: bool) -> daqp.Model:
         """Hand daqp what changed, in whitened steps ``y = L' d``: Hessian the identity,
-        rows ``A L^{-T}``, gradient ``L^{-1} g`` (the rows change with a new Hessian)."""
-        if hessian is not None:
-            # LAPACK directly: numpy's and scipy's wrappers cost several times the work
-            factor, info = lapack.dpotrf(hessian, lower=1, clean=1)
-            if info != 0:  # not positive definite (daqp would refuse it too): regularise
-                factor, info = lapack.dpotrf(hessian + 1e-9 * np.trace(hessian)
-                                             * np.eye(hessian.shape[0]), lower=1, clean=1)
-            inverse, info = lapack.dtrtri(factor, lower=1)
-            self._unwhiten = np.ascontiguousarray(inverse.T)
-        if hessian is not None or rows_changed:
+        rows ``A L^{-T}``, gradient ``L^{-1} g``."""
+        new_rows = rows_changed or self._rows_stale
+        if new_rows:
             self._whiten_rows()
+            self._rows_stale = False
         whitened_gradient = self._unwhiten.T @ gradient
         if self._solver is None:
             identity = np.eye(self.condenser.size)
@@ -223,7 +258,7 @@ class DenseSolver:
             return solver
         update: dict[str, FloatArray] = {"f": whitened_gradient, "bupper": upper,
                                          "blower": lower}
-        if hessian is not None or rows_changed:
+        if new_rows:
             update["A"] = self._whitened_rows
         self._solver.update(**update)
         return self._solver
@@ -259,3 +294,15 @@ class DenseSolver:
             twists=tick.guess_twists + input_step, progress=progress,
             solve_time=float(info["solve_time"]) + float(info["setup_time"]),
             iterations=int(info["iterations"]))
+
+
+def _inverse_factor(hessian: FloatArray) -> FloatArray:
+    """``L^{-T}`` for ``H = L L'`` (LAPACK directly: numpy's and scipy's wrappers cost
+    several times the work); a Hessian that is not positive definite (daqp would refuse
+    it too) is regularised first."""
+    factor, info = lapack.dpotrf(hessian, lower=1, clean=1)
+    if info != 0:
+        factor, info = lapack.dpotrf(hessian + 1e-9 * np.trace(hessian)
+                                     * np.eye(hessian.shape[0]), lower=1, clean=1)
+    inverse, info = lapack.dtrtri(factor, lower=1)
+    return np.ascontiguousarray(inverse.T)

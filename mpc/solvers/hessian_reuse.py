@@ -25,7 +25,8 @@ COST_TOLERANCE = 0.5
 
 
 class HessianReuse:
-    """The Hessian a solver last built from, and whether a tick's terms are still close.
+    """The terms the Hessian in use (or being built) came from, and how far a tick's terms
+    have moved from them.
 
     Args:
         p_data: the cost Hessian's entries at set-up (their largest scales
@@ -35,7 +36,7 @@ class HessianReuse:
 
     def __init__(self, p_data: FloatArray, dt: float) -> None:
         self.dt = dt
-        self._cache: _HessianCache | None = None  # what the factorised Hessian was built from
+        self._cache: _HessianCache | None = None  # what the Hessian was built from
         self._p_stale = False  # the scattered cost terms differ from the cached Hessian's
         self._tolerance = SENSITIVITY_TOLERANCE * dt
         self._p_tolerance = COST_TOLERANCE * float(np.abs(p_data).max() or 1.0)
@@ -44,27 +45,31 @@ class HessianReuse:
         """Drop the cache: the next tick rebuilds."""
         self._cache = None
 
-    def needs_rebuild(self, p_data: FloatArray, sensitivity: FloatArray,
-                      displacement: FloatArray, p_changed: bool, isotropic: bool) -> bool:
-        """Whether the Hessian must be rebuilt: the cost terms, a sensitivity or a step of
-        the rollout (times ``dt``, as it enters ``S``) moved by more than the tolerances
-        since the last build (then remember these). Where the cost weighs positions alike
-        in every direction (``isotropic``), a rotation of the whole plan does not count."""
+    def drift(self, p_data: FloatArray, sensitivity: FloatArray, displacement: FloatArray,
+              p_changed: bool, isotropic: bool, enough: float) -> tuple[float, float]:
+        """How far the cost terms, and the sensitivities and the rollout's steps (times
+        ``dt``, as they enter ``S``), moved since the remembered build, each as a multiple
+        of its tolerance (``inf`` with nothing remembered). Where the cost weighs positions
+        alike in every direction (``isotropic``), a rotation of the whole plan does not
+        count (looked at only when the second is above ``enough``)."""
         cache = self._cache
-        if cache is not None:
-            p_moved = (float(np.abs(p_data - cache.p_data).max())
-                       if p_changed or self._p_stale else 0.0)
-            self._p_stale = self._p_stale or p_changed
-            if p_moved <= self._p_tolerance:
-                if cache.close(sensitivity, displacement, self.dt, self._tolerance):
-                    return False
-                if isotropic and cache.close(
-                        *_unrotated(sensitivity, displacement), self.dt, self._tolerance,
-                        turned=True):
-                    return False
+        if cache is None:
+            return math.inf, math.inf
+        p_moved = 0.0
+        if p_changed or self._p_stale:
+            p_moved = float(np.abs(p_data - cache.p_data).max()) / self._p_tolerance
+        self._p_stale = self._p_stale or p_changed
+        moved = cache.moved(sensitivity, displacement, self.dt) / self._tolerance
+        if isotropic and moved > enough:
+            moved = min(moved, cache.moved(*_unrotated(sensitivity, displacement), self.dt,
+                                           turned=True) / self._tolerance)
+        return p_moved, moved
+
+    def remember(self, p_data: FloatArray, sensitivity: FloatArray,
+                 displacement: FloatArray) -> None:
+        """The terms a new build starts from."""
         self._cache = _HessianCache.of(p_data, sensitivity, displacement)
         self._p_stale = False
-        return True
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,13 +89,13 @@ class _HessianCache:
         turned = _unrotated(sensitivity, displacement)
         return cls(p_data.copy(), sensitivity.copy(), displacement.copy(), *turned)
 
-    def close(self, sensitivity: FloatArray, displacement: FloatArray, dt: float,
-              tolerance: float, turned: bool = False) -> bool:
-        """Whether both are within ``tolerance`` of the cached ones (steps times ``dt``)."""
+    def moved(self, sensitivity: FloatArray, displacement: FloatArray, dt: float,
+              turned: bool = False) -> float:
+        """The largest change of a sensitivity or of a step times ``dt`` from the cached."""
         b = self.turned_sensitivity if turned else self.sensitivity
         d = self.turned_displacement if turned else self.displacement
-        return bool(np.abs(sensitivity - b).max() <= tolerance
-                    and np.abs(displacement - d).max() * dt <= tolerance)
+        return max(float(np.abs(sensitivity - b).max()),
+                   float(np.abs(displacement - d).max()) * dt)
 
 
 def _unrotated(sensitivity: FloatArray,
