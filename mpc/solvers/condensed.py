@@ -9,8 +9,8 @@ the heading (``E_k dx = (-D_ky, D_kx, 0) dtheta``). The QP is posed in the step
 
     minimise 1/2 d' H d + g' d,   H = S' P_xx S + (input and progress terms),
 
-with ``g`` the cost's exact gradient at the guess (an O(N) pass of suffix
-sums) and ``S`` the exact state sensitivities,
+with ``g`` the cost's exact gradient at the guess (:func:`tick_terms`) and
+``S`` the exact state sensitivities,
 ``S_kj = B_j + (sum_{m=j+1}^{k-1} E_m) B_j``: the lever arm of a heading
 change on every later step (Gauss-Newton). A plan is a fixed point of the
 iteration iff the exact gradient meets the optimality conditions, so a
@@ -24,11 +24,41 @@ constraint matrix carries over unchanged.
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 
 from mpc.arrays import FloatArray, IntArray
 from mpc.model.tracking import TrackingModel
 from mpc.solvers.qp_structure import QpStructure
+
+
+def tick_terms(model: TrackingModel, cost_terms: ca.Function) -> ca.Function:
+    """One CasADi call for a tick's terms: ``(p, u (3 x N)[, s (N+1)]) -> (P upper-triangle
+    values, the rollout x (3 x N+1), vec B_k (9 x N), the exact gradient in y = (u, s))``.
+
+    The gradient is the cost's along the rollout, ``d/dy J(x(u), u, s; p)``, by
+    CasADi's reverse mode through the exact SE(2) rollout (what :meth:`Condenser.hessian`'s
+    ``S`` linearises): one call instead of the cost terms, the rollout and the suffix sums
+    in NumPy."""
+    variables, parameters = model.layouts
+    p = ca.SX.sym("p", parameters.size)
+    twists = ca.SX.sym("u", 3, model.horizon)
+    poses, sensitivities = model.rollout(parameters.symbol(p, "x0"), twists)
+    z = ca.SX.zeros(variables.size)
+    inputs = [p, twists]
+    for name, value in (("poses", ca.vec(poses)), ("twists", ca.vec(twists))):
+        field = variables[name]
+        z[field.start:field.start + field.size] = value
+    steps = [ca.vec(twists)]
+    if model.path:
+        field = variables["progress"]
+        progress = ca.SX.sym("s", field.size)
+        z[field.start:field.start + field.size] = progress
+        inputs.append(progress)
+        steps.append(progress)
+    gradient = ca.gradient(model.cost(z, p), ca.vertcat(*steps))
+    hessian, _ = cost_terms(p)
+    return ca.Function("tick_terms", inputs, [hessian, poses, sensitivities, gradient])
 
 
 class Condenser:
@@ -138,24 +168,6 @@ class Condenser:
             hessian[n3:, :n3] = us.T
             hessian[n3:, n3:] = dense[self._s, self._s]
         return hessian
-
-    def gradient(self, q: FloatArray, guess: FloatArray, sensitivity: FloatArray,
-                 displacement: FloatArray) -> FloatArray:
-        """The cost's exact gradient in ``y`` at the guess ``zbar`` (the rollout, the guess
-        twists and progress, laid out as ``z``); ``displacement`` (N, 2) the rollout's
-        planar steps ``D_k``."""
-        g = self.dense @ guess + q
-        later = self._after @ g[self._x].reshape(-1, 3)  # (N, 3): sum_{k > j} g_k
-        # A heading change at stage j turns every later step D_m: sum_{m > j} D_m x later_m.
-        lever = displacement[:, 0] * later[:, 1] - displacement[:, 1] * later[:, 0]
-        later[:, 2] += self._after[:, :-1] @ lever
-        gradient = np.empty(self.size)
-        # B_j' later_j for every stage, as a batch of (1, 3) @ (3, 3) products.
-        gradient[:self.n_inputs] = np.matmul(later[:, None, :], sensitivity).ravel()
-        gradient[:self.n_inputs] += g[self._u]
-        if self._s is not None:
-            gradient[self.n_inputs:] = g[self._s]
-        return gradient
 
     def poses(self, rollout: FloatArray, sensitivity: FloatArray, step: FloatArray,
               displacement: FloatArray) -> FloatArray:

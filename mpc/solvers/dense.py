@@ -30,7 +30,7 @@ from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
 from mpc.robots.motor_limits import stage_limits, update_stage_limits
 from mpc.solvers.base import SolveResult
-from mpc.solvers.condensed import Condenser
+from mpc.solvers.condensed import Condenser, tick_terms
 from mpc.solvers.hessian_reuse import COST_TOLERANCE, SENSITIVITY_TOLERANCE, HessianReuse
 from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds
 
@@ -73,23 +73,17 @@ class DenseSolver:
         self.structure = structure
         self.condenser = Condenser(model, structure)
         self._p_data = structure.hessian.data.copy()
-        self._q = np.zeros(model.layouts.variables.size)
-        self._cost_for: TickInput | None = None
-        self._evaluate_cost: BufferedFunction | None = None
+        self._terms = tick_terms(model, structure.cost_terms)
+        self._terms_for: TickInput | None = None
+        self._evaluate: BufferedFunction | None = None
         self._rollout = np.zeros((n + 1, 3))
         self._displacement = np.zeros((n, 2))  # the rollout's planar steps
         self._sensitivity_vec = np.zeros((n, 9))
-        self._roll_for: TickInput | None = None
-        self._roll: BufferedFunction | None = None
+        self._gradient = np.zeros(self.condenser.size)  # the cost's, in y, at the guess
         self._lower, self._upper = structure.lower.copy(), structure.upper.copy()
         self._reuse = HessianReuse(self._p_data, model.dt)
         self._scattered = np.full_like(self._p_data, np.nan)
         self._isotropic = False  # whether the cost weighs positions alike in every direction
-        self._guess = np.zeros(model.layouts.variables.size)  # zbar
-        layout = model.layouts.variables
-        self._guess_poses = layout.view(self._guess, "poses")
-        self._guess_twists = layout.view(self._guess, "twists")
-        self._guess_progress = layout.view(self._guess, "progress") if model.path else None
         self._settings = {"iter_limit": int(max_iter), "time_limit": float(time_limit)}
         self._solver: daqp.Model | None = None
         # daqp gets the problem in whitened steps y = L' d (H = L L'), its Hessian the
@@ -110,15 +104,18 @@ class DenseSolver:
         self._rebuild = None
         self._reuse.forget()
 
-    def _bind(self, tick: TickInput) -> tuple[BufferedFunction, BufferedFunction]:
-        """CasADi buffers that read the tick's vectors in place."""
-        if self._cost_for is not tick or self._evaluate_cost is None or self._roll is None:
-            self._evaluate_cost = BufferedFunction(self.structure.cost_terms, [tick.parameters],
-                                                   [self._p_data, self._q])
-            self._roll = BufferedFunction(self.model.rollout, [tick.pose, tick.guess_twists],
-                                          [self._rollout, self._sensitivity_vec])
-            self._cost_for = tick
-        return self._evaluate_cost, self._roll
+    def _bind(self, tick: TickInput) -> BufferedFunction:
+        """The tick's terms (:func:`~mpc.solvers.condensed.tick_terms`) as a CasADi buffer
+        that reads the tick's vectors in place."""
+        if self._terms_for is not tick or self._evaluate is None:
+            inputs = [tick.parameters, tick.guess_twists]
+            if tick.path is not None:
+                inputs.append(tick.path.guess_progress)
+            self._evaluate = BufferedFunction(
+                self._terms, inputs,
+                [self._p_data, self._rollout, self._sensitivity_vec, self._gradient])
+            self._terms_for = tick
+        return self._evaluate
 
     def _sensitivities(self) -> FloatArray:
         """``B_k`` (N, 3, 3) from the column-major vectors CasADi wrote."""
@@ -130,7 +127,7 @@ class DenseSolver:
         sensitivity, displacement, (cost_drift, drift) = self._linearise(tick)
         if profile is not None:
             profile.mark("solve: model")
-        gradient = self.condenser.gradient(self._q, self._guess, sensitivity, displacement)
+        gradient = self._gradient
         rows_changed = self._refill_rows(tick)
         lower, upper = self._step_bounds(tick)
         if profile is not None:
@@ -158,13 +155,11 @@ class DenseSolver:
 
     def _linearise(self, tick: TickInput
                    ) -> tuple[FloatArray, FloatArray, tuple[float, float]]:
-        """Evaluate the cost terms and roll the guess out: the sensitivities ``B_k``, the
-        rollout's planar steps, and how far the cost terms and these moved from the
-        Hessian's (multiples of the tolerances, :meth:`HessianReuse.drift`). Leaves the
-        guess ``zbar`` in ``self._guess``."""
-        evaluate_cost, roll = self._bind(tick)
-        evaluate_cost()
-        roll()
+        """Evaluate the tick's terms (the cost's, the rollout of the guess and the
+        gradient along it): the sensitivities ``B_k``, the rollout's planar steps, and how
+        far the cost terms and these moved from the Hessian's (multiples of the
+        tolerances, :meth:`HessianReuse.drift`)."""
+        self._bind(tick)()
         sensitivity = self._sensitivities()
         p_changed = not np.array_equal(self._p_data, self._scattered)
         if p_changed:
@@ -175,10 +170,6 @@ class DenseSolver:
                                    out=self._displacement)
         drift = self._reuse.drift(self._p_data, sensitivity, displacement, p_changed,
                                   self._isotropic, REBUILD_EARLY)
-        self._guess_poses[:] = self._rollout
-        self._guess_twists[:] = tick.guess_twists
-        if tick.path is not None and self._guess_progress is not None:
-            self._guess_progress[:] = tick.path.guess_progress
         return sensitivity, displacement, drift
 
     def _start_rebuild(self, sensitivity: FloatArray,
@@ -219,13 +210,13 @@ class DenseSolver:
         fill_inequality_bounds(self.structure, tick, self._lower, self._upper)
         condenser = self.condenser
         first = condenser.first_row
-        at_guess = self._rows_at_guess(tick.guess_twists)
+        at_guess = self._rows_at_guess(tick)
         return self._lower[first:] - at_guess, self._upper[first:] - at_guess
 
-    def _rows_at_guess(self, twists: FloatArray) -> FloatArray:
+    def _rows_at_guess(self, tick: TickInput) -> FloatArray:
         """The inequality rows' values at the guess, the limit rows stage by stage (stage
         0's part on the last command is in its bounds)."""
-        limits, condenser = self.limits, self.condenser
+        limits, condenser, twists = self.limits, self.condenser, tick.guess_twists
         n, m = limits.horizon, limits.rows
         values = np.empty(condenser.constraints.shape[0])
         rows = values[:n * m].reshape(n, m)
@@ -233,7 +224,7 @@ class DenseSolver:
         if n > 1:
             rows[1:] += np.matmul(limits.before[1:], twists[:-1, :, None])[:, :, 0]
         if values.size > n * m:
-            values[n * m:] = condenser.constraints[n * m:] @ self._guess[condenser.columns]
+            values[n * m:] = condenser.constraints[n * m:] @ tick.guess[condenser.columns]
         return values
 
     def _update(self, gradient: FloatArray, lower: FloatArray, upper: FloatArray,
