@@ -96,10 +96,11 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
                              f"(default: {','.join(DEFAULT_HEADINGS)})")
     parser.add_argument("--horizon", type=int, default=20, help="MPC horizon in ticks (20)")
     parser.add_argument("--dt", type=float, default=0.05, help="control tick [s] (0.05)")
-    parser.add_argument("--polygon-sides", type=int, default=16,
-                        help="sides of the polygon standing in for a swerve module's speed "
-                             "disk in the fast paths (even, >= 4; fewer: faster ticks, a "
-                             "little less speed; default 16)")
+    parser.add_argument("--polygon-sides", type=int,
+                        help="fast paths: take each swerve module's speed and acceleration "
+                             "disks as a constant polygon of this many sides (even, >= 4) "
+                             "instead of the default, the disks linearised around each "
+                             "tick's plan")
     parser.add_argument("--duration", type=float,
                         help="simulated seconds per run (default: 2.2 laps at the fastest "
                              "pace the wheels allow + --skip, at least 6 s)")
@@ -142,7 +143,8 @@ def _check_run_numbers(args: argparse.Namespace) -> None:
                             f"({MAX_SIMULATION_TICKS} ticks), got {args.duration}")
     if not (math.isfinite(args.skip) and args.skip >= 0):
         raise ScenarioError(f"--skip must be a finite number >= 0 [s], got {args.skip}")
-    if not 4 <= args.polygon_sides <= MAX_POLYGON_SIDES or args.polygon_sides % 2:
+    if args.polygon_sides is not None and (
+            not 4 <= args.polygon_sides <= MAX_POLYGON_SIDES or args.polygon_sides % 2):
         raise ScenarioError(f"--polygon-sides must be an even integer 4 to "
                             f"{MAX_POLYGON_SIDES}, got {args.polygon_sides}")
     if args.seed < 0:

@@ -169,7 +169,9 @@ class Settings:
 
     horizon: int = 20
     dt: float = 0.05
-    polygon_sides: int = 16  # sides of the polygon standing in for a swerve module's disk
+    #: sides of a constant polygon standing in for a swerve module's disks (None: the
+    #: fast paths' default, the disks linearised around each tick's plan)
+    polygon_sides: int | None = None
 
 
 def controller(name: str, robot: Robot, trajectory: Trajectory,

@@ -285,7 +285,11 @@ def test_reset_with_last_twist_limits_the_first_step_from_it() -> None:
     controller.reset(last_twist=moving)
     command = controller.step(trajectory.sample(0.0).pose, 0.0)
     check_command(robot, command, moving)
-    assert command.clamped
+    # The plan wants the other way: the first step goes as far from `moving` as a wheel's
+    # acceleration limit allows (by the QP's rows or the clamp), no further.
+    assert robot.max_wheel_accel is not None
+    change = robot.wheel_magnitudes(command.twist - moving) / (robot.max_wheel_accel * DT)
+    assert change.max() == pytest.approx(1.0, rel=1e-6)
     controller.reset()
     command = controller.step(trajectory.sample(0.0).pose, 0.0)
     check_command(robot, command, np.zeros(3))

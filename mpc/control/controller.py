@@ -16,7 +16,6 @@ from mpc.control.delay import DelayCompensator
 from mpc.control.fallback import FallbackPolicy
 from mpc.control.measurements import check_pose, check_steer_angles, check_time
 from mpc.control.settings import (
-    DEFAULT_POLYGON_SIDES,
     MODES,
     SOLVERS,
     check_mode,
@@ -34,6 +33,7 @@ from mpc.model.tracking import TrackingModel
 from mpc.model.weights import Weights, make_weights
 from mpc.profiling import TickProfile
 from mpc.robots.base import Robot
+from mpc.robots.limits import DEFAULT_POLYGON_SIDES
 from mpc.robots.motor_step import first_step_feedforward
 from mpc.solvers import SolveResult
 from mpc.validation import MAX_DELAY_TICKS, MAX_HORIZON, finite_vector, integer_in, positive
@@ -83,8 +83,11 @@ class Controller:
             :mod:`mpc.solvers.dense`), ``"osqp"`` (real-time iteration on the sparse QP)
             or ``"ipopt"`` (the exact NLP).
         weights: :class:`~mpc.model.weights.Weights` or a dict of overrides.
-        polygon_sides: QP paths only: sides of the polygon inside a swerve module's
-            speed disk (even, >= 4; default 16); IPOPT uses the exact disk.
+        polygon_sides: QP paths only: take each swerve module's speed and acceleration
+            disks as a constant polygon of this many sides (even, >= 4) instead of the
+            default, a square turned each tick to the planned direction (the disk
+            linearised: exact at a converged plan); casters and modules with an axle
+            offset always take a polygon (default 16 sides). IPOPT uses the exact disk.
         max_iter: solver iterations per tick at most (default 1000 daqp, 500 OSQP,
             100 IPOPT).
         time_limit: solver time per tick at most [s]; 0 for none.

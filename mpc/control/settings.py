@@ -29,8 +29,6 @@ SOLVERS: tuple[str, ...] = ("daqp", "osqp", "ipopt")
 #: Valid ``mode=`` names: track the reference in time, or follow its path.
 MODES: tuple[str, ...] = ("time", "path")
 
-#: Sides of the polygon standing in for a swerve module's speed disk in the QP.
-DEFAULT_POLYGON_SIDES = 16
 
 
 def check_mode(mode: object, time_scaling: object) -> str:
@@ -84,12 +82,14 @@ def make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
             raise ControllerError("polygon_sides applies to the QP paths only; IPOPT uses "
                                   "each swerve module's exact speed disk")
         return NlpSolver(model, max_iter=iterations or 100, time_limit=limit)
-    sides = DEFAULT_POLYGON_SIDES if polygon_sides is None else polygon_sides
-    if not is_integer(sides) or sides < 4 or sides % 2:
-        raise ControllerError(f"polygon_sides must be an even integer >= 4, got {sides!r}")
-    integer_in("polygon_sides", sides, 4, MAX_POLYGON_SIDES, ControllerError)
+    sides = None
+    if polygon_sides is not None:
+        if not is_integer(polygon_sides) or polygon_sides < 4 or polygon_sides % 2:
+            raise ControllerError(
+                f"polygon_sides must be an even integer >= 4, got {polygon_sides!r}")
+        sides = integer_in("polygon_sides", polygon_sides, 4, MAX_POLYGON_SIDES,
+                           ControllerError)
     if name == "daqp":
-        return DenseSolver(model, polygon_sides=int(sides), max_iter=iterations or 1000,
+        return DenseSolver(model, polygon_sides=sides, max_iter=iterations or 1000,
                            time_limit=limit)
-    return QpSolver(model, polygon_sides=int(sides), max_iter=iterations or 500,
-                    time_limit=limit)
+    return QpSolver(model, polygon_sides=sides, max_iter=iterations or 500, time_limit=limit)

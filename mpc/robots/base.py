@@ -40,7 +40,12 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.checks import as_twists, check_holonomic
 from mpc.robots.derating import check_derating, merged_derating, rest_projector
-from mpc.robots.limits import SpeedRows, StageLimits, linear_stage_limits
+from mpc.robots.limits import (
+    DEFAULT_POLYGON_SIDES,
+    SpeedRows,
+    StageLimits,
+    linear_stage_limits,
+)
 from mpc.robots.speed_checks import SpeedLimitChecks
 from mpc.robots.steer_states import SteerStateJoints
 from mpc.validation import MAX_WHEELS
@@ -250,11 +255,15 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         """``(g, lower, upper)`` with ``lower <= g <= upper`` iff ``||W_i twist|| <= bounds[i]``
         for every wheel, exactly (the NLP's constraint)."""
 
-    def stage_limits(self, change_times: FloatArray, polygon_sides: int) -> StageLimits:
+    def stage_limits(self, change_times: FloatArray,
+                     polygon_sides: int | None) -> StageLimits:
         """The QP's limit rows for a plan whose twist ``u_k`` follows ``u_{k-1}`` by
-        ``change_times[k]`` [s] (N,) (see :mod:`mpc.robots.limits`). Default: the constant
-        rows of :meth:`qp_speed_rows` on every twist and every change of twist."""
-        return linear_stage_limits(self.qp_speed_rows(polygon_sides), self.max_wheel_speed,
+        ``change_times[k]`` [s] (N,) (see :mod:`mpc.robots.limits`); ``polygon_sides``
+        for a disk taken as a polygon (None: the robot's default,
+        :data:`~mpc.robots.limits.DEFAULT_POLYGON_SIDES` sides where it has one). Default:
+        the constant rows of :meth:`qp_speed_rows` on every twist and every change."""
+        sides = DEFAULT_POLYGON_SIDES if polygon_sides is None else polygon_sides
+        return linear_stage_limits(self.qp_speed_rows(sides), self.max_wheel_speed,
                                    self.max_wheel_accel, change_times)
 
     def update_stage_limits(self, limits: StageLimits, guess: FloatArray, last: FloatArray,

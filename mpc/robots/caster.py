@@ -253,7 +253,8 @@ class CasterRobot(Robot):
         return velocity[0::2] ** 2 + velocity[1::2] ** 2, np.full(bounds.shape, -np.inf), \
             bounds**2
 
-    def stage_limits(self, change_times: FloatArray, polygon_sides: int) -> StageLimits:
+    def stage_limits(self, change_times: FloatArray,
+                     polygon_sides: int | None) -> StageLimits:
         return caster_limits.stage_limits(self, change_times)
 
     def update_stage_limits(self, limits: StageLimits, guess: FloatArray, last: FloatArray,

@@ -24,6 +24,10 @@ import numpy as np
 
 from mpc.arrays import FloatArray, IntArray
 
+#: Sides of the polygon a QP path takes for a disk limit where it takes one (a swerve
+#: module's with ``polygon_sides`` given or an axle offset, a caster's).
+DEFAULT_POLYGON_SIDES = 16
+
 
 class SpeedRows(NamedTuple):
     """Wheel speed limits as linear rows: ``|rows @ xi| <= scale * max_wheel_speed[wheel]``.

@@ -85,7 +85,8 @@ class MotorStageLimits(StageLimits):
     first_moving: int = 0  # the motor rows from this one on turn with the plan
 
 
-def stage_limits(robot: Robot, change_times: FloatArray, polygon_sides: int) -> StageLimits:
+def stage_limits(robot: Robot, change_times: FloatArray,
+                 polygon_sides: int | None) -> StageLimits:
     """The QP's stage rows: the robot's own (:meth:`Robot.stage_limits`), plus the motor
     rows for a robot with dynamics (module docstring). ``polygon_sides`` goes to the
     robot's own rows; a 2-D traction disk is a :data:`TRACTION_SIDES`-gon."""

@@ -32,13 +32,16 @@ from numpy.typing import ArrayLike
 from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
+from mpc.robots.limits import StageLimits
 from mpc.robots.registry import register
 from mpc.robots.swerve_axle import axle_forward_kinematics, axle_speed_ratio
 from mpc.robots.swerve_limits import (
     STOPPED_MODULE_SPEED,
+    linearised_stage_limits,
     nlp_stage_limits,
     qp_speed_rows,
     steering_fraction,
+    update_linearised,
 )
 from mpc.robots.swerve_states import aimed_angles, module_states, wrap_angle
 from mpc.validation import non_negative, positive
@@ -239,6 +242,23 @@ class SwerveRobot(Robot):
         ``L (omega + betadot) / r`` (0 without an offset)."""
         rates = np.zeros(self.n_wheels) if steer_rates is None else steer_rates
         return self.axle_offset * (float(twist[2]) + rates) / self.wheel_radius
+
+    def stage_limits(self, change_times: FloatArray,
+                     polygon_sides: int | None) -> StageLimits:
+        """Each module's disks linearised around the plan the solver starts from
+        (:func:`~mpc.robots.swerve_limits.linearised_stage_limits`), or with
+        ``polygon_sides`` the constant polygon of :meth:`qp_speed_rows`. Always the
+        polygon with an axle offset, and with a motor model: there the linearised disks'
+        bolder plans took a motor 0.6 % over its current limit on the motor plant (the
+        clamp's motor step holds the wheels at the last command's speeds)."""
+        if polygon_sides is None and not self.axle_offset and self.dynamics is None:
+            return linearised_stage_limits(self, change_times)
+        return super().stage_limits(change_times, polygon_sides)
+
+    def update_stage_limits(self, limits: StageLimits, guess: FloatArray, last: FloatArray,
+                            steer_angles: FloatArray | None) -> None:
+        if not limits.constant:
+            update_linearised(self, limits, guess, last)
 
     def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
         """A regular polygon midway between the ones inscribed in and circumscribed about

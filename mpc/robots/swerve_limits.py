@@ -28,7 +28,7 @@ import numpy.typing as npt
 
 from mpc.arrays import FloatArray
 from mpc.errors import RobotError
-from mpc.robots.limits import SpeedRows
+from mpc.robots.limits import SpeedRows, StageLimits
 from mpc.validation import integer_at_least
 
 if TYPE_CHECKING:
@@ -221,3 +221,90 @@ def qp_speed_rows(robot: SwerveRobot, polygon_sides: int) -> SpeedRows:
         rows = np.concatenate([rows + spin, rows - spin], axis=1)
     wheel = np.repeat(np.arange(robot.n_wheels), rows.shape[1])
     return SpeedRows(rows.reshape(-1, 3), wheel, 0.5 * (1.0 + math.cos(math.pi / sides)))
+
+
+#: Below this module speed (and speed change) [rad/s, per the wheel's limit] the guess gives
+#: no direction to linearise about: the faces keep the last direction they had.
+_DIRECTION_FLOOR = 1e-3
+
+#: The linearised disk: ``FACES`` faces of a circumscribed polygon, ``FACE_SPACING``
+#: between their normals, centred on the planned direction (two-sided rows). One face
+#: alone let the plan use its corners (a square's reach 1.41 R off the planned direction):
+#: 219 mm RMS against IPOPT's 81 on the swerve figure-eight 1.3x beyond; three faces
+#: 81.2 mm (five 80.4 mm, 20 % slower).
+FACES = 3
+FACE_SPACING = math.pi / 8
+
+
+def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> StageLimits:
+    """Each module's speed and acceleration disk as :data:`FACES` faces of a polygon
+    circumscribed about it, turned to the direction the plan the solver starts from gives
+    (:func:`update_linearised`): two-sided rows ``|n_j . v| <= R``.
+
+    The face along the planned direction is the disk's linearisation at the guess (a
+    sequential linear programme of the exact disk: at a fixed point of the real-time
+    iteration the planned module speed meets the disk exactly, not a polygon); the faces
+    beside it keep a step that turns the module close to the disk. Rows a stage:
+    ``FACES n`` speed, then ``FACES n`` acceleration with an acceleration limit; filled
+    along the body x axis until the first tick refills them.
+    """
+    n = robot.n_wheels
+    horizon = len(change_times)
+    accel = robot.max_wheel_accel
+    disks = 2 if accel is not None else 1
+    m = FACES * n * disks
+    bound = np.zeros((horizon, m))
+    bound[:, :FACES * n] = np.repeat(robot.max_wheel_speed, FACES)
+    if accel is not None:
+        bound[:, FACES * n:] = (np.repeat(accel, FACES)[None, :]
+                                * np.asarray(change_times, dtype=float)[:, None])
+    limits = StageLimits(now=np.zeros((horizon, m, 3)), before=np.zeros((horizon, m, 3)),
+                         lower=-bound, upper=bound, constant=False,
+                         change_times=np.array(change_times, dtype=float))
+    limits.memory["angles"] = np.zeros((disks, horizon, n))
+    _fill_faces(robot, limits)
+    return limits
+
+
+def update_linearised(robot: SwerveRobot, limits: StageLimits, guess: FloatArray,
+                      last: FloatArray) -> None:
+    """Turn each disk's faces to the direction of its module's guess velocity (speed
+    rows) and of its guess change of velocity (acceleration rows); where one is too small
+    to give a direction, the faces keep the one they had."""
+    n = robot.n_wheels
+    velocities = (guess @ robot.flat_wheel_blocks.T).reshape(-1, n, 2)  # (N, n, 2)
+    angles = limits.memory["angles"]
+    floor = _DIRECTION_FLOOR * robot.nominal_max_wheel_speed
+    _turn(angles[0], velocities, floor)
+    if angles.shape[0] > 1:
+        changes = np.empty_like(velocities)
+        np.subtract(velocities[0], (robot.flat_wheel_blocks @ last).reshape(n, 2),
+                    out=changes[0])
+        np.subtract(velocities[1:], velocities[:-1], out=changes[1:])
+        _turn(angles[1], changes, floor)
+    _fill_faces(robot, limits)
+
+
+def _turn(angles: FloatArray, vectors: FloatArray, floor: FloatArray) -> None:
+    """The angles of ``vectors`` (N, n, 2) into ``angles`` where they are longer than
+    ``floor`` (n,)."""
+    x, y = vectors[..., 0], vectors[..., 1]
+    np.copyto(angles, np.arctan2(y, x), where=x * x + y * y > floor * floor)
+
+
+def _fill_faces(robot: SwerveRobot, limits: StageLimits) -> None:
+    """The faces' rows from the angles: ``n_j . W_i u`` for each disk (acceleration rows
+    on ``u_k - u_{k-1}``)."""
+    blocks = robot.wheel_blocks  # (n, 2, 3): module i's velocity is blocks[i] @ u
+    n = robot.n_wheels
+    offsets = FACE_SPACING * (np.arange(FACES) - (FACES - 1) / 2)
+    along, across = blocks[None, :, None, 0, :], blocks[None, :, None, 1, :]  # (1, n, 1, 3)
+    for disk, angles in enumerate(limits.memory["angles"]):
+        faces = (angles[:, :, None] + offsets)[..., None]  # (N, n, F, 1)
+        start = FACES * n * disk
+        rows = limits.now[:, start:start + FACES * n].reshape(len(angles), n, FACES, 3)
+        np.multiply(np.cos(faces), along, out=rows)
+        rows += np.sin(faces) * across
+        if disk:
+            np.negative(limits.now[:, start:], out=limits.before[:, start:])
+    limits.changed = True

@@ -64,7 +64,7 @@ class DenseSolver:
 
     name = "daqp"
 
-    def __init__(self, model: TrackingModel, polygon_sides: int = 16, max_iter: int = 1000,
+    def __init__(self, model: TrackingModel, polygon_sides: int | None = None, max_iter: int = 1000,
                  time_limit: float = 0.0) -> None:
         self.model = model
         n = model.horizon

@@ -107,7 +107,7 @@ class QpSolver:
     name = "osqp"
     profile: TickProfile | None = None
 
-    def __init__(self, model: TrackingModel, polygon_sides: int = 16, max_iter: int = 500,
+    def __init__(self, model: TrackingModel, polygon_sides: int | None = None, max_iter: int = 500,
                  time_limit: float = 0.0, tolerance: float = 1e-5,
                  use_extension: bool = True) -> None:
         self.model = model
