@@ -34,7 +34,8 @@ from mpc.solvers.condensed import Condenser, tick_terms
 from mpc.solvers.hessian_reuse import COST_TOLERANCE, SENSITIVITY_TOLERANCE, HessianReuse
 from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds
 
-__all__ = ["COST_TOLERANCE", "REBUILD_EARLY", "SENSITIVITY_TOLERANCE", "DenseSolver"]
+__all__ = ["COST_TOLERANCE", "REBUILD_EARLY", "REBUILD_NOW", "SENSITIVITY_TOLERANCE",
+           "DenseSolver"]
 
 #: A new Hessian is begun once the sensitivities or the rollout's steps moved this
 #: multiple of their tolerance from the one in use; it is built over three ticks (``H``;
@@ -42,6 +43,14 @@ __all__ = ["COST_TOLERANCE", "REBUILD_EARLY", "SENSITIVITY_TOLERANCE", "DenseSol
 #: beyond their tolerance (path mode's contour directions) rebuild at once: a stale
 #: contour weighting slowed the progress.
 REBUILD_EARLY = 1.0
+
+#: Beyond this multiple of their tolerance (the plan moves fast: a turning heading; or the
+#: guess jumped) the Hessian is rebuilt at once: three more ticks on one that far off took
+#: daqp to its iteration limit at N = 100. Measured on the Mecanum figure-eight inside
+#: the limits: at 2, tangent heading 0.035 mm RMS (0.018 rebuilding every tick, 0.065 at
+#: 4) in 0.58x the tick; N = 100 0.18 mm (0.49 at 4; 0.008 rebuilding every tick, 1.5x
+#: the tick).
+REBUILD_NOW = 2.0
 
 #: daqp's constraint flag for an equality row (active and immutable).
 _EQUALITY = 5
@@ -132,7 +141,7 @@ class DenseSolver:
         lower, upper = self._step_bounds(tick)
         if profile is not None:
             profile.mark("solve: condense")
-        if self._solver is None or cost_drift > 1.0:  # none yet, or the cost moved: now
+        if self._solver is None or cost_drift > 1.0 or drift > REBUILD_NOW:  # all now
             for _ in self._start_rebuild(sensitivity, displacement):  # all of it
                 pass
             self._rebuild = None
