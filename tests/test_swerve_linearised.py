@@ -12,7 +12,7 @@ import pytest
 from benchmarks.perf import SPEEDS, reference
 from mpc import Controller
 from mpc.robots import SwerveRobot, preset
-from mpc.robots.swerve_limits import FACE_SPACING, FACES, linearised_stage_limits
+from mpc.robots.swerve_limits import FACE_ANGLES, FACES, linearised_stage_limits
 from mpc.sim import simulate
 
 DT = 0.05
@@ -28,12 +28,12 @@ def test_the_middle_face_is_the_disk_tangent_at_the_guess_and_the_rows_are_two_s
     guess = np.array([[0.6, 0.2, 0.5], [0.5, -0.3, 0.0], [0.0, 0.0, 0.0]])
     last = np.array([0.4, 0.0, 0.1])
     robot.update_stage_limits(limits, guess, last, None)
-    middle = FACES // 2
+    middle = FACE_ANGLES.index(0.0)
     for k in range(2):  # stages whose guess velocity gives a direction
         for i in range(n):
             v = robot.wheel_blocks[i] @ guess[k]
             for j in range(FACES):
-                angle = math.atan2(v[1], v[0]) + FACE_SPACING * (j - middle)
+                angle = math.atan2(v[1], v[0]) + FACE_ANGLES[j]
                 normal = np.array([math.cos(angle), math.sin(angle)])
                 np.testing.assert_allclose(limits.now[k, i * FACES + j],
                                            normal @ robot.wheel_blocks[i], atol=1e-12)

@@ -227,24 +227,28 @@ def qp_speed_rows(robot: SwerveRobot, polygon_sides: int) -> SpeedRows:
 #: no direction to linearise about: the faces keep the last direction they had.
 _DIRECTION_FLOOR = 1e-3
 
-#: The linearised disk: ``FACES`` faces of a circumscribed polygon, ``FACE_SPACING``
-#: between their normals, centred on the planned direction (two-sided rows). One face
-#: alone let the plan use its corners (a square's reach 1.41 R off the planned direction):
-#: 219 mm RMS against IPOPT's 81 on the swerve figure-eight 1.3x beyond; three faces
-#: 81.2 mm (five 80.4 mm, 20 % slower).
-FACES = 3
-FACE_SPACING = math.pi / 8
+#: The linearised disk: faces of a polygon circumscribed about it, their normals at these
+#: angles [rad] from the planned direction (two-sided rows, so each face has its
+#: opposite). The face along the planned direction is the tangent; the two beside it keep
+#: a turning plan within 2 % of the disk near it, the one across within 20 % elsewhere.
+#: Measured on the swerve figure-eight 1.3x beyond: one face alone let the plan use a
+#: square's corners (219 mm RMS against IPOPT's 81); three faces at 0 and +-22.5 deg
+#: without the one across let a path-mode plan drive a module sideways at up to 2.6x its
+#: limit (16 mm from the path against 1.0); these four: 79 mm in time mode (IPOPT 78),
+#: 1.8 mm from the path in path mode (IPOPT 1.0, the 16-gon 0.9).
+FACE_ANGLES = (-math.pi / 8, 0.0, math.pi / 8, math.pi / 2)
+FACES = len(FACE_ANGLES)
 
 
 def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> StageLimits:
-    """Each module's speed and acceleration disk as :data:`FACES` faces of a polygon
-    circumscribed about it, turned to the direction the plan the solver starts from gives
+    """Each module's speed and acceleration disk as faces of a polygon circumscribed about
+    it (:data:`FACE_ANGLES`), turned to the direction the plan the solver starts from gives
     (:func:`update_linearised`): two-sided rows ``|n_j . v| <= R``.
 
     The face along the planned direction is the disk's linearisation at the guess (a
     sequential linear programme of the exact disk: at a fixed point of the real-time
-    iteration the planned module speed meets the disk exactly, not a polygon); the faces
-    beside it keep a step that turns the module close to the disk. Rows a stage:
+    iteration the planned module speed meets the disk exactly, not a polygon); the others
+    keep a step that turns the module close to the disk. Rows a stage:
     ``FACES n`` speed, then ``FACES n`` acceleration with an acceleration limit; filled
     along the body x axis until the first tick refills them.
     """
@@ -297,7 +301,7 @@ def _fill_faces(robot: SwerveRobot, limits: StageLimits) -> None:
     on ``u_k - u_{k-1}``)."""
     blocks = robot.wheel_blocks  # (n, 2, 3): module i's velocity is blocks[i] @ u
     n = robot.n_wheels
-    offsets = FACE_SPACING * (np.arange(FACES) - (FACES - 1) / 2)
+    offsets = np.asarray(FACE_ANGLES)
     along, across = blocks[None, :, None, 0, :], blocks[None, :, None, 1, :]  # (1, n, 1, 3)
     for disk, angles in enumerate(limits.memory["angles"]):
         faces = (angles[:, :, None] + offsets)[..., None]  # (N, n, F, 1)
