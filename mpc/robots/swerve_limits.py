@@ -229,14 +229,15 @@ _DIRECTION_FLOOR = 1e-3
 
 #: The linearised disk: faces of a polygon circumscribed about it, their normals at these
 #: angles [rad] from the planned direction (two-sided rows, so each face has its
-#: opposite). The face along the planned direction is the tangent; the two beside it keep
-#: a turning plan within 2 % of the disk near it, the one across within 20 % elsewhere.
-#: Measured on the swerve figure-eight 1.3x beyond: one face alone let the plan use a
-#: square's corners (219 mm RMS against IPOPT's 81); three faces at 0 and +-22.5 deg
-#: without the one across let a path-mode plan drive a module sideways at up to 2.6x its
-#: limit (16 mm from the path against 1.0); these four: 79 mm in time mode (IPOPT 78),
-#: 1.8 mm from the path in path mode (IPOPT 1.0, the 16-gon 0.9).
-FACE_ANGLES = (-math.pi / 8, 0.0, math.pi / 8, math.pi / 2)
+#: opposite). The face along the planned direction is the tangent; the two 5 deg beside it
+#: leave its corners 0.1 % outside the disk (a fan whose corners reach further draws the
+#: plan to them, a tick at a time); the ones at 45 and 90 deg keep a turning plan within
+#: 8 % of the disk elsewhere. Measured on the benchmark's swerve circle and figure-eight
+#: 1.3x beyond (fixed / tangent heading), RMS position error [mm] against IPOPT's:
+#: these six 236 / 345 / 83 / 35 against 234 / 342 / 81 / 35; three faces at 0 and
+#: +-22.5 deg 428 on the tangent circle (the plan sat at their corners, 2 % outside, and
+#: every command was clamped); the constant 16-gon 238 / 347 / 82 / 38.
+FACE_ANGLES = tuple(math.radians(angle) for angle in (-45.0, -5.0, 0.0, 5.0, 45.0, 90.0))
 FACES = len(FACE_ANGLES)
 
 
