@@ -121,7 +121,7 @@ DATA = Path(__file__).parent / "data"
         (["--robot", "/no/such/robot.toml", "--quick"],
          "robot file '/no/such/robot.toml' does not exist"),
         (["--trajectory-csv", "/no/such/path.csv", "--quick"], "path.csv"),
-        (["report", "/no/such/results.json"], "not found"),
+        (["report", "/no/such/results.json"], "does not exist"),
         (["--horizon", "0"], "--horizon must be 1 to 1000 ticks, got 0"),
         (["--horizon", "1000000"], "--horizon must be 1 to 1000 ticks, got 1000000"),
         (["--polygon-sides", "5"], "--polygon-sides must be an even integer 4 to 256, got 5"),

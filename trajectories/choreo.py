@@ -48,7 +48,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mpc.errors import MpcError
-from mpc.validation import file_text
+from mpc.validation import file_text, parsed
 
 from ._validation import FloatArray
 from .errors import TrajectoryError
@@ -206,10 +206,8 @@ class _File:
 
     def load(self) -> dict[str, Any]:
         text = file_text(self.path, "choreo", TrajectoryError)
-        try:
-            document = json.loads(text)
-        except json.JSONDecodeError as error:
-            raise TrajectoryError(f"choreo file {str(self.path)!r}: not JSON: {error}") from None
+        document = parsed(json.loads, text, f"choreo file {str(self.path)!r}", "JSON",
+                          TrajectoryError)
         if not isinstance(document, dict):
             raise self.error("(top level)", f"expected an object, got {_json(document)}")
         return document
