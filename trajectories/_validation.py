@@ -83,3 +83,10 @@ def point2(name: str, value: Any) -> FloatArray:
         )
     point.flags.writeable = False
     return point
+
+
+def first_overflow(table: FloatArray) -> int | None:
+    """Index of the first piece (axis 0) of a piecewise polynomial's coefficient table with a
+    non-finite coefficient, None if all are finite."""
+    bad = ~np.isfinite(table.reshape(table.shape[0], -1)).all(axis=1)
+    return int(np.flatnonzero(bad)[0]) if bad.any() else None

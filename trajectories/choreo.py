@@ -181,10 +181,13 @@ def read_choreo(path: str | os.PathLike[str], *, max_steer_rate: float = DEFAULT
                              max_wheel_accel=max_wheel_accel, name=name)
     except MpcError as error:  # e.g. modules on one line: not a usable swerve base
         raise file.error("trajectory.config", str(error)) from None
-    return ChoreoTrajectory(table[:, 0], table[:, 1:4], table[:, 4:7], table[:, 7:10],
-                            name=name, config=config, robot=robot,
-                            events=file.events(document.get("events", [])),
-                            module_forces=forces, heading=heading)
+    events = file.events(document.get("events", []))
+    try:
+        return ChoreoTrajectory(table[:, 0], table[:, 1:4], table[:, 4:7], table[:, 7:10],
+                                name=name, config=config, robot=robot, events=events,
+                                module_forces=forces, heading=heading)
+    except TrajectoryError as error:  # samples that overflow or lie beyond the bounds
+        raise file.error("trajectory.samples", str(error)) from None
 
 
 def _json(value: Any) -> str:
