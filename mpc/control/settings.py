@@ -12,6 +12,7 @@ import numpy as np
 
 from mpc.errors import ControllerError
 from mpc.model.tracking import TrackingModel
+from mpc.robots.base import Robot
 from mpc.solvers import DenseSolver, NlpSolver, QpSolver, TrackingSolver
 from mpc.validation import (
     MAX_DENSE_ENTRIES,
@@ -86,12 +87,11 @@ def check_trajectory(trajectory: object) -> None:
             f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}")
 
 
-def check_plan_size(model: TrackingModel, solver: str, polygon_sides: int) -> None:
+def check_plan_size(robot: Robot, horizon: int, solver: str, polygon_sides: int) -> None:
     """The QP paths' plan within :data:`MAX_PLAN_ROWS` limit rows; ``daqp``'s within
     :data:`MAX_DENSE_HORIZON` stages and :data:`MAX_DENSE_ENTRIES` dense entries (its work
     grows as the horizon cubed): each a ControllerError naming the bound and the way out."""
-    horizon = model.horizon
-    per_stage = model.robot.stage_limits(np.ones(1), polygon_sides).now.shape[1]
+    per_stage = robot.stage_limits(np.ones(1), polygon_sides).now.shape[1]
     rows = horizon * per_stage
     if rows > MAX_PLAN_ROWS:
         raise ControllerError(
@@ -130,7 +130,7 @@ def make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
     if not is_integer(sides) or sides < 4 or sides % 2:
         raise ControllerError(f"polygon_sides must be an even integer >= 4, got {sides!r}")
     integer_in("polygon_sides", sides, 4, MAX_POLYGON_SIDES, ControllerError)
-    check_plan_size(model, str(name), int(sides))
+    check_plan_size(model.robot, model.horizon, str(name), int(sides))
     if name == "daqp":
         return DenseSolver(model, polygon_sides=int(sides), max_iter=iterations or 1000,
                            time_limit=limit)
