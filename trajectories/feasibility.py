@@ -12,7 +12,7 @@ from ._validation import FloatArray, positive_number, samples_in, shown
 from .base import Trajectory
 from .errors import TrajectoryError
 
-#: Most times :func:`check_feasibility` samples (a bound of this library: 10^6 twists and
+#: Most times :func:`feasibility` samples (a bound of this library: 10^6 twists and
 #: wheel speeds take a few hundred MB).
 MAX_SAMPLES = 1_000_000
 _AT_REST = 1e-12  # [rad/s] a wheel with limit 0 may turn this fast (rounding)
