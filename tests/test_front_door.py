@@ -301,16 +301,18 @@ def test_inputs_the_second_adversarial_pass_found() -> None:
 
 # Found by the third adversarial pass (2026-11-28) --------------------------------------
 
-OMNI = {"n_wheels": 3, "base_radius": 0.15, "wheel_radius": 0.03, "max_wheel_speed": 31.4,
-        "max_wheel_accel": 60.0}
-MECANUM = {"wheelbase": 0.3, "track": 0.25, "wheel_radius": 0.05, "max_wheel_speed": 20.0,
-           "max_wheel_accel": 40.0}
-SWERVE = {"module_positions": [[0.3, 0.3], [0.3, -0.3], [-0.3, 0.3], [-0.3, -0.3]],
-          "wheel_radius": 0.05, "max_wheel_speed": 30.0, "max_steer_rate": 12.0}
-BALLS = {"positions": [[0.2, 0.0], [-0.1, 0.17], [-0.1, -0.17]], "wheel_radius": 0.05,
-         "max_wheel_speed": 20.0}
-CASTERS = {"positions": [[0.2, 0.2], [0.2, -0.2], [-0.2, 0.2], [-0.2, -0.2]], "offset": 0.02,
-           "wheel_radius": 0.05, "max_wheel_speed": 20.0, "max_steer_rate": 10.0}
+OMNI: dict[str, Any] = {"n_wheels": 3, "base_radius": 0.15, "wheel_radius": 0.03,
+                        "max_wheel_speed": 31.4, "max_wheel_accel": 60.0}
+MECANUM: dict[str, Any] = {"wheelbase": 0.3, "track": 0.25, "wheel_radius": 0.05,
+                           "max_wheel_speed": 20.0, "max_wheel_accel": 40.0}
+SWERVE: dict[str, Any] = {"module_positions": [[0.3, 0.3], [0.3, -0.3], [-0.3, 0.3],
+                                               [-0.3, -0.3]],
+                          "wheel_radius": 0.05, "max_wheel_speed": 30.0, "max_steer_rate": 12.0}
+BALLS: dict[str, Any] = {"positions": [[0.2, 0.0], [-0.1, 0.17], [-0.1, -0.17]],
+                         "wheel_radius": 0.05, "max_wheel_speed": 20.0}
+CASTERS: dict[str, Any] = {"positions": [[0.2, 0.2], [0.2, -0.2], [-0.2, 0.2], [-0.2, -0.2]],
+                           "offset": 0.02, "wheel_radius": 0.05, "max_wheel_speed": 20.0,
+                           "max_steer_rate": 10.0}
 
 
 @pytest.mark.parametrize("factory", ["omni", "mecanum"])
@@ -490,3 +492,21 @@ def test_simulate_names_a_bad_argument(controller: Any, options: dict[str, Any],
         controller = Controller(preset("mecanum"), Circle(0.5, 10.0))
     with pytest.raises(SimulationError, match=rf"^{key} "):
         simulate(controller, 0.5, **options)
+
+
+@pytest.mark.parametrize(("offset", "horizon", "solver", "bound"), [
+    (1e-5, 20, "daqp", "at most 1000 "),  # a caster aligning in 8 us: 244,219 RK4 steps
+    (0.045, 300, "osqp", "at most 1000 "),
+    (0.045, 70, "ipopt", "at most 120 .*for solver=ipopt"),  # ipopt's build grows as N^2
+])
+def test_the_caster_steer_prediction_is_bounded(offset: float, horizon: int, solver: str,
+                                                bound: str) -> None:
+    """The steer-angle prediction is built once in RK4 steps of the casters' fastest time
+    constant: a tiny offset or a long horizon used to build for minutes on the first tick."""
+    from mpc.robots import caster
+
+    robot = caster(**{**CASTERS, "offset": offset, "wheel_radius": 0.088,
+                      "max_wheel_speed": 15.0, "max_steer_rate": 8.0})
+    with pytest.raises(RobotError, match=rf"predicting its steer angles .* RK4 steps .*"
+                                         rf"offset, wheel_radius.*{bound}"):
+        Controller(robot, Circle(0.5, 10.0), horizon=horizon, solver=solver)
