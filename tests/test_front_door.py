@@ -510,3 +510,17 @@ def test_the_caster_steer_prediction_is_bounded(offset: float, horizon: int, sol
     with pytest.raises(RobotError, match=rf"predicting its steer angles .* RK4 steps .*"
                                          rf"offset, wheel_radius.*{bound}"):
         Controller(robot, Circle(0.5, 10.0), horizon=horizon, solver=solver)
+
+
+@pytest.mark.parametrize("reference", [Circle(1e300, 10.0), FigureEight(1e200, 10.0)])
+def test_a_reference_beyond_the_coordinate_bound_falls_back_saying_why(
+        reference: Trajectory) -> None:
+    """Finite but far: 1e300 m used to reach daqp and raise its RuntimeError from step()."""
+    with pytest.raises(TrajectoryError, match=rf"{type(reference).__name__} reference gives a "
+                                              r"position too large \(beyond \+-1e\+09 m"):
+        reference.sample(np.linspace(0.0, 10.0, 11))
+    controller = Controller(preset("mecanum"), reference)
+    command = controller.step([0.0, 0.0, 0.0], 0.0)
+    assert command.status is not Status.SOLVED
+    assert "reference failed" in command.solver_status and "too large" in command.solver_status
+    assert np.all(np.isfinite(command.wheel_speeds))
