@@ -455,6 +455,9 @@ def test_retiming_and_feasibility_samples_are_bounded() -> None:
         time_optimal(Circle(1.0, 10.0), preset("mecanum"), samples=10**9)
     with pytest.raises(TrajectoryError, match="samples must be an integer from 2 to 1000000"):
         feasibility(Circle(1.0, 10.0), preset("mecanum"), samples=10**9)
+    with pytest.raises(TrajectoryError, match=r"^path cannot be retimed: Circle reference gives "
+                                              r"a position too large"):
+        time_optimal(Circle(1e12, 10.0), preset("mecanum"))
 
 
 @pytest.mark.parametrize(("options", "message"), [

@@ -148,7 +148,10 @@ def time_optimal(
     limits = _checked_limits(robot, max_speed, max_heading_rate)
     cells = _checked_samples(samples)
     refine = max(REFINEMENT, -(-MIN_CHECK_POINTS // cells))
-    fine = path_geometry(source, start + span * np.linspace(0.0, 1.0, cells * refine + 1))
+    try:
+        fine = path_geometry(source, start + span * np.linspace(0.0, 1.0, cells * refine + 1))
+    except TrajectoryError as error:  # e.g. a path beyond the coordinate bound
+        raise TrajectoryError(f"path cannot be retimed: {error}") from None
     if float(np.abs(fine.twist).max()) < _STILL_TWIST:
         raise TrajectoryError(
             f"path must move or turn, but its pose is constant for s in [{start!r}, "
