@@ -19,7 +19,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from mpc import Controller
-from mpc.control.settings import DEFAULT_POLYGON_SIDES, check_plan_size
+from mpc.control.settings import check_plan_size
 from mpc.errors import MpcError
 from mpc.model.weights import Weights, tuned_layouts, tuned_weights
 from mpc.robots import PRESETS, Robot, load, preset
@@ -216,12 +216,13 @@ def check_plan_sizes(robots: Mapping[str, Robot], controllers: list[str],
     for name in controllers:
         solver = _MPC[name][0] if name in _MPC else "ipopt"
         for robot in robots.values() if solver != "ipopt" else ():
-            sides = settings.polygon_sides if robot.kind == "swerve" else DEFAULT_POLYGON_SIDES
+            sides = settings.polygon_sides if robot.kind == "swerve" else None
             try:
                 check_plan_size(robot, settings.horizon, solver, sides)
             except MpcError as error:
-                raise ScenarioError(f"--horizon {settings.horizon} (--polygon-sides {sides}): "
-                                    f"{name} on robot {robot.name!r}: {error}") from None
+                flags = "" if sides is None else f" (--polygon-sides {sides})"
+                raise ScenarioError(f"--horizon {settings.horizon}{flags}: {name} on robot "
+                                    f"{robot.name!r}: {error}") from None
 
 
 def is_tuned_preset(robot: Robot) -> bool:

@@ -145,7 +145,7 @@ DATA = Path(__file__).parent / "data"
         (["--dt", "0"], "--dt must be a number > 0 and at most 60 [s], got 0.0"),
         (["--dt", "inf"], "--dt must be a number > 0 and at most 60 [s], got inf"),
         (["--dt", "100"], "--dt must be a number > 0 and at most 60 [s], got 100.0"),
-        (["--horizon", "400", "--quick"], "--horizon 400 (--polygon-sides 16): mpc-daqp on "
+        (["--horizon", "400", "--quick"], "--horizon 400: mpc-daqp on "
                                           "robot 'mecanum': horizon must be at most 300"),
         (["--layouts", "swerve", "--horizon", "250", "--polygon-sides", "256"],
          "--horizon 250 (--polygon-sides 256): mpc-daqp on robot 'swerve': horizon 250 x 1024"),

@@ -87,16 +87,17 @@ def check_trajectory(trajectory: object) -> None:
             f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}")
 
 
-def check_plan_size(robot: Robot, horizon: int, solver: str, polygon_sides: int) -> None:
+def check_plan_size(robot: Robot, horizon: int, solver: str, polygon_sides: int | None) -> None:
     """The QP paths' plan within :data:`MAX_PLAN_ROWS` limit rows; ``daqp``'s within
     :data:`MAX_DENSE_HORIZON` stages and :data:`MAX_DENSE_ENTRIES` dense entries (its work
     grows as the horizon cubed): each a ControllerError naming the bound and the way out."""
-    per_stage = robot.stage_limits(np.ones(1), polygon_sides).now.shape[1]
+    sides = DEFAULT_POLYGON_SIDES if polygon_sides is None else polygon_sides
+    per_stage = robot.stage_limits(np.ones(1), sides).now.shape[1]
     rows = horizon * per_stage
     if rows > MAX_PLAN_ROWS:
         raise ControllerError(
             f"horizon {horizon} x {per_stage} limit rows a stage (polygon_sides "
-            f"{polygon_sides}) is {rows} rows; a QP plan has at most {MAX_PLAN_ROWS} (a bound "
+            f"{sides}) is {rows} rows; a QP plan has at most {MAX_PLAN_ROWS} (a bound "
             "of this library): shorten the horizon or use fewer polygon_sides")
     if solver != "daqp":
         return
@@ -108,7 +109,7 @@ def check_plan_size(robot: Robot, horizon: int, solver: str, polygon_sides: int)
     if rows * 3 * horizon > MAX_DENSE_ENTRIES:
         raise ControllerError(
             f"horizon {horizon} x {per_stage} limit rows a stage (polygon_sides "
-            f"{polygon_sides}) makes a dense QP of {rows * 3 * horizon} entries; "
+            f"{sides}) makes a dense QP of {rows * 3 * horizon} entries; "
             f"solver='daqp' takes at most {MAX_DENSE_ENTRIES} (a bound of this library): "
             "shorten the horizon, use fewer polygon_sides or solver='osqp'")
 
