@@ -51,6 +51,7 @@ from benchmarks.scenarios import (
     ScenarioError,
     Settings,
     applies,
+    check_plan_sizes,
     choose,
     csv_reference,
     parse_speeds,
@@ -59,7 +60,7 @@ from benchmarks.scenarios import (
 from mpc.errors import MpcError
 from mpc.robots import motor_preset
 from mpc.sim import PLANT_PRESETS
-from mpc.validation import MAX_HORIZON, MAX_POLYGON_SIDES, MAX_SIMULATION_TICKS
+from mpc.validation import MAX_HORIZON, MAX_POLYGON_SIDES, MAX_SIMULATION_TICKS, MAX_STEP
 
 
 def add_pool_arguments(parser: argparse.ArgumentParser) -> None:
@@ -135,8 +136,9 @@ def _check_run_numbers(args: argparse.Namespace) -> None:
     """The run's numbers within the library's stated bounds, each error naming its flag."""
     if not 1 <= args.horizon <= MAX_HORIZON:
         raise ScenarioError(f"--horizon must be 1 to {MAX_HORIZON} ticks, got {args.horizon}")
-    if not (math.isfinite(args.dt) and args.dt > 0):
-        raise ScenarioError(f"--dt must be a finite number > 0 [s], got {args.dt}")
+    if not 0 < args.dt <= MAX_STEP:
+        raise ScenarioError(f"--dt must be a number > 0 and at most {MAX_STEP:g} [s], "
+                            f"got {args.dt}")
     longest = MAX_SIMULATION_TICKS * args.dt
     if args.duration is not None and not 0 < args.duration <= longest:
         raise ScenarioError(f"--duration must be > 0 and at most {longest:g} s "
@@ -172,7 +174,7 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
         args.heading = "fixed" if args.heading is None else args.heading
         args.duration = 3.0 if args.duration is None else args.duration
         args.skip = min(args.skip, 1.0)
-    layouts = choose("layout", args.layouts, PRESETS, DEFAULT_LAYOUTS)
+    layouts = choose("--layouts", "layout", args.layouts, PRESETS, DEFAULT_LAYOUTS)
     chosen_robots = robots(layouts, args.robot)
     if args.plant == "motor":  # a motor plant drives robots with motors: the motor presets
         chosen_robots = {name: motor_preset(name) if name in layouts else robot
@@ -182,9 +184,11 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
                 raise ScenarioError(f"--plant motor drives robots through their motor models; "
                                     f"robot {name!r} of --robot {args.robot!r} has none (add a "
                                     "[dynamics] table, or use --plant ideal or realistic)")
-    trajectories = choose("trajectory", args.trajectories, ALL_TRAJECTORIES, TRAJECTORIES)
-    controllers = choose("controller", args.controllers, CONTROLLERS, DEFAULT_CONTROLLERS)
-    headings = choose("heading", args.heading, HEADINGS, DEFAULT_HEADINGS)
+    trajectories = choose("--trajectories", "trajectory", args.trajectories, ALL_TRAJECTORIES,
+                          TRAJECTORIES)
+    controllers = choose("--controllers", "controller", args.controllers, CONTROLLERS,
+                         DEFAULT_CONTROLLERS)
+    headings = choose("--heading", "heading", args.heading, HEADINGS, DEFAULT_HEADINGS)
     speeds = parse_speeds(args.speeds)
     for file in files:
         if file.robot is not None and args.plant == "motor":
@@ -193,6 +197,8 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
                                 "realistic)")
     csv_trajectory = csv_reference(args.trajectory_csv) if args.trajectory_csv else None
     settings = Settings(horizon=args.horizon, dt=args.dt, polygon_sides=args.polygon_sides)
+    check_plan_sizes({**chosen_robots, **{str(file.path): file.robot for file in files
+                                          if file.robot is not None}}, controllers, settings)
     writes = ("results.json", "results.csv", *(() if args.no_report else ("report/index.html",)))
     out = claim(args.out, writes, args.force)
 

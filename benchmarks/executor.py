@@ -263,7 +263,8 @@ class RunPool:
         try:
             self._client = Client(address, timeout=self.timeout, set_as_default=False)
         except (OSError, TimeoutError, ValueError) as error:
-            raise ScenarioError(f"cannot reach the Dask scheduler at {address}: {error}") from None
+            raise ScenarioError(f"--scheduler: cannot reach the Dask scheduler at {address}: "
+                                f"{error}") from None
         envs = self._client.run(_blas_env)
         self.workers = max(1, len(envs))
         for worker, env in sorted(envs.items()):

@@ -288,7 +288,7 @@ def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
     if not (args.ratio > 0 and args.size > 0 and args.laps > 0 and args.skip >= 0):
         raise ScenarioError("--ratio, --size and --laps must be > 0, --skip >= 0")
-    layouts = choose("layout", args.layouts, MOTOR_ROBOT_PRESETS)
+    layouts = choose("--layouts", "layout", args.layouts, MOTOR_ROBOT_PRESETS)
     out = claim(args.out, ("motors-perf.json" if args.perf else "motors.json",), args.force)
     if args.perf:
         if args.ticks < 20 or args.repeats < 1:
@@ -300,8 +300,9 @@ def main(argv: list[str]) -> int:
              "rows": measured}, indent=1))
         print(f"wrote {out / 'motors-perf.json'}")
         return 0
-    trajectories = choose("trajectory", args.trajectories, TRAJECTORIES)
-    controllers = choose("controller", args.controllers, CONTROLLERS, DEFAULT_CONTROLLERS)
+    trajectories = choose("--trajectories", "trajectory", args.trajectories, TRAJECTORIES)
+    controllers = choose("--controllers", "controller", args.controllers, CONTROLLERS,
+                         DEFAULT_CONTROLLERS)
     started = time.perf_counter()
     rows = run(layouts, trajectories, controllers, ratio=args.ratio, size=args.size,
                heading=args.heading, laps=args.laps, skip=args.skip, seed=args.seed,

@@ -540,15 +540,6 @@ def _commit() -> str | None:
     return head + ("+dirty" if dirty else "")
 
 
-def _choose(flag: str, kind: str, requested: str | None, valid: tuple[str, ...] | list[str],
-            default: tuple[str, ...] | list[str] | None = None) -> list[str]:
-    """:func:`~benchmarks.scenarios.choose`, its error naming the flag."""
-    try:
-        return choose(kind, requested, valid, default)
-    except ScenarioError as error:
-        raise ScenarioError(f"{flag}: {error}") from None
-
-
 def _parser() -> Parser:
     parser = Parser(prog="mpc-bench perf", description=__doc__.split("\n")[0])
     parser.add_argument("--sections", help=f"comma list of {', '.join(SECTIONS)} (default: all)")
@@ -581,22 +572,19 @@ def _parser() -> Parser:
 
 def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
-    sections = _choose("--sections", "section", args.sections, SECTIONS)
+    sections = choose("--sections", "section", args.sections, SECTIONS)
     horizons = _integers("--horizons", args.horizons or ("10,20" if args.quick
                                                          else "10,20,50,100"))
     profile_horizons = _integers("--profile-horizons",
                                  args.profile_horizons or str(REFERENCE_HORIZON))
-    solvers = _choose("--solvers", "solver", args.solvers, list(SOLVERS))
-    layouts = _choose("--layouts", "layout", args.layouts or ("mecanum" if args.quick else None),
+    solvers = choose("--solvers", "solver", args.solvers, list(SOLVERS))
+    layouts = choose("--layouts", "layout", args.layouts or ("mecanum" if args.quick else None),
                       PRESETS)
-    modes = _choose("--modes", "mode", args.modes, list(MODES))
-    try:
-        speeds = parse_speeds(args.speeds)
-    except ScenarioError as error:
-        raise ScenarioError(f"--speeds: {error}") from None
-    trajectories = _choose("--trajectories", "trajectory", args.trajectories, TRAJECTORIES,
+    modes = choose("--modes", "mode", args.modes, list(MODES))
+    speeds = parse_speeds(args.speeds)
+    trajectories = choose("--trajectories", "trajectory", args.trajectories, TRAJECTORIES,
                            [REFERENCE_SHAPE])
-    headings = _choose("--headings", "heading", args.headings, HEADINGS, [REFERENCE_HEADING])
+    headings = choose("--headings", "heading", args.headings, HEADINGS, [REFERENCE_HEADING])
     ticks = args.ticks if args.ticks is not None else (40 if args.quick else 400)
     ipopt_ticks = (args.ipopt_ticks if args.ipopt_ticks is not None
                    else (20 if args.quick else 120))

@@ -19,6 +19,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from mpc import Controller
+from mpc.control.settings import check_plan_size
 from mpc.errors import MpcError
 from mpc.model.weights import Weights, tuned_layouts, tuned_weights
 from mpc.robots import PRESETS, Robot, load, preset
@@ -81,16 +82,18 @@ class ScenarioError(MpcError):
     """An unknown name or an unusable file among the benchmark's options."""
 
 
-def choose(kind: str, requested: str | None, valid: tuple[str, ...] | list[str],
+def choose(flag: str, kind: str, requested: str | None, valid: tuple[str, ...] | list[str],
            default: tuple[str, ...] | list[str] | None = None) -> list[str]:
-    """Split a comma list and check each name, or return the default (every valid name)."""
+    """Split a comma list given with ``flag`` and check each name (the error names the flag),
+    or return the default (every valid name)."""
     if requested is None:
         return list(valid if default is None else default)
     names = [name.strip() for name in requested.split(",") if name.strip()]
     unknown = [name for name in names if name not in valid]
     if unknown or not names:
         raise ScenarioError(
-            f"unknown {kind} {', '.join(unknown) or repr(requested)}; valid: {', '.join(valid)}"
+            f"{flag}: unknown {kind} {', '.join(unknown) or repr(requested)}; valid: "
+            f"{', '.join(valid)}"
         )
     return names
 
@@ -108,14 +111,15 @@ def parse_speeds(requested: str | None) -> dict[str, float]:
             ratio = float(item)
         except ValueError:
             raise ScenarioError(
-                f"unknown speed {item!r}; valid: {', '.join(SPEEDS)} or a peak ratio like 1.2"
+                f"--speeds: unknown speed {item!r}; valid: {', '.join(SPEEDS)} or a peak ratio "
+                "like 1.2"
             ) from None
         if not 0 < ratio <= MAX_SPEED_RATIO:
             raise ScenarioError(f"--speeds: a peak ratio must be a number > 0 and at most "
                                 f"{MAX_SPEED_RATIO:g}, got {item!r}")
         speeds[f"x{ratio:g}"] = ratio
     if not speeds:
-        raise ScenarioError(f"no speeds in {requested!r}")
+        raise ScenarioError(f"--speeds: no speeds in {requested!r}")
     return speeds
 
 
@@ -204,6 +208,23 @@ def mpc_controller(name: str, robot: Robot, trajectory: Trajectory, settings: Se
         chosen = tuned_weights(robot.name)
     return Controller(robot, trajectory, settings.horizon, settings.dt, solver=solver,
                       weights=chosen, mode=mode, polygon_sides=sides, delay_ticks=delay_ticks)
+
+
+def check_plan_sizes(robots: Mapping[str, Robot], controllers: list[str],
+                     settings: Settings) -> None:
+    """Every MPC controller's plan on every robot within the library's bounds
+    (:func:`mpc.control.settings.check_plan_size`), before any run; the error names the
+    flags that set it."""
+    for name in controllers:
+        solver = _MPC[name][0] if name in _MPC else "ipopt"
+        for robot in robots.values() if solver != "ipopt" else ():
+            sides = settings.polygon_sides if robot.kind == "swerve" else None
+            try:
+                check_plan_size(robot, settings.horizon, solver, sides)
+            except MpcError as error:
+                flags = "" if sides is None else f" (--polygon-sides {sides})"
+                raise ScenarioError(f"--horizon {settings.horizon}{flags}: {name} on robot "
+                                    f"{robot.name!r}: {error}") from None
 
 
 def is_tuned_preset(robot: Robot) -> bool:

@@ -187,8 +187,8 @@ def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
     if args.runs < 1 or args.horizon < 1 or not args.duration > args.skip >= 0:
         raise ScenarioError("--runs and --horizon must be >= 1, --duration > --skip >= 0")
-    kinds = choose("robot kind", args.kinds, KINDS)
-    controllers = choose("controller", args.controllers, CONTROLLERS)
+    kinds = choose("--kinds", "robot kind", args.kinds, KINDS)
+    controllers = choose("--controllers", "controller", args.controllers, CONTROLLERS)
     specs = sample_cases(args.runs, kinds, controllers, args.seed, not args.no_faults,
                          args.duration, args.skip, Settings(horizon=args.horizon))
     out = claim(args.out, ("sweep.json",), args.force)

@@ -61,6 +61,7 @@ from benchmarks.scenarios import (
     choose,
     parse_speeds,
 )
+from mpc.errors import MpcError
 from mpc.model.weights import Weights
 from mpc.robots import load, preset
 
@@ -129,11 +130,14 @@ class Tuner:
     """The study's runs: one spec per scenario for a parameter set, costs per trial."""
 
     def __init__(self, args: Any, pool: RunPool, log: Any) -> None:
-        robot = load(args.robot) if args.robot.endswith(".toml") else preset(args.robot)
+        try:
+            robot = load(args.robot) if args.robot.endswith(".toml") else preset(args.robot)
+        except MpcError as error:
+            raise ScenarioError(f"--robot: {error}") from None
         self.robot_spec = args.robot if args.robot in PRESETS else describe_robot(robot)
         self.mode, self.args, self.pool = args.mode, args, pool
-        trajectories = choose("trajectory", args.trajectories, TRAJECTORIES)
-        headings = choose("heading", args.heading, HEADINGS, ("fixed", "tangent"))
+        trajectories = choose("--trajectories", "trajectory", args.trajectories, TRAJECTORIES)
+        headings = choose("--heading", "heading", args.heading, HEADINGS, ("fixed", "tangent"))
         self.scenarios = build_scenarios({robot.name: robot}, trajectories,
                                          parse_speeds(args.speeds), headings, None)
         self.trajectories = [{"shape": s.trajectory_name, "heading": s.heading,

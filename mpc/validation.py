@@ -8,12 +8,16 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Callable
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
 from mpc.errors import MpcError
+
+T = TypeVar("T")
 
 
 def is_integer(value: object) -> bool:
@@ -63,13 +67,35 @@ def flag(name: str, value: object, error: type[MpcError] = MpcError) -> bool:
     return bool(value)
 
 
+def has_bool(value: object) -> bool:
+    """Whether ``value`` is a bool or a (nested) list, tuple or array holding one."""
+    if isinstance(value, (bool, np.bool_)):
+        return True
+    if isinstance(value, (list, tuple)):
+        return any(has_bool(item) for item in value)
+    return isinstance(value, np.ndarray) and value.dtype == np.bool_
+
+
+def real_array(name: str, value: object, expected: str,
+               error: type[MpcError] = MpcError) -> FloatArray:
+    """``value`` as a float array (any shape), or ``error`` saying ``name`` must be
+    ``expected`` unless every entry is a real number: booleans, strings (numeric ones too),
+    complex numbers, None and ragged lists are refused, not converted."""
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError, RecursionError):  # ragged, or nested too deeply
+        raw = np.asarray(None)
+    if raw.dtype.kind not in "iuf" or has_bool(value):
+        text = repr(value)
+        shown = text if len(text) <= 80 else text[:77] + "..."
+        raise error(f"{name} must be {expected}, got {shown}")
+    return raw.astype(float)
+
+
 def finite_vector(name: str, value: ArrayLike, length: int, what: str,
                   error: type[MpcError] = MpcError) -> FloatArray:
     """A float array of shape ``(length,)`` with finite entries (``what`` names them)."""
-    try:
-        array = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise error(f"{name} must be {length} numbers {what}, got {value!r}") from None
+    array = real_array(name, value, f"{length} numbers {what}", error)
     if array.shape != (length,):
         raise error(f"{name} must have shape ({length},) as {what}, got shape {array.shape}")
     if not math.isfinite(float(np.abs(array).max(initial=0.0))):
@@ -85,6 +111,15 @@ def finite_vector(name: str, value: ArrayLike, length: int, what: str,
 MAX_WHEELS = 64
 #: Stages in a plan (``horizon``).
 MAX_HORIZON = 1000
+#: Longest tick or plan stage (``dt``, ``stage_dt``) [s]: a minute.
+MAX_STEP = 60.0
+#: Stages in a plan solved by ``solver="daqp"``: its dense QP's first solve grows as the
+#: horizon cubed (about 3.5 s for the swerve preset at 300 stages, 87 s for Mecanum at 1000).
+MAX_DENSE_HORIZON = 300
+#: Entries of ``solver="daqp"``'s dense limit matrix (limit rows x 3 horizon): 256 MiB.
+MAX_DENSE_ENTRIES = 2**25
+#: Limit rows in one plan of a QP path (horizon x rows a stage: wheels, polygon sides).
+MAX_PLAN_ROWS = 2**18
 #: Ticks of known command delay (``delay_ticks``).
 MAX_DELAY_TICKS = 1000
 #: Sides of a swerve module's QP polygon (``polygon_sides``).
@@ -97,6 +132,13 @@ MAX_SIMULATION_TICKS = 5_000_000
 MAX_FILE_BYTES = 64 * 1024 * 1024
 #: Largest coordinate of a pose [m] (and heading [rad]): well past UTM's, far from overflow.
 MAX_COORDINATE = 1e9
+#: Largest size in a robot's geometry [m] (a wheel's distance from the body origin, a base
+#: radius, wheelbase, track, wheel radius or caster offset): far past any vehicle, far from
+#: overflow in the wheel Jacobian.
+MAX_LENGTH = 1e3
+#: Smallest positive size in a robot's geometry [m] (wheel radius, base radius, wheelbase,
+#: track, caster offset): a micrometre.
+MIN_LENGTH = 1e-6
 #: Largest time a controller is stepped at [s] (ROS epoch stamps are about 1.8e9 s; at
 #: 1e10 s a double still resolves 2 us).
 MAX_TIME = 1e10
@@ -114,6 +156,51 @@ def integer_in(name: str, value: object, low: int, high: int,
     if number > high:
         raise error(f"{name} must be at most {high} (a bound of this library), got {value!r}")
     return number
+
+
+def metres(name: str, value: object, error: type[MpcError] = MpcError, *,
+           zero: bool = False) -> float:
+    """``value`` [m] as a float, or ``error`` unless it is a real number in
+    ``[MIN_LENGTH, MAX_LENGTH]`` (or exactly 0 if ``zero``): the message states the bounds."""
+    if is_finite_number(value) and (zero and float(value) == 0.0  # type: ignore[arg-type]
+                                    or MIN_LENGTH <= float(value) <= MAX_LENGTH):  # type: ignore[arg-type]
+        return float(value)  # type: ignore[arg-type]
+    low = "0" if zero else f"{MIN_LENGTH:g}"
+    raise error(f"{name} must be a number of metres in [{low}, {MAX_LENGTH:g}] (bounds of "
+                f"this library), got {value!r}")
+
+
+def bounded(name: str, value: object, bound: float, unit: str,
+            error: type[MpcError] = MpcError) -> float:
+    """``value`` as a float, or ``error`` unless it is a real number within ``+-bound``."""
+    if not is_finite_number(value) or not abs(float(value)) <= bound:  # type: ignore[arg-type]
+        raise error(f"{name} must be a finite number within +-{bound:g} {unit} (a bound of "
+                    f"this library), got {value!r}")
+    return float(value)  # type: ignore[arg-type]
+
+
+def within(name: str, array: FloatArray, bound: float, unit: str,
+           error: type[MpcError] = MpcError) -> FloatArray:
+    """``array`` unless an entry is not finite or beyond ``+-bound`` (then ``error`` naming
+    the first such entry and the bound); the check itself cannot overflow."""
+    bad = ~(np.abs(array) <= bound)  # NaN compares False: caught too
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        where = f"{name}[{', '.join(map(str, index))}]" if index else name
+        raise error(f"{name} must be finite and within +-{bound:g} {unit} (a bound of this "
+                    f"library), got {where}={float(array[index])!r}")
+    return array
+
+
+def body_points(name: str, value: object, what: str,
+                error: type[MpcError] = MpcError) -> FloatArray:
+    """Body-frame points [m] as an (n, 2) float array, n >= 2 (``what`` names them:
+    "modules", "balls"), each coordinate within +-:data:`MAX_LENGTH`, or ``error``."""
+    points = real_array(name, value, "an (n, 2) array of numbers [m]", error)
+    if points.ndim != 2 or points.shape[1] != 2 or points.shape[0] < 2:
+        raise error(f"{name} must have shape (n, 2) with n >= 2 {what}, "
+                    f"got shape {points.shape}")
+    return within(name, points, MAX_LENGTH, "[m]", error)
 
 
 def file_text(path: object, what: str, error: type[MpcError] = MpcError) -> str:
@@ -142,3 +229,15 @@ def file_text(path: object, what: str, error: type[MpcError] = MpcError) -> str:
     except (OSError, TypeError, ValueError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         raise error(f"cannot read {what} file {str(path)!r}: {reason}") from None
+
+
+def parsed(parse: Callable[[str], T], text: str, where: str, language: str,
+           error: type[MpcError] = MpcError) -> T:
+    """``parse(text)`` (``json.loads``, ``tomllib.loads``), or ``error`` naming ``where`` (the
+    file) for a syntax error, arrays nested too deeply or an integer too long to convert."""
+    try:
+        return parse(text)
+    except RecursionError:
+        raise error(f"{where}: not usable {language}: nested too deeply") from None
+    except ValueError as exc:  # JSONDecodeError and TOMLDecodeError are ValueErrors too
+        raise error(f"{where}: not valid {language}: {exc}") from None

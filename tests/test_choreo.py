@@ -294,7 +294,7 @@ def test_the_documented_example_message(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("content", "expected"), [
-    ("{ not json", "not JSON"),
+    ("{ not json", "not valid JSON"),
     ("[1, 2]", "(top level): expected an object"),
     ('{"version": 3, "trajectory": {"sampleType": "Swerve", "samples": [], "config": {}}}',
      "trajectory.config.frontLeft: missing"),

@@ -116,9 +116,9 @@ def test_files_that_are_not_utf8_or_too_large_are_named(tmp_path: Path,
 def test_a_reference_whose_numbers_overflow_is_named_not_sampled_to_nan() -> None:
     with pytest.raises(TrajectoryError, match="Circle reference gives a non-finite"):
         Circle(1e308, 1e-300).sample(1.0)
-    tiny = Waypoints([0.0, 1e-300, 2e-300], [[0, 0, 0], [1, 0, 0], [2, 0, 0]])
-    with pytest.raises(TrajectoryError, match="Waypoints reference gives a non-finite"):
-        tiny.sample(1e-300)
+    with pytest.raises(TrajectoryError, match=r"waypoint times are too close together .* "
+                                              r"overflows double precision near times\[0\]"):
+        Waypoints([0.0, 1e-300, 2e-300], [[0, 0, 0], [1, 0, 0], [2, 0, 0]])
 
 
 class BreaksAt(Trajectory):
@@ -297,3 +297,233 @@ def test_inputs_the_second_adversarial_pass_found() -> None:
     for seed in (-1, 1.5, "a", True):
         with pytest.raises(SimulationError, match="seed must be None or an integer >= 0"):
             simulate(control, 1.0, seed=seed)  # type: ignore[arg-type]
+
+
+# Found by the third adversarial pass (2026-11-28) --------------------------------------
+
+OMNI: dict[str, Any] = {"n_wheels": 3, "base_radius": 0.15, "wheel_radius": 0.03,
+                        "max_wheel_speed": 31.4, "max_wheel_accel": 60.0}
+MECANUM: dict[str, Any] = {"wheelbase": 0.3, "track": 0.25, "wheel_radius": 0.05,
+                           "max_wheel_speed": 20.0, "max_wheel_accel": 40.0}
+SWERVE: dict[str, Any] = {"module_positions": [[0.3, 0.3], [0.3, -0.3], [-0.3, 0.3],
+                                               [-0.3, -0.3]],
+                          "wheel_radius": 0.05, "max_wheel_speed": 30.0, "max_steer_rate": 12.0}
+BALLS: dict[str, Any] = {"positions": [[0.2, 0.0], [-0.1, 0.17], [-0.1, -0.17]],
+                         "wheel_radius": 0.05, "max_wheel_speed": 20.0}
+CASTERS: dict[str, Any] = {"positions": [[0.2, 0.2], [0.2, -0.2], [-0.2, 0.2], [-0.2, -0.2]],
+                           "offset": 0.02, "wheel_radius": 0.05, "max_wheel_speed": 20.0,
+                           "max_steer_rate": 10.0}
+
+
+@pytest.mark.parametrize("factory", ["omni", "mecanum"])
+@pytest.mark.parametrize("key", ["wheel_radius", "max_wheel_speed", "max_wheel_accel"])
+@pytest.mark.parametrize("value", [math.nan, -1.0, 0.0, True, "0.1", [0.1], 1j])
+def test_swedish_factories_name_the_keyword_the_caller_passed(factory: str, key: str,
+                                                              value: Any) -> None:
+    build, base = (omni, OMNI) if factory == "omni" else (mecanum, MECANUM)
+    with pytest.raises(RobotError, match=rf"^{key} must be"):
+        build(**{**base, key: value})
+
+
+@pytest.mark.parametrize(("build", "key", "bound"), [
+    (lambda: omni(**{**OMNI, "base_radius": 1e308}), "base_radius", r"\[1e-06, 1000\]"),
+    (lambda: omni(**{**OMNI, "base_radius": 1e-308}), "base_radius", r"\[1e-06, 1000\]"),
+    (lambda: omni(**{**OMNI, "first_wheel_angle": 1e308}), "first_wheel_angle", r"\+-1e\+09"),
+    (lambda: mecanum(**{**MECANUM, "wheelbase": 1e200}), "wheelbase", r"\[1e-06, 1000\]"),
+    (lambda: mecanum(**{**MECANUM, "track": 1e308}), "track", r"\[1e-06, 1000\]"),
+    (lambda: mecanum(**{**MECANUM, "wheel_radius": 1e-308}), "wheel_radius",
+     r"\[1e-06, 1000\]"),
+    (lambda: swerve(**{**SWERVE, "module_positions": [[1e308, 0], [-1e308, 0], [0, 1e308]]}),
+     r"module_positions", r"\+-1000 \[m\]"),
+    (lambda: from_dict({"type": "spherical", **BALLS, "positions": [[1e308, 0.0]] * 3}),
+     "positions", r"\+-1000 \[m\]"),
+    (lambda: from_dict({"type": "caster", **CASTERS, "offset": 1e-9}), r"offset\[0\]",
+     r"\[1e-06, 1000\]"),
+])
+def test_geometry_that_would_overflow_is_refused_with_its_bound(build: Any, key: str,
+                                                                 bound: str) -> None:
+    """Sizes from 1e200 to 1e308 m (or 1e-308 m) used to come back as 'not holonomic' or a
+    LinAlgError from the SVD; each is now refused by name with the bound it broke."""
+    with pytest.raises(RobotError, match=rf"{key} must be .*{bound}.*bound"):
+        build()
+
+
+@pytest.mark.parametrize(("build", "key"), [
+    (lambda: swerve(**{**SWERVE, "module_positions": [[True, False], [False, True],
+                                                       [True, True]]}), "module_positions"),
+    (lambda: swerve(**{**SWERVE, "module_positions": [["0.3", "0.3"], ["0.3", "-0.3"],
+                                                       ["-0.3", "0"]]}), "module_positions"),
+    (lambda: from_dict({"type": "spherical", **BALLS, "wheel_radius": "0.05"}), "wheel_radius"),
+    (lambda: preset("mecanum").derated([[0.5]]), "derating"),
+    (lambda: preset("mecanum").derated(["1", "1", "1", "0.5"]), "derating"),
+])
+def test_booleans_strings_and_nested_lists_are_not_numbers(build: Any, key: str) -> None:
+    with pytest.raises(RobotError, match=rf"{key} must be"):
+        build()
+
+
+@pytest.mark.parametrize(("pose", "t", "steer", "key"), [
+    (["0", "0", "0"], 0.0, None, "pose"),
+    ([True, False, True], 0.0, None, "pose"),
+    ([0.0, 0.0, 0.0], 0.0, [True] * 4, "steer_angles"),
+    ([0.0, 0.0, 0.0], 0.0, [1e308] * 4, "steer_angles"),
+])
+def test_step_refuses_strings_booleans_and_huge_angles(pose: Any, t: float, steer: Any,
+                                                       key: str) -> None:
+    robot = preset("caster4" if steer is not None else "mecanum")
+    controller = Controller(robot, Circle(0.5, 10.0))
+    with pytest.raises(ControllerError, match=rf"^{key} must be"):
+        controller.step(pose, t, steer_angles=steer)
+
+
+def test_files_nested_too_deeply_or_with_huge_integers_name_the_file(tmp_path: Path) -> None:
+    from mpc.model.weights import load_weights
+    from trajectories import read_choreo
+
+    deep = tmp_path / "deep.toml"
+    deep.write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
+    with pytest.raises(RobotError, match=r"robot file .*deep\.toml': not usable TOML: nested"):
+        load(deep)
+    with pytest.raises(ControllerError, match=r"weights file .*deep\.toml': not usable TOML"):
+        load_weights(deep)
+    nested = tmp_path / "deep.traj"
+    nested.write_text("[" * 100000 + "]" * 100000)
+    with pytest.raises(TrajectoryError, match=r"choreo file .*deep\.traj': not usable JSON"):
+        read_choreo(nested)
+    good = (Path(__file__).parent / "data" / "minimal.traj").read_text()
+    huge = tmp_path / "bigint.traj"
+    huge.write_text(good.replace('"x": 0.25', '"x": 1' + "0" * 5000, 1))
+    with pytest.raises(TrajectoryError, match=r"choreo file .*bigint\.traj': not valid JSON"):
+        read_choreo(huge)
+    far = tmp_path / "far.traj"
+    far.write_text(good.replace('"x": 0.25', '"x": 1e308', 1))
+    with pytest.raises(TrajectoryError, match=r"choreo file .*far\.traj': trajectory\.samples: "
+                                              r"poses must be finite and within \+-1e\+09"):
+        read_choreo(far)
+
+
+def test_a_results_file_that_is_not_utf8_is_named(tmp_path: Path) -> None:
+    from mpc.errors import ReportError
+    from mpc.plot import report
+
+    latin = tmp_path / "results.json"
+    latin.write_bytes(b'{"a": "\xe9"}')
+    with pytest.raises(ReportError, match=r"results file .*results\.json' is not UTF-8"):
+        report(latin, tmp_path / "out")
+
+
+@pytest.mark.parametrize(("body", "message"), [
+    ("t,x,y,theta\n0," + "1" * 200000 + ",0,0\n1,1,1,1\n", r"line 2: unreadable CSV: field"),
+    ("t,x,y,theta\n0,0,0,0\n1,1e308,0,0\n2,-1e308,0,0\n",
+     r"waypoint poses must be finite and within \+-1e\+09"),
+    ("t,x,y,theta\n0,0,0,0\n1e-300,1,0,0\n2e-300,2,0,0\n",
+     r"waypoint times are too close together"),
+])
+def test_waypoint_files_that_overflow_are_refused_naming_the_file(tmp_path: Path, body: str,
+                                                                  message: str) -> None:
+    path = tmp_path / "path.csv"
+    path.write_text(body)
+    with pytest.raises(TrajectoryError, match=rf"^waypoint file .*path\.csv'.*{message}"):
+        Waypoints.from_csv(path)
+
+
+@pytest.mark.parametrize(("times", "poses", "message"), [
+    ([0, 1, 2], [[0, 0, 0], [1e308, 0, 0], [-1e308, 0, 0]],
+     r"waypoint poses must be finite and within \+-1e\+09 .*poses\[1, 0\]=1e\+308"),
+    ([0, 1, 2], [[0, 0, 0], [1e300, 0, 0], [-1e300, 0, 0]], r"waypoint poses must be"),
+    ([False, True], [[0, 0, 0], [1, 0, 0]], r"waypoint times must be"),
+    ([0, 1e11], [[0, 0, 0], [1, 0, 0]], r"waypoint times must be finite and within \+-1e\+10"),
+])
+def test_waypoints_are_checked_at_construction(times: Any, poses: Any, message: str) -> None:
+    with pytest.raises(TrajectoryError, match=message):
+        Waypoints(times, poses)
+
+
+def test_a_heading_function_returning_nan_is_named() -> None:
+    reference = Circle(1.0, 10.0, heading=lambda t: np.full_like(t, math.nan))
+    with pytest.raises(TrajectoryError, match=r"heading function's angle\(t\) returned a "
+                                              r"non-finite value at t = 0\.0 s"):
+        reference.sample(0.0)
+
+
+def test_retiming_and_feasibility_samples_are_bounded() -> None:
+    from trajectories import feasibility, time_optimal
+    from trajectories.retiming import MAX_SAMPLES
+
+    with pytest.raises(TrajectoryError, match=rf"samples must be an integer from 16 to "
+                                              rf"{MAX_SAMPLES}"):
+        time_optimal(Circle(1.0, 10.0), preset("mecanum"), samples=10**9)
+    with pytest.raises(TrajectoryError, match="samples must be an integer from 2 to 1000000"):
+        feasibility(Circle(1.0, 10.0), preset("mecanum"), samples=10**9)
+    with pytest.raises(TrajectoryError, match=r"^path cannot be retimed: Circle reference gives "
+                                              r"a position too large"):
+        time_optimal(Circle(1e12, 10.0), preset("mecanum"))
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    ({"dt": 1e300}, r"dt must be at most 60 s"),
+    ({"stage_dt": 1e300}, r"stage_dt must be at most 60 s"),
+    ({"horizon": 1000}, r"horizon must be at most 300 with solver='daqp'"),
+    ({"horizon": 250, "polygon_sides": 256, "robot": "swerve"},
+     r"horizon 250 x 1024 limit rows a stage \(polygon_sides 256\) makes a dense QP"),
+    ({"horizon": 1000, "polygon_sides": 256, "robot": "swerve", "solver": "osqp"},
+     r"horizon 1000 x 1024 limit rows .* a QP plan has at most 262144"),
+])
+def test_tick_lengths_and_plan_sizes_are_bounded(options: dict[str, Any], message: str) -> None:
+    """dt = 1e300 crashed daqp; horizon 1000 on daqp took 87 s for its first tick."""
+    robot = preset(options.pop("robot", "mecanum"))
+    with pytest.raises(ControllerError, match=message):
+        Controller(robot, Circle(0.5, 10.0), **options)
+
+
+def test_longer_horizons_run_on_the_sparse_paths() -> None:
+    controller = Controller(preset("mecanum"), Circle(0.5, 10.0), horizon=400, solver="osqp")
+    command = controller.step(controller.trajectory.sample(0.0).pose, 0.0)
+    assert command.status is Status.SOLVED
+
+
+@pytest.mark.parametrize(("controller", "options", "key"), [
+    (None, {}, "controller"),
+    ("mecanum", {}, "controller"),
+    ("ok", {"robot": "mecanum"}, "robot"),
+    ("ok", {"robot": preset("omni3")}, "robot"),
+    ("ok", {"on_tick": 5}, "on_tick"),
+])
+def test_simulate_names_a_bad_argument(controller: Any, options: dict[str, Any],
+                                       key: str) -> None:
+    if controller == "ok":
+        controller = Controller(preset("mecanum"), Circle(0.5, 10.0))
+    with pytest.raises(SimulationError, match=rf"^{key} "):
+        simulate(controller, 0.5, **options)
+
+
+@pytest.mark.parametrize(("offset", "horizon", "solver", "bound"), [
+    (1e-5, 20, "daqp", "at most 1000 "),  # a caster aligning in 8 us: 244,219 RK4 steps
+    (0.045, 300, "osqp", "at most 1000 "),
+    (0.045, 70, "ipopt", "at most 120 .*for solver=ipopt"),  # ipopt's build grows as N^2
+])
+def test_the_caster_steer_prediction_is_bounded(offset: float, horizon: int, solver: str,
+                                                bound: str) -> None:
+    """The steer-angle prediction is built once in RK4 steps of the casters' fastest time
+    constant: a tiny offset or a long horizon used to build for minutes on the first tick."""
+    from mpc.robots import caster
+
+    robot = caster(**{**CASTERS, "offset": offset, "wheel_radius": 0.088,
+                      "max_wheel_speed": 15.0, "max_steer_rate": 8.0})
+    with pytest.raises(RobotError, match=rf"predicting its steer angles .* RK4 steps .*"
+                                         rf"offset, wheel_radius.*{bound}"):
+        Controller(robot, Circle(0.5, 10.0), horizon=horizon, solver=solver)
+
+
+@pytest.mark.parametrize("reference", [Circle(1e300, 10.0), FigureEight(1e200, 10.0)])
+def test_a_reference_beyond_the_coordinate_bound_falls_back_saying_why(
+        reference: Trajectory) -> None:
+    """Finite but far: 1e300 m used to reach daqp and raise its RuntimeError from step()."""
+    with pytest.raises(TrajectoryError, match=rf"{type(reference).__name__} reference gives a "
+                                              r"position too large \(beyond \+-1e\+09 m"):
+        reference.sample(np.linspace(0.0, 10.0, 11))
+    controller = Controller(preset("mecanum"), reference)
+    command = controller.step([0.0, 0.0, 0.0], 0.0)
+    assert command.status is not Status.SOLVED
+    assert "reference failed" in command.solver_status and "too large" in command.solver_status
+    assert np.all(np.isfinite(command.wheel_speeds))

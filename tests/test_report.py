@@ -188,7 +188,7 @@ def test_load_results_round_trip(tmp_path: Path) -> None:
 
 
 def test_load_results_errors(tmp_path: Path) -> None:
-    with pytest.raises(ReportError, match="not found"):
+    with pytest.raises(ReportError, match="does not exist"):
         load_results(tmp_path / "missing.json")
     bad = tmp_path / "bad.json"
     bad.write_text("{not json", encoding="utf-8")

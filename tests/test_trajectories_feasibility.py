@@ -156,9 +156,11 @@ class _WrongShapeRobot:
 @pytest.mark.parametrize(
     ("kwargs", "robot", "message"),
     [
-        ({"samples": 1}, FakeMecanum(), r"samples must be an integer >= 2, got 1"),
-        ({"samples": 10.0}, FakeMecanum(), r"samples must be an integer >= 2, got 10.0"),
-        ({"samples": True}, FakeMecanum(), r"samples must be an integer >= 2"),
+        ({"samples": 1}, FakeMecanum(),
+         r"samples must be an integer from 2 to 1000000 \(times checked; .*got 1"),
+        ({"samples": 10.0}, FakeMecanum(),
+         r"samples must be an integer from 2 to 1000000 .*got 10.0"),
+        ({"samples": True}, FakeMecanum(), r"samples must be an integer from 2 to 1000000"),
         ({"duration": -1.0}, FakeMecanum(), r"duration \[s\] must be a finite number > 0"),
         ({"duration": math.nan}, FakeMecanum(), r"duration \[s\] must be a finite number > 0"),
         ({}, _WrongShapeRobot(), r"wheel_speeds must return an array of shape \(2001, n_wheels\)"),

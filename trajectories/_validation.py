@@ -83,3 +83,21 @@ def point2(name: str, value: Any) -> FloatArray:
         )
     point.flags.writeable = False
     return point
+
+
+def first_overflow(table: FloatArray) -> int | None:
+    """Index of the first piece (axis 0) of a piecewise polynomial's coefficient table with a
+    non-finite coefficient, None if all are finite."""
+    bad = ~np.isfinite(table.reshape(table.shape[0], -1)).all(axis=1)
+    return int(np.flatnonzero(bad)[0]) if bad.any() else None
+
+
+def samples_in(value: Any, low: int, high: int, what: str) -> int:
+    """``samples`` as an int in ``[low, high]`` (``high`` a bound of this library, ``what``
+    says what they count), or TrajectoryError."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not (
+        low <= value <= high
+    ):
+        raise TrajectoryError(f"samples must be an integer from {low} to {high} ({what}; the "
+                              f"upper one a bound of this library), got {shown(value)}")
+    return int(value)

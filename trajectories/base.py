@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from mpc.validation import MAX_COORDINATE
+
 from ._validation import FloatArray, as_times
 from .errors import TrajectoryError
 from .heading import HeadingProfile, HeadingSpec, make_heading
@@ -157,6 +159,12 @@ class Trajectory(abc.ABC):
         # numbers overflow (extreme sizes, waypoints 1e-300 s apart) fails here, named.
         if not math.isfinite(float(pose.sum() + velocity.sum() + acceleration.sum())):
             self._not_finite(times, pose, velocity, acceleration)
+        if not float(np.abs(pose[..., :2]).max(initial=0.0)) <= MAX_COORDINATE:
+            far = np.abs(pose[..., :2]).max(axis=-1) > MAX_COORDINATE
+            where = float(np.broadcast_to(times, far.shape)[far].flat[0])
+            raise TrajectoryError(
+                f"{type(self).__name__} reference gives a position too large (beyond "
+                f"+-{MAX_COORDINATE:g} m, a bound of this library) at t = {where!r} s")
         return TrajectorySample(pose, velocity, acceleration)
 
     def _not_finite(self, times: FloatArray, *arrays: FloatArray) -> None:

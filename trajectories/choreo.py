@@ -48,7 +48,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mpc.errors import MpcError
-from mpc.validation import file_text
+from mpc.validation import file_text, parsed
 
 from ._validation import FloatArray
 from .errors import TrajectoryError
@@ -181,10 +181,13 @@ def read_choreo(path: str | os.PathLike[str], *, max_steer_rate: float = DEFAULT
                              max_wheel_accel=max_wheel_accel, name=name)
     except MpcError as error:  # e.g. modules on one line: not a usable swerve base
         raise file.error("trajectory.config", str(error)) from None
-    return ChoreoTrajectory(table[:, 0], table[:, 1:4], table[:, 4:7], table[:, 7:10],
-                            name=name, config=config, robot=robot,
-                            events=file.events(document.get("events", [])),
-                            module_forces=forces, heading=heading)
+    events = file.events(document.get("events", []))
+    try:
+        return ChoreoTrajectory(table[:, 0], table[:, 1:4], table[:, 4:7], table[:, 7:10],
+                                name=name, config=config, robot=robot, events=events,
+                                module_forces=forces, heading=heading)
+    except TrajectoryError as error:  # samples that overflow or lie beyond the bounds
+        raise file.error("trajectory.samples", str(error)) from None
 
 
 def _json(value: Any) -> str:
@@ -206,10 +209,8 @@ class _File:
 
     def load(self) -> dict[str, Any]:
         text = file_text(self.path, "choreo", TrajectoryError)
-        try:
-            document = json.loads(text)
-        except json.JSONDecodeError as error:
-            raise TrajectoryError(f"choreo file {str(self.path)!r}: not JSON: {error}") from None
+        document = parsed(json.loads, text, f"choreo file {str(self.path)!r}", "JSON",
+                          TrajectoryError)
         if not isinstance(document, dict):
             raise self.error("(top level)", f"expected an object, got {_json(document)}")
         return document

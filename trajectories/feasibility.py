@@ -8,10 +8,13 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import FloatArray, positive_number, shown
+from ._validation import FloatArray, positive_number, samples_in, shown
 from .base import Trajectory
 from .errors import TrajectoryError
 
+#: Most times :func:`feasibility` samples (a bound of this library: 10^6 twists and
+#: wheel speeds take a few hundred MB).
+MAX_SAMPLES = 1_000_000
 _AT_REST = 1e-12  # [rad/s] a wheel with limit 0 may turn this fast (rounding)
 
 
@@ -82,10 +85,9 @@ def feasibility(
             )
     else:
         duration = positive_number("duration [s]", duration)
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 2:
-        raise TrajectoryError(f"samples must be an integer >= 2, got {shown(samples)}")
+    count = samples_in(samples, 2, MAX_SAMPLES, "times checked")
 
-    times = trajectory.start_time + np.linspace(0.0, duration, int(samples))
+    times = trajectory.start_time + np.linspace(0.0, duration, count)
     twists = trajectory.body_twist(times)
     speeds = np.asarray(robot.wheel_speeds(twists), dtype=np.float64)
     if speeds.ndim != 2 or speeds.shape[0] != times.size:

@@ -20,6 +20,8 @@ from typing import NamedTuple, TypeAlias
 import numpy as np
 import numpy.typing as npt
 
+from mpc.validation import real_array
+
 from ._validation import FloatArray, finite_number, is_real_scalar, shown
 from .errors import TrajectoryError
 from .path import PathDerivatives, TimedPath
@@ -148,16 +150,21 @@ class FunctionHeading(HeadingProfile):
 
 
 def _call(function: Callable[[FloatArray], npt.ArrayLike], t: FloatArray, name: str) -> FloatArray:
-    values = np.asarray(function(t), dtype=np.float64)
-    if values.shape == t.shape:
-        return values
-    try:
-        return np.broadcast_to(values, t.shape)
-    except ValueError as error:
-        raise TrajectoryError(
-            f"FunctionHeading {name}(t) must return an array of the shape of t {t.shape}, "
-            f"got shape {values.shape}"
-        ) from error
+    values = real_array(f"the heading function's {name}(t)", function(t),
+                        "real numbers [rad, rad/s or rad/s^2]", TrajectoryError)
+    if values.shape != t.shape:
+        try:
+            values = np.broadcast_to(values, t.shape)
+        except ValueError as error:
+            raise TrajectoryError(
+                f"FunctionHeading {name}(t) must return an array of the shape of t {t.shape}, "
+                f"got shape {values.shape}"
+            ) from error
+    if not np.isfinite(values).all():
+        where = float(np.broadcast_to(t, values.shape)[~np.isfinite(values)][0])
+        raise TrajectoryError(f"the heading function's {name}(t) returned a non-finite value "
+                              f"at t = {where!r} s")
+    return values
 
 
 @dataclass(frozen=True)

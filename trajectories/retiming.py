@@ -48,7 +48,7 @@ from typing import Any, Protocol
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import positive_number, shown
+from ._validation import positive_number, samples_in, shown
 from .base import Trajectory
 from .errors import TrajectoryError
 from .retiming_problem import (
@@ -79,6 +79,9 @@ __all__ = [
 MIN_SAMPLES = 16
 #: Grid cells along the path unless asked otherwise.
 DEFAULT_SAMPLES = 1000
+#: Most grid cells :func:`time_optimal` takes: a solve of about 5 s (16 points a cell are
+#: checked, so a billion would allocate over 100 GiB).
+MAX_SAMPLES = 20_000
 #: The limits are checked on a grid this many times finer than the solve grid.
 REFINEMENT = 16
 #: ... and has at least this many points per lap.
@@ -145,7 +148,10 @@ def time_optimal(
     limits = _checked_limits(robot, max_speed, max_heading_rate)
     cells = _checked_samples(samples)
     refine = max(REFINEMENT, -(-MIN_CHECK_POINTS // cells))
-    fine = path_geometry(source, start + span * np.linspace(0.0, 1.0, cells * refine + 1))
+    try:
+        fine = path_geometry(source, start + span * np.linspace(0.0, 1.0, cells * refine + 1))
+    except TrajectoryError as error:  # e.g. a path beyond the coordinate bound
+        raise TrajectoryError(f"path cannot be retimed: {error}") from None
     if float(np.abs(fine.twist).max()) < _STILL_TWIST:
         raise TrajectoryError(
             f"path must move or turn, but its pose is constant for s in [{start!r}, "
@@ -203,14 +209,7 @@ def _checked_path(path: Any, periodic: Any) -> tuple[Trajectory, bool, float, fl
 
 
 def _checked_samples(samples: Any) -> int:
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or (
-        samples < MIN_SAMPLES
-    ):
-        raise TrajectoryError(
-            f"samples must be an integer >= {MIN_SAMPLES} (grid cells along the path), "
-            f"got {shown(samples)}"
-        )
-    return int(samples)
+    return samples_in(samples, MIN_SAMPLES, MAX_SAMPLES, "grid cells along the path")
 
 
 def _checked_limits(robot: Any, max_speed: Any, max_heading_rate: Any) -> Limits:

@@ -22,7 +22,9 @@ import numpy as np
 import numpy.typing as npt
 from scipy.interpolate import BPoly, PPoly
 
-from ._validation import FloatArray, shown
+from mpc.validation import MAX_COORDINATE, MAX_TIME, real_array, within
+
+from ._validation import FloatArray, first_overflow, shown
 from .base import Trajectory
 from .errors import TrajectoryError
 from .heading import HeadingDerivatives, HeadingProfile, HeadingSpec
@@ -44,6 +46,10 @@ class _Pieces:
         self._count, self._width = count, width
         self._starts, self._interior = breaks[:-1], breaks[1:-1]
         self._table = table.reshape(pieces, count, 4 * width)
+
+    def first_overflow(self) -> int | None:
+        """Index of the first piece with a non-finite coefficient, None if all are finite."""
+        return first_overflow(self._table)
 
     def evaluate(self, t: FloatArray) -> FloatArray:
         """Values and derivatives 0..3 at times t: shape t.shape + (4, m) (Horner's rule)."""
@@ -91,20 +97,27 @@ class SampledTrajectory(Trajectory):
     def __init__(self, times: npt.ArrayLike, poses: npt.ArrayLike, velocities: npt.ArrayLike,
                  accelerations: npt.ArrayLike | None = None,
                  heading: HeadingSpec | None = None) -> None:
-        t = _array("times", times, None)
+        t = within("times", _array("times", times, None), MAX_TIME, "[s]", TrajectoryError)
         if t.ndim != 1 or t.size < 2 or not (np.diff(t) > 0.0).all():
             raise TrajectoryError(f"times must be 1-D, at least 2, strictly increasing [s], "
                                   f"got {shown(t)}")
         arrays = [_array(name, value, (t.size, 3)) for name, value in
                   (("poses", poses), ("velocities", velocities), ("accelerations",
                    accelerations)) if value is not None]
+        within("poses", arrays[0], MAX_COORDINATE, "(m, m, rad)", TrajectoryError)
         arrays[0][:, 2] = _unwrapped(t, arrays[0][:, 2], arrays[1][:, 2])
         for array in arrays:
             array.flags.writeable = False
         t.flags.writeable = False
         self._times, self._samples = t, tuple(arrays)
-        self._pieces = _Pieces(PPoly.from_bernstein_basis(
-            BPoly.from_derivatives(t, np.stack(arrays, axis=1))))
+        with np.errstate(all="ignore"):  # overflow is checked below
+            self._pieces = _Pieces(PPoly.from_bernstein_basis(
+                BPoly.from_derivatives(t, np.stack(arrays, axis=1))))
+        bad = self._pieces.first_overflow()
+        if bad is not None:
+            raise TrajectoryError(
+                "sample times are too close together for the motion between them: the "
+                f"polynomial overflows double precision near times[{bad}]={float(t[bad])!r}")
         super().__init__(_SampledHeading(self._pieces) if heading is None else heading)
 
     @property
@@ -145,10 +158,7 @@ class SampledTrajectory(Trajectory):
 
 
 def _array(name: str, value: npt.ArrayLike, shape: tuple[int, int] | None) -> FloatArray:
-    try:
-        array = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TrajectoryError(f"{name} must be an array of numbers, got {shown(value)}") from None
+    array = real_array(name, value, "an array of numbers", TrajectoryError)
     if shape is not None and array.shape != shape:
         raise TrajectoryError(f"{name} must have shape {shape}, got {array.shape}")
     if not np.isfinite(array).all():

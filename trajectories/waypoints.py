@@ -8,14 +8,15 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from scipy.interpolate import CubicSpline
 
-from mpc.validation import file_text
+from mpc.validation import MAX_COORDINATE, MAX_TIME, file_text, real_array, within
 
-from ._validation import FloatArray, shown
+from ._validation import FloatArray, first_overflow
 from .base import Trajectory
 from .errors import TrajectoryError
 from .heading import HeadingDerivatives, HeadingProfile, HeadingSpec
@@ -47,6 +48,10 @@ class _CubicPieces:
         self._starts = breaks[:-1]
         self._interior = breaks[1:-1]
         self._powers = powers.reshape(pieces, 4, 4 * width)
+
+    def first_overflow(self) -> int | None:
+        """Index of the first piece with a non-finite coefficient, None if all are finite."""
+        return first_overflow(self._powers)
 
     def evaluate(self, t: FloatArray) -> FloatArray:
         """Values and derivatives 0..3 at times t: shape t.shape + (4, m).
@@ -109,15 +114,11 @@ class Waypoints(Trajectory):
         self._times = _validated_times(times)
         count = self._times.size
         self._poses = _validated_poses(poses, count)
-        self._path_pieces = _CubicPieces(
-            CubicSpline(self._times, self._poses[:, :2], bc_type="clamped", axis=0)
-        )
+        self._path_pieces = _spline(self._times, self._poses[:, :2])
         profile: HeadingSpec
         if heading is None:
             theta = np.unwrap(self._poses[:, 2])[:, np.newaxis]
-            profile = _WaypointThetaHeading(
-                _CubicPieces(CubicSpline(self._times, theta, bc_type="clamped", axis=0))
-            )
+            profile = _WaypointThetaHeading(_spline(self._times, theta))
         else:
             profile = heading
         super().__init__(profile)
@@ -133,7 +134,10 @@ class Waypoints(Trajectory):
         (default 0). Units: s, m, m, rad. Blank lines are skipped.
         """
         times, poses = read_waypoint_csv(path)
-        return cls(times, poses, heading=heading)
+        try:
+            return cls(times, poses, heading=heading)
+        except TrajectoryError as error:
+            raise TrajectoryError(f"waypoint file {str(Path(path))!r}: {error}") from None
 
     def to_csv(self, path: str | os.PathLike[str]) -> None:
         """Write the waypoints as CSV with header t,x,y,theta (floats round-trip exactly)."""
@@ -180,22 +184,32 @@ class Waypoints(Trajectory):
         )
 
 
-def _validated_times(times: npt.ArrayLike) -> FloatArray:
+def _spline(times: FloatArray, values: FloatArray) -> _CubicPieces:
+    """The clamped cubic spline through ``values`` at ``times`` (axis 0), or TrajectoryError
+    naming the first interval whose polynomial overflows (waypoints too close in time for
+    the distance between them)."""
     try:
-        values = np.array(times, dtype=np.float64)
-    except (TypeError, ValueError) as error:
+        with np.errstate(all="ignore"):  # overflow is checked below
+            pieces: _CubicPieces | None = _CubicPieces(
+                CubicSpline(times, values, bc_type="clamped", axis=0))
+    except ValueError:  # SciPy refuses slopes that overflow
+        pieces = None
+    bad = 0 if pieces is None else pieces.first_overflow()
+    if bad is not None:
         raise TrajectoryError(
-            f"waypoint times must be a 1-D array of finite numbers [s], got {shown(times)}"
-        ) from error
+            "waypoint times are too close together for the distance between their poses: "
+            f"the spline overflows double precision near times[{bad}]={float(times[bad])!r}")
+    return pieces  # type: ignore[return-value]
+
+
+def _validated_times(times: npt.ArrayLike) -> FloatArray:
+    values = real_array("waypoint times", times, "a 1-D array of finite numbers [s]",
+                        TrajectoryError)
     if values.ndim != 1 or values.size < 2:
         raise TrajectoryError(
             f"waypoint times must be a 1-D array of at least 2 times [s], got shape {values.shape}"
         )
-    if not np.isfinite(values).all():
-        bad = int(np.flatnonzero(~np.isfinite(values))[0])
-        raise TrajectoryError(
-            f"waypoint times must be finite [s], got times[{bad}]={float(values[bad])!r}"
-        )
+    within("waypoint times", values, MAX_TIME, "[s]", TrajectoryError)
     steps = np.diff(values)
     if not (steps > 0.0).all():
         k = int(np.flatnonzero(steps <= 0.0)[0]) + 1
@@ -208,22 +222,14 @@ def _validated_times(times: npt.ArrayLike) -> FloatArray:
 
 
 def _validated_poses(poses: npt.ArrayLike, count: int) -> FloatArray:
-    try:
-        values = np.array(poses, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise TrajectoryError(
-            f"waypoint poses must be an array of shape ({count}, 3) (x, y, theta), "
-            f"got {shown(poses)}"
-        ) from error
+    values = real_array("waypoint poses", poses, f"an array of shape ({count}, 3) (x, y, theta)",
+                        TrajectoryError)
     if values.shape != (count, 3):
         raise TrajectoryError(
             f"waypoint poses must have shape ({count}, 3) (x, y, theta) to match {count} "
             f"times, got shape {values.shape}"
         )
-    if not np.isfinite(values).all():
-        row, column = (int(i) for i in np.argwhere(~np.isfinite(values))[0])
-        bad = float(values[row, column])
-        raise TrajectoryError(f"waypoint poses must be finite, got poses[{row}, {column}]={bad!r}")
+    within("waypoint poses", values, MAX_COORDINATE, "(m, m, rad)", TrajectoryError)
     values.flags.writeable = False
     return values
 
@@ -239,6 +245,15 @@ def read_waypoint_csv(path: str | os.PathLike[str]) -> tuple[FloatArray, FloatAr
     file = Path(path)
     text = file_text(file, "waypoint", TrajectoryError)
     reader = csv.reader(io.StringIO(text))
+    try:
+        return _parse_waypoints(file, reader)
+    except csv.Error as error:  # e.g. a field over the csv module's size limit
+        raise TrajectoryError(f"waypoint file {str(file)!r}, line {reader.line_num}: "
+                              f"unreadable CSV: {error}") from None
+
+
+def _parse_waypoints(file: Path, reader: Any) -> tuple[FloatArray, FloatArray]:
+    """Times and poses from the rows of a waypoint CSV (see :func:`read_waypoint_csv`)."""
     header: list[str] | None = None
     for row in reader:
         if any(field.strip() for field in row):

@@ -21,6 +21,7 @@ from mpc.control.settings import (
     check_mode,
     check_progress_rate,
     check_stage_dt,
+    check_step,
     check_trajectory,
     make_solver,
 )
@@ -36,7 +37,7 @@ from mpc.robots.base import Robot
 from mpc.robots.limits import DEFAULT_POLYGON_SIDES
 from mpc.robots.motor_step import first_step_feedforward
 from mpc.solvers import SolveResult
-from mpc.validation import MAX_DELAY_TICKS, MAX_HORIZON, finite_vector, integer_in, positive
+from mpc.validation import MAX_DELAY_TICKS, MAX_HORIZON, finite_vector, integer_in
 from trajectories import Trajectory, TrajectoryError
 
 __all__ = ["DEFAULT_POLYGON_SIDES", "MODES", "SOLVERS", "Controller"]
@@ -122,7 +123,7 @@ class Controller:
         check_trajectory(trajectory)
         self.robot = robot
         self.horizon = integer_in("horizon", horizon, 1, MAX_HORIZON, ControllerError)
-        self.dt = positive("dt [s]", dt, ControllerError)
+        self.dt = check_step("dt", dt)
         self.delay_ticks = integer_in("delay_ticks", delay_ticks, 0, MAX_DELAY_TICKS,
                                       ControllerError)
         self.mode = check_mode(mode, time_scaling)

@@ -6,21 +6,17 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
 from mpc.robots.base import Robot
 from mpc.robots.caster_checks import joint_vector
-from mpc.validation import MAX_COORDINATE, MAX_TIME, is_finite_number
+from mpc.validation import MAX_COORDINATE, MAX_TIME, is_finite_number, real_array
 
 
 def check_pose(pose: ArrayLike) -> FloatArray:
-    try:
-        x0 = np.array(pose, dtype=float)
-    except (TypeError, ValueError):
-        raise ControllerError(f"pose must be 3 numbers (x, y, theta), got {pose!r}") from None
+    x0 = real_array("pose", pose, "3 numbers (x, y, theta)", ControllerError)
     if x0.shape != (3,):
         raise ControllerError(f"pose must have shape (3,) as (x, y, theta), got shape {x0.shape}")
     if not (math.isfinite(x0[0]) and math.isfinite(x0[1]) and math.isfinite(x0[2])):

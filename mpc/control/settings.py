@@ -8,12 +8,19 @@ from __future__ import annotations
 
 import warnings
 
+import numpy as np
+
 from mpc.errors import ControllerError
 from mpc.model.tracking import TrackingModel
+from mpc.robots.base import Robot
 from mpc.solvers import DenseSolver, NlpSolver, QpSolver, TrackingSolver
 from mpc.validation import (
+    MAX_DENSE_ENTRIES,
+    MAX_DENSE_HORIZON,
     MAX_ITERATIONS,
+    MAX_PLAN_ROWS,
     MAX_POLYGON_SIDES,
+    MAX_STEP,
     flag,
     integer_in,
     is_integer,
@@ -43,11 +50,20 @@ def check_mode(mode: object, time_scaling: object) -> str:
     return str(mode)
 
 
+def check_step(name: str, value: object) -> float:
+    """A tick or stage length [s] (``dt``, ``stage_dt``): > 0 and at most :data:`MAX_STEP`."""
+    step = positive(f"{name} [s]", value, ControllerError)
+    if step > MAX_STEP:
+        raise ControllerError(f"{name} must be at most {MAX_STEP:g} s (a bound of this "
+                              f"library), got {value!r}")
+    return step
+
+
 def check_stage_dt(stage_dt: object, dt: float, mode: str) -> float:
     """``stage_dt`` [s] (if None: ``2 dt`` in time mode, ``dt`` in path mode), >= ``dt``."""
     if stage_dt is None:
         return 2.0 * dt if mode == "time" else dt
-    stage = positive("stage_dt [s]", stage_dt, ControllerError)
+    stage = check_step("stage_dt", stage_dt)
     if stage < dt:
         raise ControllerError(f"stage_dt must be >= dt = {dt!r} s (a stage is at least one "
                               f"tick), got {stage_dt!r}")
@@ -67,6 +83,33 @@ def check_trajectory(trajectory: object) -> None:
     if not isinstance(trajectory, Trajectory):
         raise ControllerError(
             f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}")
+
+
+def check_plan_size(robot: Robot, horizon: int, solver: str, polygon_sides: int | None) -> None:
+    """The QP paths' plan within :data:`MAX_PLAN_ROWS` limit rows; ``daqp``'s within
+    :data:`MAX_DENSE_HORIZON` stages and :data:`MAX_DENSE_ENTRIES` dense entries (its work
+    grows as the horizon cubed): each a ControllerError naming the bound and the way out."""
+    per_stage = robot.stage_limits(np.ones(1), polygon_sides).now.shape[1]
+    sides = "default" if polygon_sides is None else polygon_sides
+    rows = horizon * per_stage
+    if rows > MAX_PLAN_ROWS:
+        raise ControllerError(
+            f"horizon {horizon} x {per_stage} limit rows a stage (polygon_sides "
+            f"{sides}) is {rows} rows; a QP plan has at most {MAX_PLAN_ROWS} (a bound "
+            "of this library): shorten the horizon or use fewer polygon_sides")
+    if solver != "daqp":
+        return
+    if horizon > MAX_DENSE_HORIZON:
+        raise ControllerError(
+            f"horizon must be at most {MAX_DENSE_HORIZON} with solver='daqp' (its dense QP "
+            f"grows as the horizon cubed; a bound of this library), got {horizon}: use "
+            "solver='osqp' or 'ipopt' for longer horizons")
+    if rows * 3 * horizon > MAX_DENSE_ENTRIES:
+        raise ControllerError(
+            f"horizon {horizon} x {per_stage} limit rows a stage (polygon_sides "
+            f"{sides}) makes a dense QP of {rows * 3 * horizon} entries; "
+            f"solver='daqp' takes at most {MAX_DENSE_ENTRIES} (a bound of this library): "
+            "shorten the horizon, use fewer polygon_sides or solver='osqp'")
 
 
 def make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
@@ -89,6 +132,7 @@ def make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
                 f"polygon_sides must be an even integer >= 4, got {polygon_sides!r}")
         sides = integer_in("polygon_sides", polygon_sides, 4, MAX_POLYGON_SIDES,
                            ControllerError)
+    check_plan_size(model.robot, model.horizon, str(name), sides)
     if name == "daqp":
         return DenseSolver(model, polygon_sides=sides, max_iter=iterations or 1000,
                            time_limit=limit)

@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
-from mpc.validation import file_text, is_finite_number
+from mpc.validation import file_text, is_finite_number, parsed
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -154,10 +154,7 @@ def load_weights(path: str | Path) -> Weights:
     """
     text = file_text(path, "weights", ControllerError)
     file = Path(path)
-    try:
-        table = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise ControllerError(f"weights file {str(file)!r} is not valid TOML: {error}") from None
+    table = parsed(tomllib.loads, text, f"weights file {str(file)!r}", "TOML", ControllerError)
     try:
         return make_weights(table)
     except ControllerError as error:

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from mpc.errors import ReportError
+from mpc.validation import file_text, parsed
 
 REQUIRED_RUN_KEYS = ("layout", "trajectory", "speed", "controller", "metrics", "series")
 REQUIRED_SERIES_KEYS = ("time", "pose", "reference")
@@ -36,17 +37,9 @@ def load_results(path: str | os.PathLike[str]) -> dict[str, Any]:
         ReportError: the file is missing or unreadable, is not JSON, or lacks
             ``"runs"`` or a required key of a run (the message names it).
     """
+    text = file_text(path, "results", ReportError)
     file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ReportError(f"results file {file} not found") from None
-    except OSError as error:
-        raise ReportError(f"results file {file} cannot be read: {error}") from error
-    try:
-        results = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise ReportError(f"results file {file} is not valid JSON: {error}") from error
+    results = parsed(json.loads, text, f"results file {str(file)!r}", "JSON", ReportError)
     validate_results(results, source=str(file))
     return results  # type: ignore[no-any-return]
 

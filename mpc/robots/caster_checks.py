@@ -9,18 +9,13 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, readonly
 from mpc.errors import MpcError, RobotError
+from mpc.validation import MAX_COORDINATE, body_points, metres, real_array, within
 
 
 def per_caster(name: str, value: object, count: int, unit: str) -> FloatArray:
-    """Finite numbers > 0 given as one number or one per caster, returned as (count,)."""
-    if isinstance(value, (bool, np.bool_)) or (
-            isinstance(value, (list, tuple)) and any(isinstance(v, bool) for v in value)):
-        raise RobotError(f"{name} must be a number or {count} numbers {unit}, got {value!r}")
-    try:
-        array = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise RobotError(f"{name} must be a number or {count} numbers {unit}, "
-                         f"got {value!r}") from None
+    """Finite numbers > 0 given as one number or one per caster, returned as (count,);
+    lengths (``unit`` "[m]") within [MIN_LENGTH, MAX_LENGTH]."""
+    array = real_array(name, value, f"a number or {count} numbers {unit}", RobotError)
     if array.shape == ():
         array = np.full(count, float(array))
     if array.shape != (count,):
@@ -28,24 +23,15 @@ def per_caster(name: str, value: object, count: int, unit: str) -> FloatArray:
                          f"got shape {array.shape}")
     if not np.all(np.isfinite(array)) or np.any(array <= 0.0):
         raise RobotError(f"{name} must be finite numbers > 0 {unit}, got {array.tolist()}")
+    if unit == "[m]":
+        for index, size in enumerate(array.tolist()):
+            metres(f"{name}[{index}]", size, RobotError)
     return readonly(array)
 
 
 def check_positions(value: object) -> FloatArray:
     """The steer axes as a finite (n, 2) float array [m], n >= 2, or RobotError."""
-    try:
-        if isinstance(value, (bool, np.bool_)):
-            raise TypeError
-        positions = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise RobotError("positions must be an (n, 2) array of numbers [m], "
-                         f"got {value!r}") from None
-    if positions.ndim != 2 or positions.shape[1] != 2 or positions.shape[0] < 2:
-        raise RobotError("positions must have shape (n, 2) with n >= 2 casters, "
-                         f"got shape {positions.shape}")
-    if not np.all(np.isfinite(positions)):
-        raise RobotError(f"positions must be finite, got {positions.tolist()}")
-    return positions
+    return body_points("positions", value, "casters", RobotError)
 
 
 def check_distinct_contacts(positions: FloatArray, offset: FloatArray) -> None:
@@ -64,14 +50,10 @@ def check_distinct_contacts(positions: FloatArray, offset: FloatArray) -> None:
 
 def joint_vector(name: str, value: ArrayLike, n: int, unit: str,
                  error: type[MpcError] = RobotError) -> FloatArray:
-    """One finite number per caster as an (n,) float array, or ``error``."""
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise error(f"{name} must be {n} numbers {unit}, got {value!r}") from None
+    """One number per caster as an (n,) float array, finite and within
+    +-:data:`~mpc.validation.MAX_COORDINATE`, or ``error``."""
+    array = real_array(name, value, f"{n} numbers {unit}", error)
     if array.shape != (n,):
         raise error(f"{name} must have shape ({n},) {unit}, one per caster, "
                     f"got shape {array.shape}")
-    if not np.all(np.isfinite(array)):
-        raise error(f"{name} must be finite, got {array.tolist()}")
-    return array
+    return within(name, array, MAX_COORDINATE, unit, error)

@@ -84,6 +84,30 @@ def substeps(robot: CasterRobot, duration: float, step: float = PREDICTION_STEP)
     return max(1, math.ceil(duration * float(rates.max()) / step))
 
 
+#: Most RK4 steps of the steer-angle prediction over one plan (bounds of this library): its
+#: CasADi function is built on the first tick in time about linear in the steps (12 s at
+#: 1200); the NLP's symbolic limits nest every step in every later stage, in time about
+#: quadratic (8 s at 100 steps, 98 s at 300). Fast-aligning casters (a small offset) on a
+#: long horizon need many steps.
+MAX_PREDICTION_STEPS = 1000
+MAX_NLP_PREDICTION_STEPS = 120
+
+
+def check_prediction(robot: CasterRobot, durations: FloatArray, step: float = PREDICTION_STEP,
+                     bound: int = MAX_PREDICTION_STEPS) -> None:
+    """RobotError unless predicting the steer angles over stages of ``durations`` [s] in RK4
+    steps of ``step`` time constants takes at most ``bound`` steps."""
+    steps = sum(substeps(robot, float(duration), step) for duration in durations)
+    if steps > bound:
+        raise RobotError(
+            f"robot {robot.name!r}: predicting its steer angles over {len(durations)} stages "
+            f"({float(np.sum(durations)):g} s) takes {steps} RK4 steps (its casters align in "
+            f"{1.0 / substeps(robot, 1.0):.3g} s at the fastest: offset, wheel_radius, "
+            f"max_wheel_speed, max_steer_rate); at most {bound} (a bound of this library"
+            f"{' for solver=ipopt' if step == NLP_STEP else ''}): shorten the horizon or "
+            "stage_dt")
+
+
 def _flow(robot: CasterRobot, angles: ca.SX, twist: ca.SX, duration: float,
           step: float = PREDICTION_STEP) -> ca.SX:
     """The angles (n) after ``twist`` is held for ``duration`` [s] (RK4, symbolic)."""
@@ -151,6 +175,7 @@ def stage_limits(robot: CasterRobot, change_times: FloatArray) -> StageLimits:
     limits = StageLimits(now=now, before=before, lower=-bound, upper=bound, constant=False,
                          change_times=np.array(change_times, dtype=float))
     limits.memory["durations"] = np.array(change_times[1:], dtype=float)
+    check_prediction(robot, limits.memory["durations"])
     _fill(robot, limits, np.zeros((horizon, n)))
     return limits
 
@@ -183,6 +208,9 @@ def nlp_stage_limits(robot: CasterRobot, twists: ca.SX, last: ca.SX,
     """Exact joint limits at the angles integrated symbolically from the measured ones."""
     if steer_angles is None:
         raise RobotError("a caster robot's NLP needs the steer angles as a parameter")
+    durations = np.asarray(change_times[1:], dtype=float)
+    check_prediction(robot, durations)
+    check_prediction(robot, durations, NLP_STEP, MAX_NLP_PREDICTION_STEPS)
     n = robot.n_wheels
     speed, steer_max, accel = robot.max_wheel_speed, robot.max_steer_rates, robot.max_wheel_accel
     values: list[ca.SX] = []

@@ -27,7 +27,9 @@ def as_twists(twist: ArrayLike, name: str = "twist") -> FloatArray:
 
 
 def check_holonomic(stacked_rows: FloatArray, what: str) -> None:
-    """Raise RobotError unless the stacked wheel rows have rank 3."""
+    """Raise RobotError unless the stacked wheel rows have rank 3 (and are finite)."""
+    if not np.isfinite(stacked_rows).all():
+        raise RobotError(f"{what}: its wheel Jacobian is not finite: its sizes overflow")
     singular = np.linalg.svd(stacked_rows, compute_uv=False)
     if singular.size < 3 or singular[2] <= 1e-9 * max(singular[0], 1e-300):
         raise RobotError(

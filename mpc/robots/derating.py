@@ -9,17 +9,12 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
-from mpc.validation import is_finite_number, is_integer
+from mpc.validation import is_finite_number, is_integer, real_array
 
 
 def check_derating(derating: object, n_wheels: int) -> tuple[float, ...]:
     """``derating`` as ``n_wheels`` floats in [0, 1], or RobotError."""
-    try:
-        factors = np.asarray(derating, dtype=float)
-    except (TypeError, ValueError):
-        raise RobotError(
-            f"derating must be {n_wheels} numbers in [0, 1], got {derating!r}"
-        ) from None
+    factors = real_array("derating", derating, f"{n_wheels} numbers in [0, 1]", RobotError)
     if factors.shape != (n_wheels,) or not np.all(np.isfinite(factors)):
         raise RobotError(
             f"derating must be {n_wheels} finite factors, got {derating!r}"
@@ -55,9 +50,4 @@ def merged_derating(current: tuple[float, ...] | None, factors: dict[int, float]
                                  f"got {value!r}")
             merged[int(index)] = float(value)
         return tuple(float(v) for v in merged)
-    try:
-        values = np.asarray(factors, dtype=float)
-    except (TypeError, ValueError):
-        raise RobotError(f"derating factors must be {n_wheels} numbers in [0, 1], "
-                         f"got {factors!r}") from None
-    return tuple(float(v) for v in np.atleast_1d(values))
+    return check_derating(factors, n_wheels)

@@ -33,7 +33,7 @@ from mpc.errors import RobotError
 from mpc.robots.base import Robot
 from mpc.robots.dynamics import dynamics_from_dict
 from mpc.robots.registry import robot_type
-from mpc.validation import file_text
+from mpc.validation import file_text, parsed
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -73,10 +73,7 @@ def load(path: str | Path) -> Robot:
     """Load a robot from a TOML file (see the module docstring for the keys)."""
     text = file_text(path, "robot", RobotError)
     file = Path(path)
-    try:
-        description = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise RobotError(f"robot file {str(file)!r} is not valid TOML: {error}") from None
+    description = parsed(tomllib.loads, text, f"robot file {str(file)!r}", "TOML", RobotError)
     return from_dict(description, source=f"robot file {str(file)!r}")
 
 

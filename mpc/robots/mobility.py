@@ -66,7 +66,7 @@ from mpc.robots.caster import CasterRobot
 from mpc.robots.spherical import SphericalRobot
 from mpc.robots.swedish import SwedishRobot
 from mpc.robots.swerve import SwerveRobot
-from mpc.validation import is_finite_number
+from mpc.validation import MAX_COORDINATE, MAX_LENGTH, bounded
 
 #: A singular value counts towards a rank above this fraction of the largest one.
 RANK_TOLERANCE = 1e-9
@@ -148,11 +148,10 @@ def _parse_wheel(table: object, where: str) -> WheelSpec:
                          f"{sorted(optional)}")
     values: dict[str, Any] = {}
     for key in sorted(keys):
-        value = table[key]
-        if not is_finite_number(value):
-            unit = "[rad]" if key in ("heading", "gamma") else "[m]"
-            raise RobotError(f"{where}.{key} must be a finite number {unit}, got {value!r}")
-        values[key] = float(value)
+        angle = key in ("heading", "gamma")
+        values[key] = bounded(f"{where}.{key}", table[key],
+                              MAX_COORDINATE if angle else MAX_LENGTH,
+                              "[rad]" if angle else "[m]", RobotError)
     if kind == "caster" and values["offset"] <= 0.0:
         raise RobotError(f"{where}.offset must be > 0 (the contact trails the steer axis), "
                          f"got {table['offset']!r}")

@@ -35,14 +35,7 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.registry import register
-
-
-def _has_bool(value: object) -> bool:
-    if isinstance(value, (bool, np.bool_)):
-        return True
-    if isinstance(value, (list, tuple)):
-        return any(_has_bool(item) for item in value)
-    return isinstance(value, np.ndarray) and value.dtype == np.bool_
+from mpc.validation import body_points, metres, real_array
 
 
 def _expand(name: str, value: object, balls: int, *, pairs: bool) -> FloatArray:
@@ -50,12 +43,7 @@ def _expand(name: str, value: object, balls: int, *, pairs: bool) -> FloatArray:
     actuator (n, 2); returned one per actuator, shape (2n,)."""
     forms = f"a number, {balls} numbers (one per ball)" + (
         f" or {balls} pairs (about x, about y)" if pairs else "")
-    if _has_bool(value):
-        raise RobotError(f"{name} must be {forms}, not booleans, got {value!r}")
-    try:
-        array = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise RobotError(f"{name} must be {forms}, got {value!r}") from None
+    array = real_array(name, value, forms, RobotError)
     if array.shape == ():
         array = np.full(2 * balls, float(array))
     elif array.shape == (balls,):
@@ -90,21 +78,12 @@ class SphericalRobot(Robot):
     max_accel: ArrayLike | None = field(default=None, kw_only=True)
 
     def __post_init__(self) -> None:
-        try:
-            if _has_bool(self.ball_positions):
-                raise TypeError
-            positions = np.array(self.ball_positions, dtype=float)
-        except (TypeError, ValueError):
-            raise RobotError("positions must be an (n, 2) array of numbers [m], "
-                             f"got {self.ball_positions!r}") from None
-        if positions.ndim != 2 or positions.shape[1] != 2 or positions.shape[0] < 2:
-            raise RobotError("positions must have shape (n, 2) with n >= 2 balls, "
-                             f"got shape {positions.shape}")
-        if not np.all(np.isfinite(positions)):
-            raise RobotError(f"positions must be finite, got {positions.tolist()}")
+        positions = body_points("positions", self.ball_positions, "balls", RobotError)
         balls = positions.shape[0]
         object.__setattr__(self, "ball_positions", readonly(positions))
         radius = _expand("wheel_radius", self.wheel_radius, balls, pairs=False)[0::2]
+        for index, size in enumerate(radius.tolist()):
+            metres(f"wheel_radius[{index}]", size, RobotError)
         object.__setattr__(self, "wheel_radius", readonly(radius))
         speed = _expand("max_wheel_speed", self.max_speed, balls, pairs=True)
         object.__setattr__(self, "max_speed", readonly(speed.reshape(balls, 2)))

@@ -28,7 +28,7 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.registry import register
-from mpc.validation import MAX_WHEELS, finite, integer_in, positive
+from mpc.validation import MAX_COORDINATE, MAX_WHEELS, bounded, integer_in, metres, positive
 
 
 @dataclass(frozen=True)
@@ -55,12 +55,10 @@ class SwedishWheel:
 
     def __post_init__(self) -> None:
         for name in ("alpha", "beta", "gamma"):
-            object.__setattr__(self, name, finite(name, getattr(self, name), RobotError))
-        length = finite("l", self.l, RobotError)
-        if length < 0.0:
-            raise RobotError(f"l must be >= 0 (a distance), got {self.l!r}")
-        object.__setattr__(self, "l", length)
-        object.__setattr__(self, "radius", positive("radius", self.radius, RobotError))
+            object.__setattr__(self, name, bounded(name, getattr(self, name), MAX_COORDINATE,
+                                                   "[rad]", RobotError))
+        object.__setattr__(self, "l", metres("l", self.l, RobotError, zero=True))
+        object.__setattr__(self, "radius", metres("radius", self.radius, RobotError))
         object.__setattr__(self, "max_speed", positive("max_speed", self.max_speed, RobotError))
         if self.max_accel is not None:
             object.__setattr__(self, "max_accel",
@@ -164,6 +162,16 @@ class SwedishRobot(Robot):
         return replace(self, derating=derating)
 
 
+def wheel_limits(wheel_radius: object, max_wheel_speed: object,
+                 max_wheel_accel: object) -> tuple[float, float, float | None]:
+    """A factory's wheel radius [m], speed [rad/s] and acceleration limit [rad/s^2] (or
+    None), checked under the names the caller passed them by."""
+    accel = None if max_wheel_accel is None else positive("max_wheel_accel", max_wheel_accel,
+                                                          RobotError)
+    return (metres("wheel_radius", wheel_radius, RobotError),
+            positive("max_wheel_speed", max_wheel_speed, RobotError), accel)
+
+
 def omni(
     *,
     n_wheels: int,
@@ -190,11 +198,12 @@ def omni(
         max_wheel_accel: [rad/s^2] or None.
     """
     count = integer_in("n_wheels", n_wheels, 3, MAX_WHEELS, RobotError)
-    base = positive("base_radius", base_radius, RobotError)
-    first = finite("first_wheel_angle", first_wheel_angle, RobotError)
+    base = metres("base_radius", base_radius, RobotError)
+    first = bounded("first_wheel_angle", first_wheel_angle, MAX_COORDINATE, "[rad]", RobotError)
+    radius, speed, accel = wheel_limits(wheel_radius, max_wheel_speed, max_wheel_accel)
     wheels = tuple(
         SwedishWheel(alpha=first + 2.0 * math.pi * i / count, beta=math.pi, gamma=0.0, l=base,
-                     radius=wheel_radius, max_speed=max_wheel_speed, max_accel=max_wheel_accel)
+                     radius=radius, max_speed=speed, max_accel=accel)
         for i in range(count)
     )
     return SwedishRobot(wheels, name=name)
@@ -222,8 +231,9 @@ def mecanum(
         max_wheel_speed: [rad/s].
         max_wheel_accel: [rad/s^2] or None.
     """
-    half_x = positive("wheelbase", wheelbase, RobotError) / 2.0
-    half_y = positive("track", track, RobotError) / 2.0
+    half_x = metres("wheelbase", wheelbase, RobotError) / 2.0
+    half_y = metres("track", track, RobotError) / 2.0
+    radius, speed, accel = wheel_limits(wheel_radius, max_wheel_speed, max_wheel_accel)
     quarter = math.pi / 4.0
     corners = ((half_x, half_y, -quarter), (half_x, -half_y, quarter),
                (-half_x, half_y, quarter), (-half_x, -half_y, -quarter))
@@ -231,8 +241,8 @@ def mecanum(
     for x, y, gamma in corners:
         alpha = math.atan2(y, x)
         wheels.append(SwedishWheel(alpha=alpha, beta=math.pi / 2.0 - alpha, gamma=gamma,
-                                   l=math.hypot(x, y), radius=wheel_radius,
-                                   max_speed=max_wheel_speed, max_accel=max_wheel_accel))
+                                   l=math.hypot(x, y), radius=radius, max_speed=speed,
+                                   max_accel=accel))
     return SwedishRobot(tuple(wheels), name=name)
 
 

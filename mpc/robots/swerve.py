@@ -44,7 +44,7 @@ from mpc.robots.swerve_limits import (
     update_linearised,
 )
 from mpc.robots.swerve_states import aimed_angles, module_states, wrap_angle
-from mpc.validation import non_negative, positive
+from mpc.validation import body_points, metres, positive
 
 __all__ = ["SwerveRobot", "swerve", "wrap_angle"]
 
@@ -73,20 +73,9 @@ class SwerveRobot(Robot):
     axle_offset: float = field(default=0.0, kw_only=True)
 
     def __post_init__(self) -> None:
-        try:
-            positions = np.array(self.module_positions, dtype=float)
-        except (TypeError, ValueError):
-            raise RobotError("module_positions must be an (n, 2) array of numbers [m], "
-                             f"got {self.module_positions!r}") from None
-        if positions.ndim != 2 or positions.shape[1] != 2 or positions.shape[0] < 2:
-            raise RobotError(
-                "module_positions must have shape (n, 2) with n >= 2 modules, "
-                f"got shape {positions.shape}"
-            )
-        if not np.all(np.isfinite(positions)):
-            raise RobotError(f"module_positions must be finite, got {positions.tolist()}")
+        positions = body_points("module_positions", self.module_positions, "modules", RobotError)
         object.__setattr__(self, "module_positions", readonly(positions))
-        radius = positive("wheel_radius", self.wheel_radius, RobotError)
+        radius = metres("wheel_radius", self.wheel_radius, RobotError)
         object.__setattr__(self, "wheel_radius", radius)
         object.__setattr__(self, "max_speed",
                            positive("max_wheel_speed", self.max_speed, RobotError))
@@ -95,7 +84,7 @@ class SwerveRobot(Robot):
         if self.max_accel is not None:
             object.__setattr__(self, "max_accel",
                                positive("max_wheel_accel", self.max_accel, RobotError))
-        lever = non_negative("axle_offset [m]", self.axle_offset, RobotError)
+        lever = metres("axle_offset", self.axle_offset, RobotError, zero=True)
         object.__setattr__(self, "axle_offset", lever)
         n = positions.shape[0]
         object.__setattr__(self, "wheel_blocks", readonly(self.ground_maps() / radius))

@@ -42,7 +42,7 @@ from mpc.robots.caster import caster
 from mpc.robots.mobility import WheelSpec, parse_wheels, require_omnidirectional
 from mpc.robots.registry import register
 from mpc.robots.spherical import spherical
-from mpc.robots.swedish import SwedishRobot, SwedishWheel
+from mpc.robots.swedish import SwedishRobot, SwedishWheel, wheel_limits
 from mpc.robots.swerve import swerve
 
 
@@ -87,8 +87,9 @@ def wheel_set(
         return spherical(positions=positions, wheel_radius=wheel_radius,
                          max_wheel_speed=max_wheel_speed, max_wheel_accel=max_wheel_accel,
                          name=name)
+    radius, speed, accel = wheel_limits(wheel_radius, max_wheel_speed, max_wheel_accel)
     return SwedishRobot(name=name, wheels=tuple(
-        _swedish(spec, wheel_radius, max_wheel_speed, max_wheel_accel) for spec in specs))
+        _swedish(spec, radius, speed, accel) for spec in specs))
 
 
 def _given(value: float | None) -> float:

@@ -74,6 +74,7 @@ def simulate(
     A controller of a robot whose steer angles are states is stepped as
     ``step(measured_pose, t, steer_angles=measured_angles)`` (the plant's angles).
     """
+    true_robot = _check_arguments(controller, robot, on_tick)
     if not is_finite_number(duration) or duration <= 0:
         raise SimulationError(f"duration must be a finite number of seconds > 0, got {duration!r}")
     config = _plant_config(plant)
@@ -87,7 +88,6 @@ def simulate(
         start = trajectory.sample(0.0).pose
     else:
         start = finite_vector("initial_pose", initial_pose, 3, "(x, y, theta)", SimulationError)
-    true_robot = robot or controller.robot
     kind = MotorPlant if isinstance(config, MotorPlantConfig) else Plant
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
                              or seed < 0):
@@ -116,6 +116,31 @@ def simulate(
     if isinstance(sim, MotorPlant):
         return dataclasses.replace(recorder.result(), plant_events=sim.events())
     return recorder.result()
+
+
+def _check_arguments(controller: object, robot: object, on_tick: object) -> Robot:
+    """The true robot (``robot``, default the controller's), after checking that
+    ``controller`` is one (a ``step``, a ``robot`` and a tick ``dt``), that ``robot`` is the
+    same kind with as many wheels, and that ``on_tick`` is None or callable."""
+    ours = getattr(controller, "robot", None)
+    tick = getattr(controller, "dt", None)
+    if not (callable(getattr(controller, "step", None)) and isinstance(ours, Robot)
+            and is_finite_number(tick) and tick > 0):  # type: ignore[operator]
+        raise SimulationError("controller must be a Controller (or have step(), a robot and "
+                              f"a tick dt > 0), got {type(controller).__name__}")
+    if on_tick is not None and not callable(on_tick):
+        raise SimulationError(f"on_tick must be None or a callable on_tick(k, ticks), "
+                              f"got {on_tick!r}")
+    if robot is None:
+        return ours
+    if not isinstance(robot, Robot):
+        raise SimulationError(f"robot must be None or an mpc.robots.Robot (the true robot), "
+                              f"got {type(robot).__name__}")
+    if robot.kind != ours.kind or robot.n_wheels != ours.n_wheels:
+        raise SimulationError(
+            f"robot (the true robot) must be of the controller's kind with as many wheels: "
+            f"{ours.kind} with {ours.n_wheels}, got {robot.kind} with {robot.n_wheels}")
+    return robot
 
 
 def trailing_start(robot: Robot, trajectory: Trajectory) -> FloatArray:
