@@ -255,3 +255,52 @@ def test_direct_osqp_calls_match_the_public_api() -> None:
         np.testing.assert_array_equal(a.twists, b.twists)
         np.testing.assert_array_equal(a.poses, b.poses)
         guess = (a.poses.copy(), a.twists.copy())
+
+
+def test_daqp_refusing_the_set_up_is_a_failed_tick_and_the_next_tick_sets_up_again(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """daqp's set-up returns a negative flag (bounds that cross, for one) instead of raising:
+    the tick fails over to the fallback, and no later call finds a model never set up."""
+    import types
+
+    import daqp
+
+    import mpc.solvers.dense as dense
+    from mpc import Controller, Status
+
+    class RefusesOnce:
+        """daqp.Model, refusing its first set-up."""
+
+        refused = 0
+
+        def __init__(self) -> None:
+            self.model = daqp.Model()
+
+        def setup(self, *args: object) -> tuple[int, float]:
+            if RefusesOnce.refused == 0:
+                RefusesOnce.refused += 1
+                return -1, 0.0
+            return self.model.setup(*args)  # type: ignore[no-any-return, arg-type]
+
+        @property
+        def settings(self) -> dict[str, float]:
+            return self.model.settings  # type: ignore[no-any-return]
+
+        @settings.setter
+        def settings(self, value: dict[str, float]) -> None:
+            self.model.settings = value
+
+        def update(self, **kwargs: object) -> int:
+            return self.model.update(**kwargs)  # type: ignore[no-any-return]
+
+        def solve(self) -> tuple[object, ...]:
+            return self.model.solve()  # type: ignore[no-any-return]
+
+    monkeypatch.setattr(dense, "daqp", types.SimpleNamespace(Model=RefusesOnce))
+    robot = preset("mecanum")
+    controller = Controller(robot, FigureEight(1.0, 12.0))
+    first = controller.step(controller.trajectory.sample(0.0).pose, 0.0)
+    assert first.status is not Status.SOLVED and first.solver_status == "daqp set-up failed"
+    assert np.all(np.abs(first.wheel_speeds) <= robot.max_wheel_speed)
+    second = controller.step(controller.trajectory.sample(0.05).pose, 0.05)
+    assert second.status is Status.SOLVED and RefusesOnce.refused == 1

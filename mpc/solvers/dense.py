@@ -152,6 +152,11 @@ class DenseSolver:
         if profile is not None and self._rows_stale:
             profile.mark("solve: hessian")
         solver = self._update(gradient, lower, upper, rows_changed)
+        if solver is None:  # daqp refused the problem at set-up: a failed tick
+            n = self.model.horizon
+            return SolveResult(success=False, status="daqp set-up failed",
+                               poses=np.full((n + 1, 3), np.nan),
+                               twists=np.full((n, 3), np.nan), solve_time=0.0, iterations=0)
         step, _, flag, info = solver.solve()
         step = self._unwhiten @ np.asarray(step, dtype=float)
         if profile is not None:
@@ -236,9 +241,9 @@ class DenseSolver:
         return values
 
     def _update(self, gradient: FloatArray, lower: FloatArray, upper: FloatArray,
-                rows_changed: bool) -> daqp.Model:
+                rows_changed: bool) -> daqp.Model | None:
         """Hand daqp what changed, in whitened steps ``y = L' d``: Hessian the identity,
-        rows ``A L^{-T}``, gradient ``L^{-1} g``."""
+        rows ``A L^{-T}``, gradient ``L^{-1} g`` (None if daqp refuses to set it up)."""
         new_rows = rows_changed or self._rows_stale
         if new_rows:
             self._whiten_rows()
@@ -249,7 +254,10 @@ class DenseSolver:
             sense = np.zeros(upper.size, dtype=np.intc)
             sense[lower == upper] = _EQUALITY
             solver = daqp.Model()
-            solver.setup(identity, whitened_gradient, self._whitened_rows, upper, lower, sense)
+            flag, _ = solver.setup(identity, whitened_gradient, self._whitened_rows, upper,
+                                   lower, sense)
+            if flag < 0:  # the next tick sets up again
+                return None
             settings = solver.settings
             settings.update(self._settings)
             solver.settings = settings
