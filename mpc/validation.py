@@ -6,10 +6,12 @@ the argument and says what was expected and what arrived.
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 import numbers
 from collections.abc import Callable
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -241,3 +243,33 @@ def parsed(parse: Callable[[str], T], text: str, where: str, language: str,
         raise error(f"{where}: not usable {language}: nested too deeply") from None
     except ValueError as exc:  # JSONDecodeError and TOMLDecodeError are ValueErrors too
         raise error(f"{where}: not valid {language}: {exc}") from None
+
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def checked_arguments(error: type[MpcError]) -> Callable[[F], F]:
+    """Decorate a public callable so that arguments that do not fit its signature (an
+    unknown keyword, a missing or an extra one) raise ``error`` naming the callable and its
+    parameters, not Python's TypeError."""
+
+    def decorate(function: F) -> F:
+        signature = inspect.signature(function)
+        names = [name for name in signature.parameters if name != "self"]
+        shown = function.__qualname__.replace(".__init__", "")
+
+        @functools.wraps(function)
+        def checked(*args: Any, **kwargs: Any) -> Any:
+            try:
+                signature.bind(*args, **kwargs)
+            except TypeError as problem:
+                unknown = sorted(set(kwargs) - set(names))
+                reason = (f"unknown keyword argument(s) {', '.join(map(repr, unknown))}"
+                          if unknown else str(problem))
+                raise error(f"{shown}(): {reason}; its parameters are "
+                            f"{', '.join(names)}") from None
+            return function(*args, **kwargs)
+
+        return checked  # type: ignore[return-value]
+
+    return decorate

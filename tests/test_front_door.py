@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import string
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -527,3 +528,26 @@ def test_a_reference_beyond_the_coordinate_bound_falls_back_saying_why(
     assert command.status is not Status.SOLVED
     assert "reference failed" in command.solver_status and "too large" in command.solver_status
     assert np.all(np.isfinite(command.wheel_speeds))
+
+
+# Arguments that do not fit a public callable's signature ----------------------------------
+
+
+@pytest.mark.parametrize(("call", "error", "needle"), [
+    (lambda: omni(bogus=1), RobotError, "unknown keyword argument(s) 'bogus'"),  # type: ignore[call-arg]
+    (lambda: omni(), RobotError, "missing a required argument: 'n_wheels'"),  # type: ignore[call-arg]
+    (lambda: mecanum(wheelbase=0.5, track=0.4, wheel_radius=0.05, max_wheel_speed=10.0,  # type: ignore[call-arg]
+                     extra=1), RobotError, "'extra'"),
+    (lambda: swerve(module_positions=[[0.3, 0.3]], wheel_radius=0.05, max_wheel_speed=10.0,  # type: ignore[call-arg]
+                    max_steer_rate=5.0, steer=1), RobotError, "'steer'"),
+    (lambda: Controller(preset("mecanum"), Circle(1.0, 10.0), horizn=20), ControllerError,  # type: ignore[call-arg]
+     "unknown keyword argument(s) 'horizn'"),
+    (lambda: Controller(), ControllerError, "missing a required argument: 'robot'"),  # type: ignore[call-arg]
+    (lambda: simulate(Controller(preset("mecanum"), Circle(1.0, 10.0)), 1.0, plnt="ideal"),  # type: ignore[call-arg]
+     SimulationError, "'plnt'"),
+])
+def test_arguments_that_do_not_fit_the_signature_are_the_projects_error(
+        call: Callable[[], object], error: type[Exception], needle: str) -> None:
+    with pytest.raises(error, match="its parameters are") as raised:
+        call()
+    assert needle in str(raised.value)

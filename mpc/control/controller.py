@@ -37,7 +37,13 @@ from mpc.robots.base import Robot
 from mpc.robots.limits import DEFAULT_POLYGON_SIDES
 from mpc.robots.motor_step import first_step_feedforward
 from mpc.solvers import SolveResult
-from mpc.validation import MAX_DELAY_TICKS, MAX_HORIZON, finite_vector, integer_in
+from mpc.validation import (
+    MAX_DELAY_TICKS,
+    MAX_HORIZON,
+    checked_arguments,
+    finite_vector,
+    integer_in,
+)
 from trajectories import Trajectory, TrajectoryError
 
 __all__ = ["DEFAULT_POLYGON_SIDES", "MODES", "SOLVERS", "Controller"]
@@ -100,6 +106,7 @@ class Controller:
         time_scaling: deprecated; ``True`` is ``mode="path"``.
     """
 
+    @checked_arguments(ControllerError)
     def __init__(
         self,
         robot: Robot,

@@ -69,7 +69,7 @@ from mpc.robots.caster_checks import (
 from mpc.robots.caster_kinematics import joint_twist
 from mpc.robots.limits import StageLimits
 from mpc.robots.registry import register
-from mpc.validation import integer_at_least
+from mpc.validation import checked_arguments, integer_at_least
 
 
 @dataclass(frozen=True, eq=False)
@@ -280,6 +280,7 @@ class CasterRobot(Robot):
         return replace(self, derating=derating)
 
 
+@checked_arguments(RobotError)
 def caster(
     *,
     positions: ArrayLike,

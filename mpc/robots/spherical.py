@@ -35,7 +35,7 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.registry import register
-from mpc.validation import body_points, metres, real_array
+from mpc.validation import body_points, checked_arguments, metres, real_array
 
 
 def _expand(name: str, value: object, balls: int, *, pairs: bool) -> FloatArray:
@@ -164,6 +164,7 @@ class SphericalRobot(Robot):
         return replace(self, derating=derating)
 
 
+@checked_arguments(RobotError)
 def spherical(
     *,
     positions: ArrayLike,

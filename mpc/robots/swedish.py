@@ -28,7 +28,15 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.registry import register
-from mpc.validation import MAX_COORDINATE, MAX_WHEELS, bounded, integer_in, metres, positive
+from mpc.validation import (
+    MAX_COORDINATE,
+    MAX_WHEELS,
+    bounded,
+    checked_arguments,
+    integer_in,
+    metres,
+    positive,
+)
 
 
 @dataclass(frozen=True)
@@ -172,6 +180,7 @@ def wheel_limits(wheel_radius: object, max_wheel_speed: object,
             positive("max_wheel_speed", max_wheel_speed, RobotError), accel)
 
 
+@checked_arguments(RobotError)
 def omni(
     *,
     n_wheels: int,
@@ -209,6 +218,7 @@ def omni(
     return SwedishRobot(wheels, name=name)
 
 
+@checked_arguments(RobotError)
 def mecanum(
     *,
     wheelbase: float,

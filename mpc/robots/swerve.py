@@ -44,7 +44,7 @@ from mpc.robots.swerve_limits import (
     update_linearised,
 )
 from mpc.robots.swerve_states import aimed_angles, module_states, wrap_angle
-from mpc.validation import body_points, metres, positive
+from mpc.validation import body_points, checked_arguments, metres, positive
 
 __all__ = ["SwerveRobot", "swerve", "wrap_angle"]
 
@@ -294,6 +294,7 @@ class SwerveRobot(Robot):
         return replace(self, derating=derating)
 
 
+@checked_arguments(RobotError)
 def swerve(
     *,
     module_positions: ArrayLike,

@@ -17,7 +17,7 @@ from mpc.sim.motor_plant import MotorPlant, MotorPlantConfig
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.sim.recorder import Recorder
 from mpc.sim.result import SimResult
-from mpc.validation import MAX_SIMULATION_TICKS, finite_vector, is_finite_number
+from mpc.validation import MAX_SIMULATION_TICKS, checked_arguments, finite_vector, is_finite_number
 from trajectories import Trajectory
 
 
@@ -42,6 +42,7 @@ class SteerMeasuringController(Protocol):
              ) -> Command: ...
 
 
+@checked_arguments(SimulationError)
 def simulate(
     controller: TrackingController,
     duration: float,
