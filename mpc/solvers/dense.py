@@ -1,19 +1,17 @@
 """Fast path on a condensed QP: daqp, a dual active-set solver, one dense QP per tick.
 
-Each tick: one CasADi call gives the cost terms, the rollout of the guess twists
-from the measured pose with its input sensitivities, and the cost's exact gradient
-along it (:func:`~mpc.solvers.condensed.tick_terms`); the QP is condensed onto
-the inputs (:mod:`.condensed`) and daqp solves it, warm started from its own last
-active set (daqp keeps it between solves).
+Each tick: one CasADi call rolls the guess twists out from the measured pose
+and gives the input sensitivities, one gives the cost terms; the QP is
+condensed onto the inputs (:mod:`.condensed`) and daqp solves it, warm
+started from its own last active set (daqp keeps it between solves).
 
 The QP is posed in the step from the guess with the cost's exact gradient
 there, so the Hessian only shapes the step: a new one is begun only when the
-cost terms or an input sensitivity moved by :data:`REBUILD_EARLY` times
+cost terms or an input sensitivity moved by :data:`REBUILD_EARLY` of
 :data:`COST_TOLERANCE` / :data:`SENSITIVITY_TOLERANCE` since the last build
 (:mod:`.hessian_reuse`), and built over three ticks so that no tick carries a
-whole rebuild (at once beyond :data:`REBUILD_NOW` times). daqp sees the QP in
-whitened steps (Hessian the identity), so a new Hessian costs it new rows, not a
-refactorisation.
+whole rebuild. daqp sees the QP in whitened steps (Hessian the identity), so a
+new Hessian costs it new rows, not a refactorisation.
 """
 
 from __future__ import annotations
@@ -39,9 +37,11 @@ from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds
 __all__ = ["COST_TOLERANCE", "REBUILD_EARLY", "REBUILD_NOW", "SENSITIVITY_TOLERANCE",
            "DenseSolver"]
 
-#: A new Hessian is begun once the cost terms, the sensitivities or the rollout's steps
-#: moved this multiple of their tolerance from the one in use; it is built over three
-#: ticks (``H``; its whitening; the switch), so no tick carries a whole rebuild.
+#: A new Hessian is begun once the sensitivities or the rollout's steps moved this
+#: multiple of their tolerance from the one in use; it is built over three ticks (``H``;
+#: its whitening; the switch), so no tick carries a whole rebuild. Cost terms that moved
+#: beyond their tolerance (path mode's contour directions) rebuild at once: a stale
+#: contour weighting slowed the progress.
 REBUILD_EARLY = 1.0
 
 #: Beyond this multiple of their tolerance (the plan moves fast: a turning heading; or the
@@ -133,7 +133,7 @@ class DenseSolver:
     def solve(self, tick: TickInput) -> SolveResult:
         """Solve one tick around the guess twists (and progress) in ``tick``."""
         profile = self.profile
-        sensitivity, displacement, drift = self._linearise(tick)
+        sensitivity, displacement, (cost_drift, drift) = self._linearise(tick)
         if profile is not None:
             profile.mark("solve: model")
         gradient = self._gradient
@@ -141,7 +141,7 @@ class DenseSolver:
         lower, upper = self._step_bounds(tick)
         if profile is not None:
             profile.mark("solve: condense")
-        if self._solver is None or drift > REBUILD_NOW:  # all now
+        if self._solver is None or cost_drift > 1.0 or drift > REBUILD_NOW:  # all now
             for _ in self._start_rebuild(sensitivity, displacement):  # all of it
                 pass
             self._rebuild = None
@@ -167,10 +167,11 @@ class DenseSolver:
             profile.mark("solve: result")
         return result
 
-    def _linearise(self, tick: TickInput) -> tuple[FloatArray, FloatArray, float]:
+    def _linearise(self, tick: TickInput
+                   ) -> tuple[FloatArray, FloatArray, tuple[float, float]]:
         """Evaluate the tick's terms (the cost's, the rollout of the guess and the
         gradient along it): the sensitivities ``B_k``, the rollout's planar steps, and how
-        far the cost terms and these moved from the Hessian's (a multiple of the
+        far the cost terms and these moved from the Hessian's (multiples of the
         tolerances, :meth:`HessianReuse.drift`)."""
         self._bind(tick)()
         sensitivity = self._sensitivities()

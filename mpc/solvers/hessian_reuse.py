@@ -46,15 +46,15 @@ class HessianReuse:
         self._cache = None
 
     def drift(self, p_data: FloatArray, sensitivity: FloatArray, displacement: FloatArray,
-              p_changed: bool, isotropic: bool, enough: float) -> float:
-        """How far the cost terms, the sensitivities and the rollout's steps (times ``dt``,
-        as they enter ``S``) moved since the remembered build, as a multiple of their
-        tolerances (the largest; ``inf`` with nothing remembered). Where the cost weighs
-        positions alike in every direction (``isotropic``), a rotation of the whole plan
-        does not count (looked at only when the drift is above ``enough``)."""
+              p_changed: bool, isotropic: bool, enough: float) -> tuple[float, float]:
+        """How far the cost terms, and the sensitivities and the rollout's steps (times
+        ``dt``, as they enter ``S``), moved since the remembered build, each as a multiple
+        of its tolerance (``inf`` with nothing remembered). Where the cost weighs positions
+        alike in every direction (``isotropic``), a rotation of the whole plan does not
+        count (looked at only when the second is above ``enough``)."""
         cache = self._cache
         if cache is None:
-            return math.inf
+            return math.inf, math.inf
         p_moved = 0.0
         if p_changed or self._p_stale:
             p_moved = float(np.abs(p_data - cache.p_data).max()) / self._p_tolerance
@@ -63,7 +63,7 @@ class HessianReuse:
         if isotropic and moved > enough:
             moved = min(moved, cache.moved(*_unrotated(sensitivity, displacement), self.dt,
                                            turned=True) / self._tolerance)
-        return max(p_moved, moved)
+        return p_moved, moved
 
     def remember(self, p_data: FloatArray, sensitivity: FloatArray,
                  displacement: FloatArray) -> None:
