@@ -141,15 +141,19 @@ class DenseSolver:
         lower, upper = self._step_bounds(tick)
         if profile is not None:
             profile.mark("solve: condense")
+        pending = self._rebuild
+        building = pending is not None
         if self._solver is None or cost_drift > 1.0 or drift > REBUILD_NOW:  # all now
             for _ in self._start_rebuild(sensitivity, displacement):  # all of it
                 pass
-            self._rebuild = None
-        elif drift > REBUILD_EARLY and self._rebuild is None:
-            self._start_rebuild(sensitivity, displacement)
-        elif self._rebuild is not None and not next(self._rebuild, False):
+            self._rebuild, building = None, True
+        elif pending is None:
+            if drift > REBUILD_EARLY:
+                self._start_rebuild(sensitivity, displacement)
+                building = True
+        elif not next(pending, False):
             self._rebuild = None  # the new Hessian took over this tick
-        if profile is not None and self._rows_stale:
+        if profile is not None and building:
             profile.mark("solve: hessian")
         solver = self._update(gradient, lower, upper, rows_changed)
         if solver is None:  # daqp refused the problem at set-up: a failed tick
