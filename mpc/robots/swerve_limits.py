@@ -10,11 +10,14 @@ For module ``i`` with velocity ``v = W_i u`` [rad/s] (ground velocity / r):
 
 The NLP takes the disks and, between consecutive stages of the plan, the steering
 bound (squared, so smooth; exact for modules at speed, see :data:`NLP_STEERING_SLACK`).
-The QP takes each disk as a regular polygon (:func:`qp_speed_rows`) and the
-steering rate as the cost on the change of module velocity (``Weights.module_rate``).
-For every command, the final clamp (:func:`mpc.control.clamp.clamp_command`) keeps every
-module within all three limits: the first command's turn against the present steer
-angles is the clamp's to keep, in both paths.
+The QPs take each disk linearised around the plan the solver starts from
+(:func:`linearised_stage_limits`: faces of a circumscribed polygon turned each tick to
+the planned direction), or a constant regular polygon (:func:`qp_speed_rows`) when asked
+for one, and the steering rate as the cost on the change of module velocity
+(``Weights.module_rate``). For every command, the final clamp
+(:func:`mpc.control.clamp.clamp_command`) keeps every module within all three limits: the
+first command's turn against the present steer angles is the clamp's to keep, in both
+paths.
 """
 
 from __future__ import annotations
