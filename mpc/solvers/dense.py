@@ -1,17 +1,19 @@
 """Fast path on a condensed QP: daqp, a dual active-set solver, one dense QP per tick.
 
-Each tick: one CasADi call rolls the guess twists out from the measured pose
-and gives the input sensitivities, one gives the cost terms; the QP is
-condensed onto the inputs (:mod:`.condensed`) and daqp solves it, warm
-started from its own last active set (daqp keeps it between solves).
+Each tick: one CasADi call gives the cost terms, the rollout of the guess twists
+from the measured pose with its input sensitivities, and the cost's exact gradient
+along it (:func:`~mpc.solvers.condensed.tick_terms`); the QP is condensed onto
+the inputs (:mod:`.condensed`) and daqp solves it, warm started from its own last
+active set (daqp keeps it between solves).
 
 The QP is posed in the step from the guess with the cost's exact gradient
 there, so the Hessian only shapes the step: a new one is begun only when the
-cost terms or an input sensitivity moved by :data:`REBUILD_EARLY` of
-:data:`COST_TOLERANCE` / :data:`SENSITIVITY_TOLERANCE` since the last build
-(:mod:`.hessian_reuse`), and built over three ticks so that no tick carries a
-whole rebuild. daqp sees the QP in whitened steps (Hessian the identity), so a
-new Hessian costs it new rows, not a refactorisation.
+sensitivities or the rollout's steps moved by :data:`REBUILD_EARLY` times
+:data:`SENSITIVITY_TOLERANCE` since the last build (:mod:`.hessian_reuse`), and
+built over four ticks so that no tick carries a whole rebuild; it is rebuilt at
+once when they moved beyond :data:`REBUILD_NOW` times, or the cost terms beyond
+:data:`COST_TOLERANCE`. daqp sees the QP in whitened steps (Hessian the
+identity), so a new Hessian costs it new rows, not a refactorisation.
 """
 
 from __future__ import annotations
@@ -38,10 +40,11 @@ __all__ = ["COST_TOLERANCE", "REBUILD_EARLY", "REBUILD_NOW", "SENSITIVITY_TOLERA
            "DenseSolver"]
 
 #: A new Hessian is begun once the sensitivities or the rollout's steps moved this
-#: multiple of their tolerance from the one in use; it is built over three ticks (``H``;
-#: its whitening; the switch), so no tick carries a whole rebuild. Cost terms that moved
-#: beyond their tolerance (path mode's contour directions) rebuild at once: a stale
-#: contour weighting slowed the progress.
+#: multiple of their tolerance from the one in use; it is built over four ticks of about
+#: the same work (see :meth:`DenseSolver._rebuild_stages`), so no tick carries a whole
+#: rebuild. Cost terms that moved beyond their tolerance (path mode's contour directions)
+#: rebuild at once: a staged contour weighting left the fixed-heading circles slower and
+#: further off the path (omni-3 lap 6.40 against 6.35 s, 3.5 against 0.85 mm).
 REBUILD_EARLY = 1.0
 
 #: Beyond this multiple of their tolerance (the plan moves fast: a turning heading; or the
@@ -104,6 +107,7 @@ class DenseSolver:
         self._whitened_rows = self.condenser.constraints.copy()
         self._rebuild: Iterator[bool] | None = None  # a Hessian being built, stage by stage
         self._rows_stale = True  # the whitened rows are not yet of the present L^{-T}
+        self._rows_new = False  # new whitened rows for daqp (a finished rebuild's)
         self.factorisations = 0  # Hessian rebuilds so far (for benchmarks)
         self.profile: TickProfile | None = None  # phase stopwatch, set by the controller
 
@@ -203,17 +207,23 @@ class DenseSolver:
 
     def _rebuild_stages(self, sensitivity: FloatArray,
                         displacement: FloatArray) -> Iterator[bool]:
-        """A new Hessian in stages, one a tick (see :data:`REBUILD_EARLY`): ``H`` from
-        this tick's terms; its whitening ``L^{-T}``; then the switch (the rows are
-        whitened anew and daqp gets them with the same tick's gradient, so every QP is
-        posed with one Hessian)."""
-        hessian = self.condenser.hessian(
-            self.condenser.state_sensitivities(sensitivity, displacement))
+        """A new Hessian in stages of about the same work, one a tick (see
+        :data:`REBUILD_EARLY`): the state sensitivities ``S`` from this tick's terms; ``H``
+        and its Cholesky factor; the whitening ``L^{-T}`` and the rows whitened by it; then
+        the switch (daqp gets the rows with the same tick's gradient, so every QP is posed
+        with one Hessian)."""
+        states = self.condenser.state_sensitivities(sensitivity, displacement)
         yield True
-        unwhiten = _inverse_factor(hessian)
+        factor = _factor(self.condenser.hessian(states))
+        yield True
+        unwhiten = _inverse_transpose(factor)
+        whitened = None if not self.limits.constant else self._whitened(unwhiten)
         yield True
         self._unwhiten = unwhiten
-        self._rows_stale = True
+        if whitened is None:  # rows that move every tick are whitened with them
+            self._rows_stale = True
+        else:
+            self._whitened_rows, self._rows_new = whitened, True
 
     def _refill_rows(self, tick: TickInput) -> bool:
         """Refill the limit rows of robots whose limits move (swerve); whether they did."""
@@ -249,10 +259,10 @@ class DenseSolver:
                 rows_changed: bool) -> daqp.Model | None:
         """Hand daqp what changed, in whitened steps ``y = L' d``: Hessian the identity,
         rows ``A L^{-T}``, gradient ``L^{-1} g`` (None if daqp refuses to set it up)."""
-        new_rows = rows_changed or self._rows_stale
-        if new_rows:
-            self._whiten_rows()
-            self._rows_stale = False
+        new_rows = rows_changed or self._rows_stale or self._rows_new
+        if rows_changed or self._rows_stale:
+            self._whitened_rows = self._whitened(self._unwhiten, self._whitened_rows)
+        self._rows_stale = self._rows_new = False
         whitened_gradient = self._unwhiten.T @ gradient
         if self._solver is None:
             identity = np.eye(self.condenser.size)
@@ -275,20 +285,22 @@ class DenseSolver:
         self._solver.update(**update)
         return self._solver
 
-    def _whiten_rows(self) -> None:
-        """``A L^{-T}`` into ``_whitened_rows``, stage by stage: stage ``k``'s limit rows touch
-        ``u_k`` and ``u_{k-1}`` only, so it is a batch of (m, 3) x (3, n) products (small
-        enough that BLAS stays on one thread; one dense product of the whole matrix went
-        to 5-15 ms with threads on a loaded 2-core machine)."""
-        limits, unwhiten = self.limits, self._unwhiten
+    def _whitened(self, unwhiten: FloatArray, out: FloatArray | None = None) -> FloatArray:
+        """``A L^{-T}`` (into ``out`` if given), stage by stage: stage ``k``'s limit rows
+        touch ``u_k`` and ``u_{k-1}`` only, so it is a batch of (m, 3) x (3, n) products
+        (small enough that BLAS stays on one thread; one dense product of the whole matrix
+        went to 5-15 ms with threads on a loaded 2-core machine)."""
+        limits = self.limits
         n, m = limits.horizon, limits.rows
+        whitened = np.empty_like(self._whitened_rows) if out is None else out
         blocks = unwhiten[:3 * n].reshape(n, 3, -1)
-        rows = self._whitened_rows[:n * m].reshape(n, m, -1)
+        rows = whitened[:n * m].reshape(n, m, -1)
         np.matmul(limits.now, blocks, out=rows)
         if n > 1:
             rows[1:] += np.matmul(limits.before[1:], blocks[:-1])
-        if self._whitened_rows.shape[0] > n * m:  # path mode's progress rows
-            self._whitened_rows[n * m:] = self.condenser.constraints[n * m:] @ unwhiten
+        if whitened.shape[0] > n * m:  # path mode's progress rows
+            whitened[n * m:] = self.condenser.constraints[n * m:] @ unwhiten
+        return whitened
 
     def _result(self, tick: TickInput, step: FloatArray, flag: int, info: dict[str, float],
                 sensitivity: FloatArray, displacement: FloatArray) -> SolveResult:
@@ -308,13 +320,18 @@ class DenseSolver:
             iterations=int(info["iterations"]))
 
 
-def _inverse_factor(hessian: FloatArray) -> FloatArray:
-    """``L^{-T}`` for ``H = L L'`` (LAPACK directly: numpy's and scipy's wrappers cost
-    several times the work); a Hessian that is not positive definite (daqp would refuse
-    it too) is regularised first."""
+def _factor(hessian: FloatArray) -> FloatArray:
+    """``L`` with ``H = L L'`` (LAPACK directly: numpy's and scipy's wrappers cost several
+    times the work); a Hessian that is not positive definite (daqp would refuse it too) is
+    regularised first."""
     factor, info = lapack.dpotrf(hessian, lower=1, clean=1)
     if info != 0:
         factor, info = lapack.dpotrf(hessian + 1e-9 * np.trace(hessian)
                                      * np.eye(hessian.shape[0]), lower=1, clean=1)
-    inverse, info = lapack.dtrtri(factor, lower=1)
+    return factor
+
+
+def _inverse_transpose(factor: FloatArray) -> FloatArray:
+    """``L^{-T}`` of a lower-triangular ``L``."""
+    inverse, _ = lapack.dtrtri(factor, lower=1)
     return np.ascontiguousarray(inverse.T)
