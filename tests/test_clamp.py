@@ -190,3 +190,19 @@ def test_commands_as_sent_keep_the_acceleration_limit_when_a_module_stops() -> N
     metrics = result["metrics"]
     assert metrics["accel_violations"] == 0
     assert metrics["limit_violations"] == 0 and metrics["steer_violations"] == 0
+
+
+@pytest.mark.parametrize("name", ["swerve", "mpo700", "mecanum"])
+def test_a_last_command_beyond_the_speed_limits_gives_way_to_them(name: str) -> None:
+    """The limits just derated below the last command: the clamp cannot step from it within
+    the acceleration or steering limits as well, and keeps every wheel within its speed
+    limit (the speed limits win)."""
+    robot = preset(name)
+    last = np.array([1.0, 0.3, 0.5])
+    last *= 3.0 * float((robot.max_wheel_speed / robot.wheel_magnitudes(last)).min())
+    steer = robot.initial_steer_angles()
+    if steer is not None:  # modules aligned with the last command; the target turns them
+        steer = robot.wheel_commands(last, steer)[1]
+    target = np.array([0.0, 0.2, -0.3])
+    safe, _ = clamp_command(robot, target, last, 0.05, steer)
+    assert np.all(robot.wheel_magnitudes(safe) <= robot.max_wheel_speed * (1 + 1e-9))

@@ -180,9 +180,9 @@ def test_bad_step_arguments_raise(pose: object, t: object, message: str) -> None
 
 def test_bad_reset_and_trajectory_raise() -> None:
     controller = Controller(preset("mecanum"), TRAJECTORY)
-    with pytest.raises(ControllerError, match="last_twist must be a finite"):
+    with pytest.raises(ControllerError, match="last_twist must be finite"):
         controller.reset(last_twist=[0.0, math.nan, 0.0])
-    with pytest.raises(ControllerError, match="last_twist must be a finite"):
+    with pytest.raises(ControllerError, match=r"last_twist must have shape \(3,\)"):
         controller.reset(last_twist=[0.0, 0.0])
     with pytest.raises(ControllerError, match="trajectory must be a trajectories.Trajectory"):
         controller.trajectory = None  # type: ignore[assignment]
@@ -379,3 +379,21 @@ def test_fallbacks_are_logged_when_they_start_and_end_not_per_tick(
     messages = [(r.levelname, r.getMessage()) for r in caplog.records]
     assert messages == [("WARNING", "falling back: injected failure"),
                         ("INFO", "solved again after 5 failed ticks")]
+
+
+@pytest.mark.parametrize(("last_twist", "needle"), [
+    ([1e300, 0.0, 0.0], "beyond its limit"),
+    ([5.0, 0.0, 0.0], "beyond its limit"),
+    ("abc", "last_twist must be 3 numbers"),
+    ([True, 0.0, 0.0], "last_twist must be 3 numbers"),
+    ([0.1, 0.0], "last_twist must have shape (3,)"),
+])
+@pytest.mark.parametrize("name", ["mecanum", "swerve", "mpo700"])
+def test_reset_refuses_a_last_twist_the_wheels_cannot_drive(name: str, last_twist: Any,
+                                                             needle: str) -> None:
+    """The twist the robot is executing is checked like any input, and against the wheel
+    speed limits: a command stepped from one beyond them went out beyond them too."""
+    controller = Controller(preset(name), Circle(0.5, 10.0))
+    with pytest.raises(ControllerError, match="last_twist") as raised:
+        controller.reset(last_twist=last_twist)
+    assert needle in str(raised.value)

@@ -71,6 +71,10 @@ def _limit_step(robot: Robot, safe: FloatArray, last: FloatArray, dt: float,
                 steer_angles: FloatArray | None, limit: FloatArray) -> FloatArray:
     """Steps 2-4 of :func:`clamp_command`: the step from ``last`` towards ``safe`` (within
     the speed limits ``limit``) shortened for acceleration, motors and steering."""
+    # A last command beyond the speed limits (the limits were just derated) cannot be
+    # stepped from within the other limits: the speed limits win, and the step is whole.
+    if (robot.wheel_magnitudes(last) - limit * (1 + 1e-9)).max() > _SPEED_SLACK:
+        return safe
     accel = robot.max_wheel_accel
     if accel is not None:
         step = safe - last
@@ -79,11 +83,9 @@ def _limit_step(robot: Robot, safe: FloatArray, last: FloatArray, dt: float,
         # command_snap of the limit at each end.
         bound = np.maximum(accel * dt - 2.0 * robot.command_snap, 0.5 * accel * dt)
         ratio = float((robot.wheel_magnitudes(step) / bound).max())
-        if ratio > 1.0 and not (robot.wheel_magnitudes(last) - limit * (1 + 1e-9)
-                                ).max() > _SPEED_SLACK:
+        if ratio > 1.0:
             safe = last + (1.0 - _SPEED_SLACK) / ratio * step
-    if robot.dynamics is not None and not (robot.wheel_magnitudes(last) - limit * (1 + 1e-9)
-                                           ).max() > _SPEED_SLACK:
+    if robot.dynamics is not None:
         for _ in range(_MOTOR_PASSES):  # the Coriolis term moves with the step: again
             fraction = motor_step_fraction(robot, last, safe, dt, steer_angles)
             if fraction >= 1.0 - 1e-9:

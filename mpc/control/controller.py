@@ -189,9 +189,16 @@ class Controller:
         Swerve modules are at ``steer_angles`` [rad] (n,) if given; else a module moving
         in ``last_twist`` points along it (flip rule from its last commanded angle) and one
         at rest where it was last commanded (straight ahead at first)."""
-        last = np.zeros(3) if last_twist is None else np.array(last_twist, dtype=float)
-        if last.shape != (3,) or not np.all(np.isfinite(last)):
-            raise ControllerError(f"last_twist must be a finite (3,) twist, got {last_twist!r}")
+        last = np.zeros(3) if last_twist is None else finite_vector(
+            "last_twist", last_twist, 3, "(vx, vy, omega) [m/s, m/s, rad/s]", ControllerError)
+        speeds = self.robot.wheel_magnitudes(last)
+        limit = self.robot.max_wheel_speed
+        if np.any(speeds - limit > 1e-9 * np.maximum(limit, 1.0)):
+            wheel = int(np.argmax(speeds - limit))
+            raise ControllerError(
+                f"last_twist {last.tolist()} drives wheel {wheel} at {speeds[wheel]:.6g} "
+                f"rad/s, beyond its limit {limit[wheel]:.6g} rad/s: the twist the robot is "
+                "executing must be one its wheels can drive")
         self._last = last
         steer = self._steer if self._steer is not None else self.robot.initial_steer_angles()
         if steer_angles is not None:
