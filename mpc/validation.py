@@ -10,6 +10,7 @@ import functools
 import inspect
 import math
 import numbers
+import stat
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -69,7 +70,7 @@ def shown(value: object) -> str:
     except RecursionError:
         text = f"a {type(value).__name__} nested too deeply to show"
     except (ValueError, OverflowError):
-        text = f"a {type(value).__name__} too large to show"
+        text = f"a {type(value).__name__} holding an integer too large to show"
     return text if len(text) <= _MAX_SHOWN else text[:_MAX_SHOWN - 3] + "..."
 
 
@@ -253,6 +254,10 @@ def file_text(path: object, what: str, error: type[MpcError] = MpcError) -> str:
         if not isinstance(path, (str, PathLike)):
             raise error(f"{what} file must be a path (str or os.PathLike), got {path!r}")
         file = Path(path)
+        mode = file.stat().st_mode if file.exists() else 0
+        if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):  # open() would block forever
+            raise error(f"{what} file {str(file)!r} is not a regular file (a named pipe "
+                        "or socket)")
         with file.open("rb") as stream:  # read at most the bound: devices report size 0
             data = stream.read(MAX_FILE_BYTES + 1)
         if len(data) > MAX_FILE_BYTES:
@@ -309,5 +314,19 @@ def checked_arguments(error: type[MpcError]) -> Callable[[F], F]:
             return function(*args, **kwargs)
 
         return checked  # type: ignore[return-value]
+
+    return decorate
+
+
+C = TypeVar("C", bound=type)
+
+
+def checked_constructor(error: type[MpcError]) -> Callable[[C], C]:
+    """Class decorator: :func:`checked_arguments` on the class's ``__init__`` (a dataclass's
+    generated one too), so that ``Weights(colour=1)`` raises ``error`` naming the class."""
+
+    def decorate(cls: C) -> C:
+        setattr(cls, "__init__", checked_arguments(error)(cls.__init__))  # noqa: B010
+        return cls
 
     return decorate

@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
-from mpc.validation import file_text, is_finite_number, parsed
+from mpc.validation import checked_constructor, file_text, is_finite_number, parsed, shown
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -45,6 +45,7 @@ _SCALARS = ("along_track", "module_rate", "progress", "progress_reward", "progre
             "contour")
 
 
+@checked_constructor(ControllerError)
 @dataclass(frozen=True, eq=False)
 class Weights:
     """Diagonal weights of the cost (a scalar applies to all three axes).
@@ -112,7 +113,7 @@ class Weights:
             value = getattr(self, name)
             if not is_finite_number(value) or value < 0.0:
                 raise ControllerError(f"weight {name!r} must be a finite number >= 0, "
-                                      f"got {value!r}")
+                                      f"got {shown(value)}")
             object.__setattr__(self, name, float(value))
         if not (np.any(self.pose > 0.0) or np.any(self.terminal > 0.0)):
             raise ControllerError("weights 'pose' and 'terminal' are all zero: nothing ties the "
