@@ -326,7 +326,7 @@ def checked_constructor(error: type[MpcError]) -> Callable[[C], C]:
     generated one too), so that ``Weights(colour=1)`` raises ``error`` naming the class."""
 
     def decorate(cls: C) -> C:
-        setattr(cls, "__init__", checked_arguments(error)(cls.__init__))  # noqa: B010
+        setattr(cls, "__init__", checked_arguments(error)(vars(cls)["__init__"]))  # noqa: B010
         return cls
 
     return decorate

@@ -87,7 +87,7 @@ def feasibility(
             )
         if duration <= 0.0:
             raise TrajectoryError(
-                f"feasibility needs a trajectory of positive duration, got {duration!r} s"
+                f"feasibility needs a trajectory of positive duration, got {shown(duration)} s"
             )
     else:
         duration = positive_number("duration [s]", duration)

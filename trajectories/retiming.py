@@ -154,7 +154,7 @@ def time_optimal(
         raise TrajectoryError(f"path cannot be retimed: {error}") from None
     if float(np.abs(fine.twist).max()) < _STILL_TWIST:
         raise TrajectoryError(
-            f"path must move or turn, but its pose is constant for s in [{start!r}, "
+            f"path must move or turn, but its pose is constant for s in [{shown(start)}, "
             f"{start + span!r}] s: a path of zero length has no time-optimal timing"
         )
     coarse = PathGeometry(*(array[::refine] for array in fine))
@@ -168,7 +168,7 @@ def time_optimal(
     demand = max(speed * speed, accel)  # both scale with b: speed with sqrt(b), accel with b
     if not (demand > 0.0 and math.isfinite(demand)):
         raise TrajectoryError(f"the retiming cone program returned an unusable timing (peak "
-                              f"speed demand {speed!r}, acceleration demand {accel!r})")
+                              f"speed demand {shown(speed)}, acceleration demand {shown(accel)})")
     factor = (1.0 - MARGIN) / demand
     b *= factor
     info = RetimingInfo(
@@ -204,7 +204,7 @@ def _checked_path(path: Any, periodic: Any) -> tuple[Trajectory, bool, float, fl
         )
     span = path.period if path.period is not None else path.duration
     if span is None or not span > 0.0:
-        raise TrajectoryError(f"path must last a positive time, got {span!r} s for {path!r}")
+        raise TrajectoryError(f"path must last a positive time, got {shown(span)} s for {path!r}")
     return path, steady, path.start_time, float(span)
 
 

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from mpc.validation import checked_constructor
+from mpc.validation import checked_constructor, shown
 
 from ._validation import FloatArray, finite_number, point2, positive_number
 from .base import Trajectory
@@ -222,7 +222,7 @@ class OutAndBack(Trajectory):
         self._period = positive_number("period [s]", period)
         self._width = finite_number("width [m]", width)
         if self._width < 0.0:
-            raise TrajectoryError(f"width [m] must be >= 0, got {width!r}")
+            raise TrajectoryError(f"width [m] must be >= 0, got {shown(width)}")
         self._center = point2("center", center)
         self._omega = 2.0 * math.pi / self._period
         # x = L/2 sin(w t), y = W/2 + W/2 sin(w t - pi/2)

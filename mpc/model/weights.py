@@ -26,7 +26,7 @@ def _diagonal(name: str, value: ArrayLike) -> FloatArray:
     except (TypeError, ValueError):  # ragged
         raw = np.asarray(None)
     if raw.dtype.kind not in "iuf":  # bools, strings, ragged lists
-        raise ControllerError(f"weight {name!r} must be a number or 3 numbers, got {value!r}")
+        raise ControllerError(f"weight {name!r} must be a number or 3 numbers, got {shown(value)}")
     array = raw.astype(float)
     if array.ndim == 0:
         array = np.full(3, float(array))
@@ -121,7 +121,7 @@ class Weights:
         along = self.along_track
         if not is_finite_number(along) or not 0.0 <= along <= 1.0:
             raise ControllerError(f"weight 'along_track' must be a number in [0, 1], "
-                                  f"got {along!r}")
+                                  f"got {shown(along)}")
         object.__setattr__(self, "along_track", float(along))
 
 

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from mpc.sim.result import SimResult
+from mpc.validation import shown
 
 from .compare import (
     controllers_of,
@@ -132,7 +133,7 @@ def _draw_runs(jobs: Sequence[tuple[Run, Any, Path]], workers: int,
     """Each run's figure, here or on ``workers`` fresh processes (spawned: nothing of this
     process's state, threads or open figures, is carried into them)."""
     if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
-        raise ReportError(f"workers must be an integer >= 1, got {workers!r}")
+        raise ReportError(f"workers must be an integer >= 1, got {shown(workers)}")
     if workers == 1 or len(jobs) < 2 * workers:
         for job in jobs:
             write_run_figure(*job)
@@ -181,7 +182,7 @@ def results_document(results: Results, *, skip: float = 0.0,
                  for i, value in enumerate(results, start=1)]
     else:
         raise ReportError("results must be a SimResult, a run record, a mapping of names to "
-                          f"them, a sequence of them or a results document; got {results!r}")
+                          f"them, a sequence of them or a results document; got {shown(results)}")
     runs: list[dict[str, Any]] = []
     dt = math.nan
     for name, value in named:
