@@ -57,7 +57,7 @@ from benchmarks.scenarios import (
     parse_speeds,
     robots,
 )
-from mpc.errors import MpcError
+from mpc.errors import MpcError, ReportError
 from mpc.robots import motor_preset
 from mpc.sim import PLANT_PRESETS
 from mpc.validation import MAX_HORIZON, MAX_POLYGON_SIDES, MAX_SIMULATION_TICKS, MAX_STEP
@@ -292,7 +292,10 @@ def report(argv: list[str]) -> int:
     mine = path.parent if (path.parent / "index.html").exists() else path.parent / "report"
     folder = claim(Path(args.out) if args.out else mine, ("index.html",),
                    args.force or args.out is None)
-    _write_report(document, folder, args.workers or os.cpu_count() or 1)
+    try:
+        _write_report(document, folder, args.workers or os.cpu_count() or 1)
+    except ReportError as error:  # a damaged field found while drawing: name the file
+        raise ReportError(f"results file {str(path)!r}: {error}") from None
     return 0
 
 

@@ -74,6 +74,11 @@ class Recorder:
         if not isinstance(command, Command):
             raise SimulationError("command must be the Command step() returned, "
                                   f"got {shown(command)}")
+        if np.shape(command.wheel_speeds) != (self.robot.n_wheels,):
+            raise SimulationError(
+                f"command has {np.size(command.wheel_speeds)} wheel speeds but the recorder's "
+                f"robot {self.robot.name!r} has {self.robot.n_wheels} wheels: a command of "
+                "another robot")
         if self._rows and t < self._rows[-1][0]:
             raise SimulationError(f"t must not decrease: {shown(t)} s after "
                                   f"{self._rows[-1][0]!r} s")
