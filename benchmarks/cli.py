@@ -147,10 +147,6 @@ def _check_run_numbers(args: argparse.Namespace) -> None:
                             f"({MAX_SIMULATION_TICKS} ticks), got {args.duration}")
     if args.skip is not None and not (math.isfinite(args.skip) and args.skip >= 0):
         raise ScenarioError(f"--skip must be a finite number >= 0 [s], got {args.skip}")
-    if args.skip is not None and args.duration is not None and args.skip > 0.5 * args.duration:
-        raise ScenarioError(f"--skip {args.skip:g} s must be at most half of --duration "
-                            f"{args.duration:g} s (the tracking errors are taken over the "
-                            "rest)")
     if args.polygon_sides is not None and (
             not 4 <= args.polygon_sides <= MAX_POLYGON_SIDES or args.polygon_sides % 2):
         raise ScenarioError(f"--polygon-sides must be an even integer 4 to "
@@ -198,6 +194,10 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
         args.trajectories = "figure8" if args.trajectories is None else args.trajectories
         args.heading = "fixed" if args.heading is None else args.heading
         args.duration = 3.0 if args.duration is None else args.duration
+    if args.skip is not None and args.duration is not None and args.skip > 0.5 * args.duration:
+        raise ScenarioError(f"--skip {args.skip:g} s must be at most half of --duration "
+                            f"{args.duration:g} s (the tracking errors are taken over the "
+                            "rest)")
     if args.skip is None:  # the default settling time, shortened for a short run
         args.skip = 1.0 if args.quick else 2.0
         if args.duration is not None:
