@@ -627,6 +627,9 @@ def test_messages_showing_arrays_are_one_line(build: Callable[[], Any], error: t
     (lambda: __import__("trajectories").feasibility(Circle(1.0, 10.0), object()),
      TrajectoryError, "robot"),
     (lambda: __import__("mpc").Weights(colour=1), ControllerError, "colour"),
+    (lambda: __import__("trajectories").time_optimal(Circle(1.0, 10.0), preset("mecanum"),
+                                                     max_speed=1e-300),
+     TrajectoryError, "max_speed"),
 ])
 def test_bools_strings_and_foreign_arguments_get_our_error(build: Callable[[], Any],
                                                           error: type[Exception],

@@ -212,6 +212,10 @@ def _checked_samples(samples: Any) -> int:
     return samples_in(samples, MIN_SAMPLES, MAX_SAMPLES, "grid cells along the path")
 
 
+#: Smallest path speed [m/s] or heading rate [rad/s] cap of :func:`time_optimal`.
+MIN_CAP = 1e-6
+
+
 def _checked_limits(robot: Any, max_speed: Any, max_heading_rate: Any) -> Limits:
     """The robot's wheel maps and limits, and the caps, checked."""
     expected = ("robot must have wheel_blocks (n, d, 3), max_wheel_speed (n,) [rad/s] and "
@@ -238,11 +242,12 @@ def _checked_limits(robot: Any, max_speed: Any, max_heading_rate: Any) -> Limits
     ):
         raise TrajectoryError(f"{expected}; got max_wheel_accel {shown(accel)} for {n} wheels "
                               "(each finite and > 0)")
-    return Limits(
-        blocks,
-        speed,
-        accel,
-        None if max_speed is None else positive_number("max_speed [m/s]", max_speed),
-        None if max_heading_rate is None else positive_number(
-            "max_heading_rate [rad/s]", max_heading_rate),
-    )
+    caps = []
+    for name, value in (("max_speed [m/s]", max_speed),
+                        ("max_heading_rate [rad/s]", max_heading_rate)):
+        cap = None if value is None else positive_number(name, value)
+        if cap is not None and cap < MIN_CAP:
+            raise TrajectoryError(f"{name} must be at least {MIN_CAP:g} (a bound of this "
+                                  f"library: slower, the lap time overflows), got {cap!r}")
+        caps.append(cap)
+    return Limits(blocks, speed, accel, caps[0], caps[1])
