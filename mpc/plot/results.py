@@ -233,6 +233,8 @@ def _float_array(series: Mapping[str, Any], key: str, columns: int | None, name:
     except (TypeError, ValueError) as error:
         raise ReportError(f"run {name}: series {key!r} is not numeric: {error}") from error
     bad = ~(np.abs(array) <= _MAX_SERIES_VALUE) & ~np.isnan(array)
+    if key == "wheel_limit":  # an unlimited wheel is infinite by design
+        bad &= ~np.isinf(array)
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
         raise ReportError(
