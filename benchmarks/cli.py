@@ -57,7 +57,7 @@ from benchmarks.scenarios import (
     parse_speeds,
     robots,
 )
-from mpc.errors import MpcError
+from mpc.errors import MpcError, ReportError
 from mpc.robots import motor_preset
 from mpc.sim import PLANT_PRESETS
 from mpc.validation import MAX_HORIZON, MAX_POLYGON_SIDES, MAX_SIMULATION_TICKS, MAX_STEP
@@ -105,8 +105,10 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
     parser.add_argument("--duration", type=float,
                         help="simulated seconds per run (default: 2.2 laps at the fastest "
                              "pace the wheels allow + --skip, at least 6 s)")
-    parser.add_argument("--skip", type=float, default=2.0,
-                        help="seconds of settling left out of the tracking errors (2.0)")
+    parser.add_argument("--skip", type=float,
+                        help="seconds of settling left out of the tracking errors (default "
+                             "2.0, 1.0 with --quick, at most half of --duration); a given "
+                             "value must leave at least half of --duration")
     parser.add_argument("--plant", default="ideal", choices=sorted(PLANT_PRESETS),
                         help="simulated robot: ideal, realistic (motor lag, 1-tick delay, "
                              "pose noise, slip) or motor (the layouts' motor presets driven "
@@ -143,7 +145,7 @@ def _check_run_numbers(args: argparse.Namespace) -> None:
     if args.duration is not None and not 0 < args.duration <= longest:
         raise ScenarioError(f"--duration must be > 0 and at most {longest:g} s "
                             f"({MAX_SIMULATION_TICKS} ticks), got {args.duration}")
-    if not (math.isfinite(args.skip) and args.skip >= 0):
+    if args.skip is not None and not (math.isfinite(args.skip) and args.skip >= 0):
         raise ScenarioError(f"--skip must be a finite number >= 0 [s], got {args.skip}")
     if args.polygon_sides is not None and (
             not 4 <= args.polygon_sides <= MAX_POLYGON_SIDES or args.polygon_sides % 2):
@@ -151,6 +153,25 @@ def _check_run_numbers(args: argparse.Namespace) -> None:
                             f"{MAX_POLYGON_SIDES}, got {args.polygon_sides}")
     if args.seed < 0:
         raise ScenarioError(f"--seed must be >= 0, got {args.seed}")
+
+
+def _check_run_lengths(scenarios: list[Any], args: argparse.Namespace) -> None:
+    """Every run's length within the simulated-ticks bound and longer than one tick after
+    the settling time, or ScenarioError naming --dt, --duration and --skip."""
+    from benchmarks.runner import default_duration
+
+    for scenario in scenarios:
+        length = args.duration or default_duration(scenario, args.skip)
+        given = "--duration" if args.duration else "its default duration (2.2 laps + --skip)"
+        if length / args.dt > MAX_SIMULATION_TICKS:
+            raise ScenarioError(
+                f"--dt {args.dt:g} s makes a run of {length:g} s ({given}) "
+                f"{length / args.dt:.3g} ticks; at most {MAX_SIMULATION_TICKS} ticks are "
+                "simulated (raise --dt or shorten --duration)")
+        if length - min(args.skip, 0.5 * length) < args.dt:
+            raise ScenarioError(
+                f"--dt {args.dt:g} s leaves no tick of a {length:g} s run ({given}) after "
+                f"--skip {args.skip:g} s (lower --dt or lengthen --duration)")
 
 
 def run(argv: list[str], prog: str = "mpc-bench run") -> int:
@@ -173,7 +194,14 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
         args.trajectories = "figure8" if args.trajectories is None else args.trajectories
         args.heading = "fixed" if args.heading is None else args.heading
         args.duration = 3.0 if args.duration is None else args.duration
-        args.skip = min(args.skip, 1.0)
+    if args.skip is not None and args.duration is not None and args.skip > 0.5 * args.duration:
+        raise ScenarioError(f"--skip {args.skip:g} s must be at most half of --duration "
+                            f"{args.duration:g} s (the tracking errors are taken over the "
+                            "rest)")
+    if args.skip is None:  # the default settling time, shortened for a short run
+        args.skip = 1.0 if args.quick else 2.0
+        if args.duration is not None:
+            args.skip = min(args.skip, 0.5 * args.duration)
     layouts = choose("--layouts", "layout", args.layouts, PRESETS, DEFAULT_LAYOUTS)
     chosen_robots = robots(layouts, args.robot)
     if args.plant == "motor":  # a motor plant drives robots with motors: the motor presets
@@ -205,6 +233,7 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     scenarios = [*build_scenarios(chosen_robots, trajectories if shapes else [], speeds,
                                   headings, csv_trajectory),
                  *file_scenarios(files, chosen_robots)]
+    _check_run_lengths(scenarios, args)
     total = sum(applies(name, scenario.robot) for scenario in scenarios for name in controllers)
     skipped = sorted({f"{name} on {scenario.layout}" for scenario in scenarios
                       for name in controllers if not applies(name, scenario.robot)})
@@ -292,7 +321,10 @@ def report(argv: list[str]) -> int:
     mine = path.parent if (path.parent / "index.html").exists() else path.parent / "report"
     folder = claim(Path(args.out) if args.out else mine, ("index.html",),
                    args.force or args.out is None)
-    _write_report(document, folder, args.workers or os.cpu_count() or 1)
+    try:
+        _write_report(document, folder, args.workers or os.cpu_count() or 1)
+    except ReportError as error:  # a damaged field found while drawing: name the file
+        raise ReportError(f"results file {str(path)!r}: {error}") from None
     return 0
 
 

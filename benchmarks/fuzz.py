@@ -35,6 +35,7 @@ from benchmarks.scenarios import Parser, ScenarioError
 from mpc import Command, Controller, Status
 from mpc.model import integrate
 from mpc.robots import PRESETS, Robot, preset
+from mpc.validation import MAX_SIMULATION_TICKS
 from trajectories import Circle, FigureEight, SpinHeading, Trajectory
 
 DT = 0.05
@@ -184,8 +185,11 @@ def _parser() -> Parser:
 
 def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
-    if args.ticks < 100:
-        raise ScenarioError(f"--ticks must be >= 100, got {args.ticks}")
+    if not 100 <= args.ticks <= MAX_SIMULATION_TICKS:
+        raise ScenarioError(f"--ticks must be 100 to {MAX_SIMULATION_TICKS} (a bound of this "
+                            f"library), got {args.ticks}")
+    if not 0 <= args.seed <= 2**31:
+        raise ScenarioError(f"--seed must be an integer 0 to {2**31}, got {args.seed}")
     out = None if args.out is None else claim(args.out, ("fuzz.json",), args.force)
     shares = sum(c[3] for c in CONFIGURATIONS) * len(PRESETS)
     plan = [(robot, config, max(10, round(args.ticks * config[3] / shares)))

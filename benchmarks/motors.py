@@ -41,6 +41,7 @@ from benchmarks.scenarios import Parser, ScenarioError, choose
 from benchmarks.scenarios import reference as scenario_reference
 from mpc import Controller
 from mpc.arrays import FloatArray
+from mpc.errors import MpcError
 from mpc.robots import (
     MOTOR_ROBOT_PRESETS,
     Robot,
@@ -288,6 +289,11 @@ def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
     if not (args.ratio > 0 and args.size > 0 and args.laps > 0 and args.skip >= 0):
         raise ScenarioError("--ratio, --size and --laps must be > 0, --skip >= 0")
+    for flag, value, high in (("--ratio", args.ratio, 100.0), ("--size", args.size, 1e3),
+                              ("--laps", args.laps, 1e3), ("--skip", args.skip, 1e4)):
+        if not value <= high:
+            raise ScenarioError(f"{flag} must be at most {high:g} (a bound of this command), "
+                                f"got {value:g}")
     layouts = choose("--layouts", "layout", args.layouts, MOTOR_ROBOT_PRESETS)
     out = claim(args.out, ("motors-perf.json" if args.perf else "motors.json",), args.force)
     if args.perf:
@@ -304,9 +310,13 @@ def main(argv: list[str]) -> int:
     controllers = choose("--controllers", "controller", args.controllers, CONTROLLERS,
                          DEFAULT_CONTROLLERS)
     started = time.perf_counter()
-    rows = run(layouts, trajectories, controllers, ratio=args.ratio, size=args.size,
-               heading=args.heading, laps=args.laps, skip=args.skip, seed=args.seed,
-               log=lambda line: print(line, flush=True))
+    try:
+        rows = run(layouts, trajectories, controllers, ratio=args.ratio, size=args.size,
+                   heading=args.heading, laps=args.laps, skip=args.skip, seed=args.seed,
+                   log=lambda line: print(line, flush=True))
+    except MpcError as error:  # e.g. a run too long: name the flags that set it
+        raise ScenarioError(f"--size {args.size:g} m, --laps {args.laps:g}, --ratio "
+                            f"{args.ratio:g}: {error}") from None
     print()
     print("RMS position error [mm] / voltage-violation ticks / current-violation ticks / "
           "slip ticks")

@@ -128,6 +128,11 @@ def robots(layouts: list[str], robot_file: str | None) -> dict[str, Robot]:
     chosen = {name: preset(name) for name in layouts}
     if robot_file is not None:
         robot = load(robot_file)
+        if robot.name in chosen:
+            raise ScenarioError(
+                f"--robot {robot_file!r} names its robot {robot.name!r}, as the preset "
+                f"--layouts runs: give it another name (name = \"...\" in the file) or "
+                f"leave {robot.name!r} out of --layouts")
         chosen[robot.name] = robot
     return chosen
 

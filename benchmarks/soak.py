@@ -17,6 +17,7 @@ from benchmarks.scenarios import Parser, ScenarioError, reference
 from mpc import Controller
 from mpc.model import integrate
 from mpc.robots import preset
+from mpc.validation import MAX_SIMULATION_TICKS
 
 
 def _rss_mib() -> float:
@@ -40,6 +41,9 @@ def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
     if args.ticks < args.blocks or args.blocks < 1:
         raise ScenarioError("--ticks must be >= --blocks >= 1")
+    if args.ticks > MAX_SIMULATION_TICKS:
+        raise ScenarioError(f"--ticks must be at most {MAX_SIMULATION_TICKS} (a bound of this "
+                            f"library), got {args.ticks}")
     robot = preset("mecanum")
     trajectory = reference("figure8", "fixed", robot, 0.8)
     control = Controller(robot, trajectory)

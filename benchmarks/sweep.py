@@ -43,6 +43,10 @@ from benchmarks.outdir import add_force_argument, claim
 from benchmarks.progress import Progress
 from benchmarks.scenarios import CONTROLLERS, Parser, ScenarioError, Settings, choose
 from benchmarks.table import Column, format_table
+from mpc.validation import MAX_HORIZON, MAX_SIMULATION_TICKS
+
+#: Random cases in one sweep (--runs).
+MAX_SWEEP_RUNS = 100_000
 
 KINDS: tuple[str, ...] = ("omni", "mecanum", "swerve", "ball")
 QUANTILES: tuple[int, ...] = (50, 90, 99)
@@ -187,6 +191,15 @@ def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
     if args.runs < 1 or args.horizon < 1 or not args.duration > args.skip >= 0:
         raise ScenarioError("--runs and --horizon must be >= 1, --duration > --skip >= 0")
+    if args.runs > MAX_SWEEP_RUNS:
+        raise ScenarioError(f"--runs must be at most {MAX_SWEEP_RUNS} (a bound of this "
+                            f"command), got {args.runs}")
+    longest = MAX_SIMULATION_TICKS * Settings().dt
+    if not args.duration <= longest:
+        raise ScenarioError(f"--duration must be at most {longest:g} s ({MAX_SIMULATION_TICKS} "
+                            f"ticks of {Settings().dt:g} s), got {args.duration:g}")
+    if args.horizon > MAX_HORIZON:
+        raise ScenarioError(f"--horizon must be at most {MAX_HORIZON}, got {args.horizon}")
     kinds = choose("--kinds", "robot kind", args.kinds, KINDS)
     controllers = choose("--controllers", "controller", args.controllers, CONTROLLERS)
     specs = sample_cases(args.runs, kinds, controllers, args.seed, not args.no_faults,

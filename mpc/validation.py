@@ -10,6 +10,7 @@ import functools
 import inspect
 import math
 import numbers
+import stat
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -27,45 +28,85 @@ def is_integer(value: object) -> bool:
     return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
+def as_float(value: object) -> float:
+    """``float(value)``, with a number too large for a float (a huge int or Fraction) as
+    ``inf`` (with its sign) instead of an OverflowError; NaN if it cannot convert at all."""
+    try:
+        return float(value)  # type: ignore[arg-type]
+    except OverflowError:
+        try:
+            return math.copysign(math.inf, 1.0 if value > 0 else -1.0)  # type: ignore[operator]
+        except (TypeError, ValueError):
+            return math.nan
+    except (TypeError, ValueError):
+        return math.nan
+
+
 def is_finite_number(value: object) -> bool:
-    """A finite real number (Python or NumPy), but not a bool."""
+    """A finite real number (Python or NumPy), but not a bool (a number too large for a
+    float is not finite)."""
     return (isinstance(value, numbers.Real) and not isinstance(value, bool)
-            and math.isfinite(float(value)))
+            and math.isfinite(as_float(value)))
+
+
+_MAX_SHOWN = 80  # characters of a value quoted in an error message
+
+
+def shown(value: object) -> str:
+    """A one-line repr of ``value`` for an error message, at most about 80 characters: a
+    huge integer as "an integer of N digits", a NumPy array on one line."""
+    try:
+        if isinstance(value, (np.generic, np.ndarray)) and np.ndim(value) == 0:
+            value = value.item()  # type: ignore[union-attr]
+        if (isinstance(value, numbers.Integral) and not isinstance(value, bool)
+                and abs(int(value)) >= 10**60):
+            digits = int(int(value).bit_length() * math.log10(2)) + 1
+            return f"an integer of about {digits} digits"
+        if isinstance(value, np.ndarray):
+            text = np.array2string(value, separator=", ", threshold=20, max_line_width=10**6)
+            text = f"array({' '.join(text.split())})"
+        else:
+            text = " ".join(repr(value).split())
+    except RecursionError:
+        text = f"a {type(value).__name__} nested too deeply to show"
+    except (ValueError, OverflowError):
+        text = f"a {type(value).__name__} holding an integer too large to show"
+    return text if len(text) <= _MAX_SHOWN else text[:_MAX_SHOWN - 3] + "..."
 
 
 def finite(name: str, value: object, error: type[MpcError] = MpcError) -> float:
     """``value`` as a float, or ``error`` unless it is a finite real number."""
     if not is_finite_number(value):
-        raise error(f"{name} must be a finite number, got {value!r}")
-    return float(value)  # type: ignore[arg-type]
+        raise error(f"{name} must be a finite number, got {shown(value)}")
+    return as_float(value)
 
 
 def positive(name: str, value: object, error: type[MpcError] = MpcError) -> float:
     """``value`` as a float, or ``error`` unless it is a finite real number > 0."""
-    if not is_finite_number(value) or float(value) <= 0.0:  # type: ignore[arg-type]
-        raise error(f"{name} must be a finite number > 0, got {value!r}")
-    return float(value)  # type: ignore[arg-type]
+    if not is_finite_number(value) or as_float(value) <= 0.0:
+        raise error(f"{name} must be a finite number > 0, got {shown(value)}")
+    return as_float(value)
 
 
 def non_negative(name: str, value: object, error: type[MpcError] = MpcError) -> float:
     """``value`` as a float, or ``error`` unless it is a finite real number >= 0."""
-    if not is_finite_number(value) or float(value) < 0.0:  # type: ignore[arg-type]
-        raise error(f"{name} must be a finite number >= 0, got {value!r}")
-    return float(value)  # type: ignore[arg-type]
+    if not is_finite_number(value) or as_float(value) < 0.0:
+        raise error(f"{name} must be a finite number >= 0, got {shown(value)}")
+    return as_float(value)
 
 
 def integer_at_least(name: str, value: object, low: int,
                      error: type[MpcError] = MpcError) -> int:
     """``value`` as an int, or ``error`` unless it is an integer >= ``low`` (bools refused)."""
     if not is_integer(value) or int(value) < low:  # type: ignore[call-overload]
-        raise error(f"{name} must be an integer >= {low}, got {value!r}")
+        raise error(f"{name} must be an integer >= {low}, got {shown(value)}")
     return int(value)  # type: ignore[call-overload]
 
 
 def flag(name: str, value: object, error: type[MpcError] = MpcError) -> bool:
     """``value`` if it is a bool (NumPy bools too), else ``error``: no truthy strings."""
     if not isinstance(value, (bool, np.bool_)):
-        raise error(f"{name} must be True or False, got {value!r}")
+        raise error(f"{name} must be True or False, got {shown(value)}")
     return bool(value)
 
 
@@ -88,9 +129,7 @@ def real_array(name: str, value: object, expected: str,
     except (TypeError, ValueError, RecursionError):  # ragged, or nested too deeply
         raw = np.asarray(None)
     if raw.dtype.kind not in "iuf" or has_bool(value):
-        text = repr(value)
-        shown = text if len(text) <= 80 else text[:77] + "..."
-        raise error(f"{name} must be {expected}, got {shown}")
+        raise error(f"{name} must be {expected}, got {shown(value)}")
     return raw.astype(float)
 
 
@@ -151,12 +190,12 @@ def integer_in(name: str, value: object, low: int, high: int,
     """``value`` as an int, or ``error`` unless it is an integer in ``[low, high]`` (the
     message names the bound)."""
     if not is_integer(value):
-        raise error(f"{name} must be an integer in {low}..{high}, got {value!r}")
+        raise error(f"{name} must be an integer in {low}..{high}, got {shown(value)}")
     number = int(value)  # type: ignore[call-overload]
     if number < low:
-        raise error(f"{name} must be an integer >= {low}, got {value!r}")
+        raise error(f"{name} must be an integer >= {low}, got {shown(value)}")
     if number > high:
-        raise error(f"{name} must be at most {high} (a bound of this library), got {value!r}")
+        raise error(f"{name} must be at most {high} (a bound of this library), got {shown(value)}")
     return number
 
 
@@ -164,21 +203,21 @@ def metres(name: str, value: object, error: type[MpcError] = MpcError, *,
            zero: bool = False) -> float:
     """``value`` [m] as a float, or ``error`` unless it is a real number in
     ``[MIN_LENGTH, MAX_LENGTH]`` (or exactly 0 if ``zero``): the message states the bounds."""
-    if is_finite_number(value) and (zero and float(value) == 0.0  # type: ignore[arg-type]
-                                    or MIN_LENGTH <= float(value) <= MAX_LENGTH):  # type: ignore[arg-type]
-        return float(value)  # type: ignore[arg-type]
+    if is_finite_number(value) and (zero and as_float(value) == 0.0
+                                    or MIN_LENGTH <= as_float(value) <= MAX_LENGTH):
+        return as_float(value)
     low = "0" if zero else f"{MIN_LENGTH:g}"
     raise error(f"{name} must be a number of metres in [{low}, {MAX_LENGTH:g}] (bounds of "
-                f"this library), got {value!r}")
+                f"this library), got {shown(value)}")
 
 
 def bounded(name: str, value: object, bound: float, unit: str,
             error: type[MpcError] = MpcError) -> float:
     """``value`` as a float, or ``error`` unless it is a real number within ``+-bound``."""
-    if not is_finite_number(value) or not abs(float(value)) <= bound:  # type: ignore[arg-type]
+    if not is_finite_number(value) or not abs(as_float(value)) <= bound:
         raise error(f"{name} must be a finite number within +-{bound:g} {unit} (a bound of "
-                    f"this library), got {value!r}")
-    return float(value)  # type: ignore[arg-type]
+                    f"this library), got {shown(value)}")
+    return as_float(value)
 
 
 def within(name: str, array: FloatArray, bound: float, unit: str,
@@ -215,6 +254,10 @@ def file_text(path: object, what: str, error: type[MpcError] = MpcError) -> str:
         if not isinstance(path, (str, PathLike)):
             raise error(f"{what} file must be a path (str or os.PathLike), got {path!r}")
         file = Path(path)
+        mode = file.stat().st_mode if file.exists() else 0
+        if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):  # open() would block forever
+            raise error(f"{what} file {str(file)!r} is not a regular file (a named pipe "
+                        "or socket)")
         with file.open("rb") as stream:  # read at most the bound: devices report size 0
             data = stream.read(MAX_FILE_BYTES + 1)
         if len(data) > MAX_FILE_BYTES:
@@ -271,5 +314,19 @@ def checked_arguments(error: type[MpcError]) -> Callable[[F], F]:
             return function(*args, **kwargs)
 
         return checked  # type: ignore[return-value]
+
+    return decorate
+
+
+C = TypeVar("C", bound=type)
+
+
+def checked_constructor(error: type[MpcError]) -> Callable[[C], C]:
+    """Class decorator: :func:`checked_arguments` on the class's ``__init__`` (a dataclass's
+    generated one too), so that ``Weights(colour=1)`` raises ``error`` naming the class."""
+
+    def decorate(cls: C) -> C:
+        setattr(cls, "__init__", checked_arguments(error)(vars(cls)["__init__"]))  # noqa: B010
+        return cls
 
     return decorate

@@ -551,3 +551,207 @@ def test_arguments_that_do_not_fit_the_signature_are_the_projects_error(
     with pytest.raises(error, match="its parameters are") as raised:
         call()
     assert needle in str(raised.value)
+
+
+# Third adversarial pass (issue 17) ---------------------------------------------------------
+
+HUGE_INT = 10**5000
+
+
+def _frac() -> Any:
+    from fractions import Fraction
+
+    return Fraction(10**400, 3)
+
+
+@pytest.mark.parametrize(("build", "error", "name"), [
+    (lambda v: omni(n_wheels=3, base_radius=v, wheel_radius=0.05, max_wheel_speed=20.0,
+                     max_wheel_accel=40.0), RobotError, "base_radius must"),
+    (lambda v: omni(n_wheels=v, base_radius=0.2, wheel_radius=0.05, max_wheel_speed=20.0,
+                     max_wheel_accel=40.0), RobotError, "n_wheels must"),
+    (lambda v: mecanum(wheelbase=v, track=0.25, wheel_radius=0.05, max_wheel_speed=20.0,
+                        max_wheel_accel=40.0), RobotError, "wheelbase must"),
+    (lambda v: mecanum(wheelbase=0.3, track=0.25, wheel_radius=0.05, max_wheel_speed=v,
+                        max_wheel_accel=40.0), RobotError, "max_wheel_speed must"),
+    (lambda v: preset("mecanum").derated({v: 0.5}), RobotError, "wheel index"),
+    (lambda v: preset("mecanum").derated({0: v}), RobotError, "derating of wheel 0"),
+    (lambda v: Circle(v, 10.0), TrajectoryError, "radius"),
+    (lambda v: Circle(1.0, 10.0, phase=v), TrajectoryError, "phase"),
+    (lambda v: Circle(1.0, 10.0).sample(v), TrajectoryError, "t must"),
+    (lambda v: Waypoints([0, v], [[0, 0, 0], [1, 0, 0]]), TrajectoryError, "waypoint times"),
+    (lambda v: Controller(preset("mecanum"), Circle(0.5, 10.0), horizon=v), ControllerError,
+     "horizon"),
+    (lambda v: Controller(preset("mecanum"), Circle(0.5, 10.0), weights={"twist": v}),
+     ControllerError, "twist"),
+    (lambda v: Controller(preset("mecanum"), Circle(0.5, 10.0)).step([0.5, 0, 0], v),
+     ControllerError, "t must"),
+    (lambda v: simulate(Controller(preset("mecanum"), Circle(0.5, 10.0)), duration=v),
+     SimulationError, "duration"),
+])
+@pytest.mark.parametrize("huge", ["int", "fraction"])
+def test_huge_integers_and_fractions_are_refused_naming_the_input(
+        build: Callable[[Any], Any], error: type[Exception], name: str, huge: str) -> None:
+    value = HUGE_INT if huge == "int" else _frac()
+    with pytest.raises(error, match=name) as raised:
+        build(value)
+    assert "\n" not in str(raised.value) and len(str(raised.value)) < 400
+
+
+@pytest.mark.parametrize(("build", "error", "name"), [
+    (lambda: swerve(module_positions=np.array([[.3, .3], [.3, -.3], [-.3, .3]], dtype=object),
+                    wheel_radius=0.05, max_wheel_speed=90.0, max_steer_rate=12.0,
+                    max_wheel_accel=200.0), RobotError, "module_positions must"),
+    (lambda: Circle(1.0, 10.0, heading=lambda t: t > 0).sample(np.linspace(0, 5, 11)),
+     TrajectoryError, "heading"),
+    (lambda: __import__("trajectories").SampledTrajectory(
+        [0, 1, 2], [[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[math.nan, 0, 0]] * 3),
+     TrajectoryError, "velocities"),
+])
+def test_messages_showing_arrays_are_one_line(build: Callable[[], Any], error: type[Exception],
+                                              name: str) -> None:
+    with pytest.raises(error, match=name) as raised:
+        build()
+    assert "\n" not in str(raised.value)
+
+
+@pytest.mark.parametrize(("build", "error", "name"), [
+    (lambda: Circle(1.0, 10.0, center=(True, 0)), TrajectoryError, "center"),
+    (lambda: Circle(1.0, 10.0).sample("1"), TrajectoryError, "t must"),
+    (lambda: Circle(1.0, 10.0).sample(True), TrajectoryError, "t must"),
+    (lambda: Circle.with_speed(1.0, 1.0, colour=1), TrajectoryError, "colour"),
+    (lambda: FigureEight.with_speed(1.0, 1.0, colour=1), TrajectoryError, "colour"),
+    (lambda: Waypoints.from_csv(None),  # type: ignore[arg-type]
+     TrajectoryError, "waypoint file"),
+    (lambda: __import__("trajectories").read_waypoint_csv(3), TrajectoryError, "waypoint file"),
+    (lambda: __import__("trajectories").body_twist(None), TrajectoryError, "sample"),
+    (lambda: __import__("trajectories").feasibility(Circle(1.0, 10.0), object()),
+     TrajectoryError, "robot"),
+    (lambda: __import__("mpc").Weights(colour=1), ControllerError, "colour"),
+    (lambda: __import__("trajectories").time_optimal(Circle(1.0, 10.0), preset("mecanum"),
+                                                     max_speed=1e-300),
+     TrajectoryError, "max_speed"),
+])
+def test_bools_strings_and_foreign_arguments_get_our_error(build: Callable[[], Any],
+                                                          error: type[Exception],
+                                                          name: str) -> None:
+    with pytest.raises(error, match=name):
+        build()
+
+
+@pytest.fixture(scope="module")
+def short_run() -> Any:
+    return simulate(Controller(preset("mecanum"), Circle(0.5, 10.0)), 0.3)
+
+
+@pytest.mark.parametrize(("options", "name"), [
+    ({"skip": math.nan}, "skip"), ({"skip": "1"}, "skip"), ({"labels": 5}, "labels"),
+])
+def test_report_options_are_checked(short_run: Any, tmp_path: Path, options: dict[str, Any],
+                                    name: str) -> None:
+    import mpc.plot
+    from mpc.errors import ReportError
+
+    with pytest.raises(ReportError, match=name):
+        mpc.plot.report(short_run, tmp_path / "rep", **options)
+
+
+def test_plot_run_label_and_report_folder_are_checked(short_run: Any, tmp_path: Path) -> None:
+    import mpc.plot
+    from mpc.errors import ReportError
+
+    with pytest.raises(ReportError, match="controller"):
+        mpc.plot.plot_run(short_run, controller=5)  # type: ignore[arg-type]
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    with pytest.raises(ReportError, match="out_dir"):
+        mpc.plot.report(short_run, a_file)
+
+
+@pytest.mark.parametrize(("field", "value", "name"), [
+    ("pose", 1e308, "'pose'"), ("status", 5, "'status'"),
+])
+def test_damaged_results_files_are_refused_naming_the_field(short_run: Any, tmp_path: Path,
+                                                            field: str, value: Any,
+                                                            name: str) -> None:
+    import json
+
+    import mpc.plot
+    from mpc.errors import ReportError
+
+    mpc.plot.report(short_run, tmp_path / "rep")
+    document = json.loads((tmp_path / "rep" / "results.json").read_text())
+    series = document["runs"][0]["series"]
+    if field == "pose":
+        series["pose"][1][0] = value
+    else:
+        series["status"] = value
+    path = tmp_path / "damaged.json"
+    path.write_text(json.dumps(document))
+    with pytest.raises(ReportError, match=name):
+        mpc.plot.report(str(path), tmp_path / "again")
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "mkfifo"), reason="no named pipes")
+@pytest.mark.parametrize("reader", ["robot", "waypoints", "results"])
+def test_named_pipes_are_refused_not_opened(tmp_path: Path, reader: str) -> None:
+    import os
+
+    import mpc.plot
+
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    readers: dict[str, Callable[[Any], Any]] = {
+        "robot": load, "waypoints": Waypoints.from_csv, "results": mpc.plot.load_results}
+    read = readers[reader]
+    with pytest.raises(MpcError, match="not a regular file") as raised:
+        read(fifo)
+    assert str(fifo) in str(raised.value)
+
+
+def test_recorder_refuses_a_command_of_another_robot() -> None:
+    from mpc.sim import Recorder
+
+    controller = Controller(preset("mecanum"), Circle(0.5, 10.0))
+    command = controller.step([0.5, 0, 0], 0.0)
+    recorder = Recorder(preset("omni3"), controller.trajectory, 0.05)
+    with pytest.raises(SimulationError, match="command"):
+        recorder.record(0.0, [0, 0, 0], command)
+
+
+@pytest.mark.parametrize(("argv", "flag"), [
+    (["--dt", "1e-7", "--quick", "--no-report"], "--dt"),
+    (["--dt", "60", "--horizon", "1000", "--controllers", "mpc-osqp", "--quick",
+      "--no-report"], "--dt"),
+    (["--skip", "5", "--duration", "4", "--quick", "--no-report"], "--skip"),
+    (["--skip", "1e300", "--quick", "--no-report"], "--skip"),
+    (["soak", "--ticks", str(10**12)], "--ticks"),
+    (["fuzz", "--ticks", str(10**11)], "--ticks"),
+    (["fuzz", "--ticks", "100", "--seed", "-1"], "--seed"),
+    (["sweep", "--runs", str(10**10)], "--runs"),
+    (["sweep", "--duration", "1e12"], "--duration"),
+    (["motors", "--size", "1e300"], "--size"),
+    (["motors", "--laps", str(10**9)], "--laps"),
+])
+def test_cli_bounds_exit_2_naming_the_flag(tmp_path: Path, capsys: Any, argv: list[str],
+                                           flag: str) -> None:
+    from benchmarks.cli import main
+
+    out = [] if argv[0] == "soak" else ["--out", str(tmp_path / "out")]
+    with pytest.raises(SystemExit) as exit_info:
+        raise SystemExit(main([*argv, *out]))
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert flag in err and "\n" not in err
+
+
+def test_cli_refuses_a_robot_file_named_like_a_preset(tmp_path: Path, capsys: Any) -> None:
+    from benchmarks.cli import main
+
+    robot = tmp_path / "robot.toml"
+    robot.write_text('type = "mecanum"\nwheelbase = 0.3\ntrack = 0.25\nwheel_radius = 0.05\n'
+                     "max_wheel_speed = 20.0\nmax_wheel_accel = 40.0\n")
+    with pytest.raises(SystemExit) as exit_info:
+        raise SystemExit(main(["--robot", str(robot), "--quick", "--no-report",
+                               "--out", str(tmp_path / "out")]))
+    assert exit_info.value.code == 2
+    assert "--robot" in capsys.readouterr().err

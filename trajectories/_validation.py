@@ -9,18 +9,22 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from mpc.validation import as_float, has_bool
+from mpc.validation import shown as _shown
+
 from .errors import TrajectoryError
 
 FloatArray = npt.NDArray[np.float64]
 
-_MAX_SHOWN = 80  # characters of a value quoted in an error message
-
-
 def as_times(t: npt.ArrayLike) -> FloatArray:
-    """Times [s] as a float64 array of any shape (0-d for a scalar), all finite."""
+    """Times [s] as a float64 array of any shape (0-d for a scalar), all finite: booleans
+    and strings (numeric ones too) are refused, not converted."""
     try:
-        times = np.asarray(t, dtype=np.float64)
-    except (TypeError, ValueError) as error:
+        raw = np.asarray(t)
+        if raw.dtype.kind not in "iuf" or has_bool(t):
+            raise TypeError("not real numbers")
+        times = raw.astype(np.float64)
+    except (TypeError, ValueError, OverflowError, RecursionError) as error:
         raise TrajectoryError(
             f"t must be a finite number or an array of finite numbers [s], got {shown(t)}"
         ) from error
@@ -39,11 +43,9 @@ def as_times(t: npt.ArrayLike) -> FloatArray:
 
 
 def shown(value: Any) -> str:
-    """repr of a value for a message, NumPy scalars shown as plain Python numbers."""
-    if isinstance(value, (np.generic, np.ndarray)) and np.ndim(value) == 0:
-        return repr(value.item())
-    text = repr(value)
-    return text if len(text) <= _MAX_SHOWN else text[: _MAX_SHOWN - 3] + "..."
+    """One-line repr of a value for a message (NumPy scalars as plain Python numbers, huge
+    integers by their number of digits): :func:`mpc.validation.shown`."""
+    return _shown(value)
 
 
 def is_real_scalar(value: Any) -> bool:
@@ -57,23 +59,26 @@ def is_real_scalar(value: Any) -> bool:
 
 def finite_number(name: str, value: Any) -> float:
     """``value`` as a float, or TrajectoryError if it is not a finite real number."""
-    if not is_real_scalar(value) or not math.isfinite(float(value)):
+    if not is_real_scalar(value) or not math.isfinite(as_float(value)):
         raise TrajectoryError(f"{name} must be a finite number, got {shown(value)}")
-    return float(value)
+    return as_float(value)
 
 
 def positive_number(name: str, value: Any) -> float:
     """``value`` as a float, or TrajectoryError if it is not finite and > 0."""
-    if not is_real_scalar(value) or not (math.isfinite(float(value)) and float(value) > 0.0):
+    if not is_real_scalar(value) or not (math.isfinite(as_float(value))
+                                         and as_float(value) > 0.0):
         raise TrajectoryError(f"{name} must be a finite number > 0, got {shown(value)}")
-    return float(value)
+    return as_float(value)
 
 
 def point2(name: str, value: Any) -> FloatArray:
     """A read-only float array of shape (2,) with finite entries."""
     try:
+        if has_bool(value) or np.asarray(value).dtype.kind not in "iuf":
+            raise TypeError("not real numbers")
         point = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as error:
+    except (TypeError, ValueError, OverflowError, RecursionError) as error:
         raise TrajectoryError(
             f"{name} must be 2 finite numbers (x, y) [m], got {shown(value)}"
         ) from error

@@ -19,7 +19,7 @@ import numpy.typing as npt
 
 from mpc.validation import MAX_COORDINATE
 
-from ._validation import FloatArray, as_times
+from ._validation import FloatArray, as_times, shown
 from .errors import TrajectoryError
 from .heading import HeadingProfile, HeadingSpec, make_heading
 from .path import PathDerivatives
@@ -47,6 +47,11 @@ def body_twist(sample: TrajectorySample) -> FloatArray:
     (vx, vy) = R(theta)^T @ (xdot, ydot) and omega = thetadot, where theta and
     the world velocity come from ``sample``. Vectorised over the leading shape.
     """
+    if not hasattr(sample, "pose") or not hasattr(sample, "velocity"):
+        raise TrajectoryError(
+            "sample must be a TrajectorySample (with pose and velocity), got "
+            f"{shown(sample)}"
+        )
     pose = np.asarray(sample.pose)
     velocity = np.asarray(sample.velocity)
     if pose.shape != velocity.shape or pose.shape[-1:] != (3,):

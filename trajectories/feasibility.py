@@ -72,6 +72,12 @@ def feasibility(
     the trajectory's duration (waypoints: their span). This is the
     open-loop demand of the reference; tracking corrections come on top.
     """
+    if not isinstance(trajectory, Trajectory):
+        raise TrajectoryError(f"trajectory must be a Trajectory, got {shown(trajectory)}")
+    if not callable(getattr(robot, "wheel_speeds", None)) or not hasattr(
+            robot, "max_wheel_speed"):
+        raise TrajectoryError("robot must be a robot with wheel_speeds(twists) and "
+                              f"max_wheel_speed (an mpc.robots Robot), got {shown(robot)}")
     if duration is None:
         duration = trajectory.period if trajectory.period is not None else trajectory.duration
         if duration is None:
@@ -81,7 +87,7 @@ def feasibility(
             )
         if duration <= 0.0:
             raise TrajectoryError(
-                f"feasibility needs a trajectory of positive duration, got {duration!r} s"
+                f"feasibility needs a trajectory of positive duration, got {shown(duration)} s"
             )
     else:
         duration = positive_number("duration [s]", duration)

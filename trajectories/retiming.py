@@ -154,7 +154,7 @@ def time_optimal(
         raise TrajectoryError(f"path cannot be retimed: {error}") from None
     if float(np.abs(fine.twist).max()) < _STILL_TWIST:
         raise TrajectoryError(
-            f"path must move or turn, but its pose is constant for s in [{start!r}, "
+            f"path must move or turn, but its pose is constant for s in [{shown(start)}, "
             f"{start + span!r}] s: a path of zero length has no time-optimal timing"
         )
     coarse = PathGeometry(*(array[::refine] for array in fine))
@@ -168,7 +168,7 @@ def time_optimal(
     demand = max(speed * speed, accel)  # both scale with b: speed with sqrt(b), accel with b
     if not (demand > 0.0 and math.isfinite(demand)):
         raise TrajectoryError(f"the retiming cone program returned an unusable timing (peak "
-                              f"speed demand {speed!r}, acceleration demand {accel!r})")
+                              f"speed demand {shown(speed)}, acceleration demand {shown(accel)})")
     factor = (1.0 - MARGIN) / demand
     b *= factor
     info = RetimingInfo(
@@ -204,12 +204,16 @@ def _checked_path(path: Any, periodic: Any) -> tuple[Trajectory, bool, float, fl
         )
     span = path.period if path.period is not None else path.duration
     if span is None or not span > 0.0:
-        raise TrajectoryError(f"path must last a positive time, got {span!r} s for {path!r}")
+        raise TrajectoryError(f"path must last a positive time, got {shown(span)} s for {path!r}")
     return path, steady, path.start_time, float(span)
 
 
 def _checked_samples(samples: Any) -> int:
     return samples_in(samples, MIN_SAMPLES, MAX_SAMPLES, "grid cells along the path")
+
+
+#: Smallest path speed [m/s] or heading rate [rad/s] cap of :func:`time_optimal`.
+MIN_CAP = 1e-6
 
 
 def _checked_limits(robot: Any, max_speed: Any, max_heading_rate: Any) -> Limits:
@@ -238,11 +242,12 @@ def _checked_limits(robot: Any, max_speed: Any, max_heading_rate: Any) -> Limits
     ):
         raise TrajectoryError(f"{expected}; got max_wheel_accel {shown(accel)} for {n} wheels "
                               "(each finite and > 0)")
-    return Limits(
-        blocks,
-        speed,
-        accel,
-        None if max_speed is None else positive_number("max_speed [m/s]", max_speed),
-        None if max_heading_rate is None else positive_number(
-            "max_heading_rate [rad/s]", max_heading_rate),
-    )
+    caps = []
+    for name, value in (("max_speed [m/s]", max_speed),
+                        ("max_heading_rate [rad/s]", max_heading_rate)):
+        cap = None if value is None else positive_number(name, value)
+        if cap is not None and cap < MIN_CAP:
+            raise TrajectoryError(f"{name} must be at least {MIN_CAP:g} (a bound of this "
+                                  f"library: slower, the lap time overflows), got {cap!r}")
+        caps.append(cap)
+    return Limits(blocks, speed, accel, caps[0], caps[1])

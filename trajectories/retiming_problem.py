@@ -18,6 +18,8 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from mpc.validation import shown
+
 from ._validation import FloatArray
 from .base import Trajectory
 from .errors import TrajectoryError
@@ -308,7 +310,7 @@ def speed_bound(limits: Limits, geometry: PathGeometry) -> FloatArray:
     if blocked.size:
         s = geometry.s[int(blocked[0])]
         raise TrajectoryError(
-            f"the robot cannot drive this path: near s={s!r} s it needs a wheel whose speed "
+            f"the robot cannot drive this path: near s={shown(s)} s it needs a wheel whose speed "
             "limit is 0 rad/s (a failed wheel) to turn"
         )
     return bound

@@ -269,7 +269,7 @@ def _check_periodic_grid(source: Trajectory, grid: FloatArray, rates: FloatArray
                               f"{source!r}")
     span = float(grid[-1] - grid[0])
     if not math.isclose(span, period, rel_tol=1e-9):
-        raise TrajectoryError(f"a periodic timing must cover one source period {period!r} s, "
+        raise TrajectoryError(f"a periodic timing must cover one source period {shown(period)} s, "
                               f"got s from {grid[0]!r} to {grid[-1]!r}")
     if not math.isclose(rates[0], rates[-1], rel_tol=1e-9, abs_tol=1e-12):
         raise TrajectoryError(f"a periodic timing needs the same sdot at both ends, got "

@@ -206,7 +206,7 @@ def read_bag_reference(bag: str | os.PathLike[str], topic: str | None = None, *,
         connections = [c for c in reader.connections if c.topic == chosen]
         messages = [reader.deserialize(raw, c.msgtype)
                     for c, _, raw in reader.messages(connections=connections)]
-    where = f"ROS bag {str(file)!r}, topic {chosen!r}"
+    where = f"ROS bag {str(file)!r}, topic {shown(chosen)}"
     try:
         if topics[chosen][0] == ODOMETRY_TYPE:
             return odometry_reference(messages, use_twist=use_twist)

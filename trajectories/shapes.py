@@ -8,6 +8,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from mpc.validation import checked_constructor, shown
+
 from ._validation import FloatArray, finite_number, point2, positive_number
 from .base import Trajectory
 from .errors import TrajectoryError
@@ -46,6 +48,7 @@ class _SinusoidPath:
         )
 
 
+@checked_constructor(TrajectoryError)
 class Circle(Trajectory):
     """Counter-clockwise circle, periodic.
 
@@ -123,6 +126,7 @@ class Circle(Trajectory):
         )
 
 
+@checked_constructor(TrajectoryError)
 class FigureEight(Trajectory):
     """Figure-eight (lemniscate of Gerono), periodic.
 
@@ -193,6 +197,7 @@ class FigureEight(Trajectory):
         )
 
 
+@checked_constructor(TrajectoryError)
 class OutAndBack(Trajectory):
     """Out along x and back, periodic: a flat ellipse, or a straight line for width 0.
 
@@ -217,7 +222,7 @@ class OutAndBack(Trajectory):
         self._period = positive_number("period [s]", period)
         self._width = finite_number("width [m]", width)
         if self._width < 0.0:
-            raise TrajectoryError(f"width [m] must be >= 0, got {width!r}")
+            raise TrajectoryError(f"width [m] must be >= 0, got {shown(width)}")
         self._center = point2("center", center)
         self._omega = 2.0 * math.pi / self._period
         # x = L/2 sin(w t), y = W/2 + W/2 sin(w t - pi/2)

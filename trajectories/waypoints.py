@@ -242,8 +242,8 @@ def read_waypoint_csv(path: str | os.PathLike[str]) -> tuple[FloatArray, FloatAr
     or non-finite values, fewer than 2 rows or non-increasing times, naming
     the line.
     """
+    text = file_text(path, "waypoint", TrajectoryError)  # refuses a path that is not one
     file = Path(path)
-    text = file_text(file, "waypoint", TrajectoryError)
     reader = csv.reader(io.StringIO(text))
     try:
         return _parse_waypoints(file, reader)

@@ -12,7 +12,7 @@ from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
 from mpc.robots.base import Robot
 from mpc.robots.caster_checks import joint_vector
-from mpc.validation import MAX_COORDINATE, MAX_TIME, is_finite_number, real_array
+from mpc.validation import MAX_COORDINATE, MAX_TIME, is_finite_number, real_array, shown
 
 
 def check_pose(pose: ArrayLike) -> FloatArray:
@@ -32,7 +32,7 @@ def check_time(t: object) -> float:
     """``t`` [s] as a float, finite and within ``+-MAX_TIME``."""
     if not is_finite_number(t) or abs(t) > MAX_TIME:  # type: ignore[arg-type]
         raise ControllerError(f"t must be a finite time in seconds within +-{MAX_TIME:g}, "
-                              f"got {t!r}")
+                              f"got {shown(t)}")
     return float(t)  # type: ignore[arg-type]
 
 

@@ -26,6 +26,7 @@ from mpc.validation import (
     is_integer,
     non_negative,
     positive,
+    shown,
 )
 from trajectories import Trajectory
 
@@ -46,7 +47,7 @@ def check_mode(mode: object, time_scaling: object) -> str:
         if scaling and mode == "time":
             mode = "path"
     if mode not in MODES:
-        raise ControllerError(f"unknown mode {mode!r}; expected one of {list(MODES)}")
+        raise ControllerError(f"unknown mode {shown(mode)}; expected one of {list(MODES)}")
     return str(mode)
 
 
@@ -55,7 +56,7 @@ def check_step(name: str, value: object) -> float:
     step = positive(f"{name} [s]", value, ControllerError)
     if step > MAX_STEP:
         raise ControllerError(f"{name} must be at most {MAX_STEP:g} s (a bound of this "
-                              f"library), got {value!r}")
+                              f"library), got {shown(value)}")
     return step
 
 
@@ -65,8 +66,8 @@ def check_stage_dt(stage_dt: object, dt: float, mode: str) -> float:
         return 2.0 * dt if mode == "time" else dt
     stage = check_step("stage_dt", stage_dt)
     if stage < dt:
-        raise ControllerError(f"stage_dt must be >= dt = {dt!r} s (a stage is at least one "
-                              f"tick), got {stage_dt!r}")
+        raise ControllerError(f"stage_dt must be >= dt = {shown(dt)} s (a stage is at least one "
+                              f"tick), got {shown(stage_dt)}")
     return stage
 
 
@@ -75,7 +76,7 @@ def check_progress_rate(max_progress_rate: object) -> float:
     rate = positive("max_progress_rate", max_progress_rate, ControllerError)
     if rate < 1.0:
         raise ControllerError(f"max_progress_rate must be >= 1 (the reference's own pace), "
-                              f"got {max_progress_rate!r}")
+                              f"got {shown(max_progress_rate)}")
     return rate
 
 
@@ -129,7 +130,7 @@ def make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
     if polygon_sides is not None:
         if not is_integer(polygon_sides) or polygon_sides < 4 or polygon_sides % 2:
             raise ControllerError(
-                f"polygon_sides must be an even integer >= 4, got {polygon_sides!r}")
+                f"polygon_sides must be an even integer >= 4, got {shown(polygon_sides)}")
         sides = integer_in("polygon_sides", polygon_sides, 4, MAX_POLYGON_SIDES,
                            ControllerError)
     check_plan_size(model.robot, model.horizon, str(name), sides)

@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
-from mpc.validation import file_text, is_finite_number, parsed
+from mpc.validation import checked_constructor, file_text, is_finite_number, parsed, shown
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -26,7 +26,7 @@ def _diagonal(name: str, value: ArrayLike) -> FloatArray:
     except (TypeError, ValueError):  # ragged
         raw = np.asarray(None)
     if raw.dtype.kind not in "iuf":  # bools, strings, ragged lists
-        raise ControllerError(f"weight {name!r} must be a number or 3 numbers, got {value!r}")
+        raise ControllerError(f"weight {name!r} must be a number or 3 numbers, got {shown(value)}")
     array = raw.astype(float)
     if array.ndim == 0:
         array = np.full(3, float(array))
@@ -45,6 +45,7 @@ _SCALARS = ("along_track", "module_rate", "progress", "progress_reward", "progre
             "contour")
 
 
+@checked_constructor(ControllerError)
 @dataclass(frozen=True, eq=False)
 class Weights:
     """Diagonal weights of the cost (a scalar applies to all three axes).
@@ -112,7 +113,7 @@ class Weights:
             value = getattr(self, name)
             if not is_finite_number(value) or value < 0.0:
                 raise ControllerError(f"weight {name!r} must be a finite number >= 0, "
-                                      f"got {value!r}")
+                                      f"got {shown(value)}")
             object.__setattr__(self, name, float(value))
         if not (np.any(self.pose > 0.0) or np.any(self.terminal > 0.0)):
             raise ControllerError("weights 'pose' and 'terminal' are all zero: nothing ties the "
@@ -120,7 +121,7 @@ class Weights:
         along = self.along_track
         if not is_finite_number(along) or not 0.0 <= along <= 1.0:
             raise ControllerError(f"weight 'along_track' must be a number in [0, 1], "
-                                  f"got {along!r}")
+                                  f"got {shown(along)}")
         object.__setattr__(self, "along_track", float(along))
 
 

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from mpc.errors import ReportError
+from mpc.validation import shown
 
 from .record import run_record
 from .results import load_results, read_series, run_id, validate_results
@@ -61,7 +62,7 @@ def plot_run(result: SimResult | Mapping[str, Any], *, skip: float = 0.0,
         validate_results({"runs": [result]}, source="plot_run")
         run = result
     else:
-        raise ReportError(f"plot_run takes a SimResult or a run record, got {result!r}")
+        raise ReportError(f"plot_run takes a SimResult or a run record, got {shown(result)}")
     return run_figure(run, read_series(run, run_id(run), default_dt=0.05, default_skip=skip))
 
 

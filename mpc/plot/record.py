@@ -94,6 +94,18 @@ def run_record(result: SimResult, *, skip: float = 0.0, controller: str = "mpc",
         extra: more keys of the record (e.g. ``peak_ratio``, ``target_lap``); they
             override the computed ones.
     """
+    from mpc.errors import ReportError
+    from mpc.sim.result import SimResult
+    from mpc.validation import non_negative, shown
+
+    if not isinstance(result, SimResult):
+        raise ReportError(f"run_record takes a SimResult, got {shown(result)}")
+    skip = non_negative("skip [s]", skip, ReportError)
+    for key, label in (("controller", controller), ("layout", layout),
+                       ("trajectory", trajectory), ("heading", heading), ("speed", speed)):
+        if not (isinstance(label, str) or label is None and key in ("layout", "trajectory")):
+            raise ReportError(f"{key} must be a string (the name the run is shown under), "
+                              f"got {shown(label)}")
     reference = result.trajectory
     name = getattr(reference, "name", None)
     record: dict[str, Any] = {

@@ -19,6 +19,7 @@ import numpy as np
 
 from mpc.errors import ReportError
 from mpc.validation import file_text, parsed
+from mpc.validation import shown as _shown
 
 REQUIRED_RUN_KEYS = ("layout", "trajectory", "speed", "controller", "metrics", "series")
 REQUIRED_SERIES_KEYS = ("time", "pose", "reference")
@@ -216,6 +217,11 @@ class Series:
         return ratio.max(axis=1)  # type: ignore[no-any-return]
 
 
+#: Largest magnitude of a value in a run's series: far past any pose, wheel speed or time a
+#: run records (poses are bounded at 1e9 m), far from overflow when drawn.
+_MAX_SERIES_VALUE = 1e12
+
+
 def _float_array(series: Mapping[str, Any], key: str, columns: int | None, name: str) -> np.ndarray:
     """``series[key]`` as floats: flat if ``columns`` is None, else (K, columns), 0 for any width.
 
@@ -226,6 +232,14 @@ def _float_array(series: Mapping[str, Any], key: str, columns: int | None, name:
         array = np.asarray(values if values is not None else [], dtype=float)
     except (TypeError, ValueError) as error:
         raise ReportError(f"run {name}: series {key!r} is not numeric: {error}") from error
+    bad = ~(np.abs(array) <= _MAX_SERIES_VALUE) & ~np.isnan(array)
+    if key == "wheel_limit":  # an unlimited wheel is infinite by design
+        bad &= ~np.isinf(array)
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ReportError(
+            f"run {name}: series {key!r} holds {float(array[index])!r} at index "
+            f"{list(index)}: beyond +-{_MAX_SERIES_VALUE:g} (not a value a run records)")
     if columns is None:
         return array.reshape(-1)
     if array.size == 0:
@@ -264,7 +278,12 @@ def read_series(run: Run, name: str, default_dt: float, default_skip: float = 0.
     reference = _float_array(series, "reference", 3, name)
     count = min(len(time), len(pose), len(reference))
     command = _float_array(series, "wheel_command", 0, name)[:count]
-    status = list(series.get("status") or [])[:count]
+    raw_status = series.get("status") or []
+    if not isinstance(raw_status, list) or not all(isinstance(entry, str)
+                                                   for entry in raw_status):
+        raise ReportError(f"run {name}: series 'status' should be a list of strings "
+                          f"(one per tick), got {_shown(raw_status)}")
+    status = raw_status[:count]
     fallback = np.array(
         [entry != "solved" for entry in status] + [False] * (count - len(status)), dtype=bool
     )

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from mpc.sim.result import SimResult
+from mpc.validation import non_negative, shown
 
 from .compare import (
     controllers_of,
@@ -81,9 +82,13 @@ def write_report(results: Mapping[str, Any], out_dir: str | Path,
     runs: list[Run] = list(results["runs"])
     if not runs:
         raise ReportError("results: no runs to report")
-    out = Path(out_dir)
-    (out / "figures").mkdir(parents=True, exist_ok=True)
-    (out / "scenarios").mkdir(exist_ok=True)
+    out = report_folder(out_dir)
+    try:
+        (out / "figures").mkdir(exist_ok=True)
+        (out / "scenarios").mkdir(exist_ok=True)
+    except OSError as error:
+        raise ReportError(f"out_dir {str(out)!r}: cannot create the report's folders: "
+                          f"{error.strerror or error}") from None
     ids = unique_run_ids(runs)
     dt = settings_value(results, "dt")
     skip = settings_value(results, "skip")
@@ -132,7 +137,7 @@ def _draw_runs(jobs: Sequence[tuple[Run, Any, Path]], workers: int,
     """Each run's figure, here or on ``workers`` fresh processes (spawned: nothing of this
     process's state, threads or open figures, is carried into them)."""
     if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
-        raise ReportError(f"workers must be an integer >= 1, got {workers!r}")
+        raise ReportError(f"workers must be an integer >= 1, got {shown(workers)}")
     if workers == 1 or len(jobs) < 2 * workers:
         for job in jobs:
             write_run_figure(*job)
@@ -147,6 +152,25 @@ def _draw_runs(jobs: Sequence[tuple[Run, Any, Path]], workers: int,
 
 Results = (SimResult | Mapping[str, Any] | Sequence[SimResult | Mapping[str, Any]] | str
            | os.PathLike[str])
+
+
+def report_folder(out_dir: object) -> Path:
+    """``out_dir`` as a folder that exists (created with its parents), or ReportError naming
+    it: not a path, an existing file, or a folder that cannot be created."""
+    if not isinstance(out_dir, (str, os.PathLike)):
+        raise ReportError(f"out_dir must be a folder path (str or os.PathLike), "
+                          f"got {shown(out_dir)}")
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ReportError(f"out_dir {str(out)!r} exists and is not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise ReportError(f"out_dir {str(out)!r}: cannot create the folder: "
+                          f"{error.strerror or error}") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise ReportError(f"out_dir {str(out)!r} is not writable")
+    return out
 
 
 def results_document(results: Results, *, skip: float = 0.0,
@@ -181,7 +205,7 @@ def results_document(results: Results, *, skip: float = 0.0,
                  for i, value in enumerate(results, start=1)]
     else:
         raise ReportError("results must be a SimResult, a run record, a mapping of names to "
-                          f"them, a sequence of them or a results document; got {results!r}")
+                          f"them, a sequence of them or a results document; got {shown(results)}")
     runs: list[dict[str, Any]] = []
     dt = math.nan
     for name, value in named:
@@ -217,9 +241,16 @@ def report(results: Results, out_dir: str | Path, *, skip: float = 0.0,
     Raises:
         ReportError: ``results`` is none of those, or a run record is malformed.
     """
+    skip = non_negative("skip [s]", skip, ReportError)
+    if labels is not None and not isinstance(labels, Mapping):
+        raise ReportError(f"labels must be a mapping of run_record keywords or None, "
+                          f"got {shown(labels)}")
     document = results_document(results, skip=skip, labels=labels)
     validate_results(document)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "results.json").write_text(json.dumps(document), encoding="utf-8")
+    out = report_folder(out_dir)
+    try:
+        (out / "results.json").write_text(json.dumps(document), encoding="utf-8")
+    except OSError as error:
+        raise ReportError(f"out_dir {str(out)!r}: cannot write results.json: "
+                          f"{error.strerror or error}") from None
     return write_report(document, out, on_figure=on_figure)

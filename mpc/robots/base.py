@@ -48,7 +48,7 @@ from mpc.robots.limits import (
 )
 from mpc.robots.speed_checks import SpeedLimitChecks
 from mpc.robots.steer_states import SteerStateJoints
-from mpc.validation import MAX_WHEELS
+from mpc.validation import MAX_WHEELS, shown
 
 if TYPE_CHECKING:
     from mpc.robots.dynamics import RobotDynamics
@@ -321,5 +321,5 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         from mpc.robots.dynamics import RobotDynamics
 
         if dynamics is not None and not isinstance(dynamics, RobotDynamics):
-            raise RobotError(f"dynamics must be a RobotDynamics or None, got {dynamics!r}")
+            raise RobotError(f"dynamics must be a RobotDynamics or None, got {shown(dynamics)}")
         return dataclasses.replace(self, dynamics=dynamics)

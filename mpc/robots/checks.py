@@ -9,6 +9,7 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
 from mpc.errors import RobotError
+from mpc.validation import shown
 
 
 def as_twists(twist: ArrayLike, name: str = "twist") -> FloatArray:
@@ -16,7 +17,7 @@ def as_twists(twist: ArrayLike, name: str = "twist") -> FloatArray:
     try:
         array = np.asarray(twist, dtype=float)
     except (TypeError, ValueError):
-        raise RobotError(f"{name} must be numbers (vx, vy, omega), got {twist!r}") from None
+        raise RobotError(f"{name} must be numbers (vx, vy, omega), got {shown(twist)}") from None
     if array.ndim not in (1, 2) or array.shape[-1] != 3:
         raise RobotError(
             f"{name} must have shape (3,) or (k, 3) as (vx, vy, omega), got shape {array.shape}"

@@ -9,7 +9,7 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
-from mpc.validation import is_finite_number, is_integer, real_array
+from mpc.validation import is_finite_number, is_integer, real_array, shown
 
 
 def check_derating(derating: object, n_wheels: int) -> tuple[float, ...]:
@@ -17,10 +17,10 @@ def check_derating(derating: object, n_wheels: int) -> tuple[float, ...]:
     factors = real_array("derating", derating, f"{n_wheels} numbers in [0, 1]", RobotError)
     if factors.shape != (n_wheels,) or not np.all(np.isfinite(factors)):
         raise RobotError(
-            f"derating must be {n_wheels} finite factors, got {derating!r}"
+            f"derating must be {n_wheels} finite factors, got {shown(derating)}"
         )
     if np.any(factors < 0.0) or np.any(factors > 1.0):
-        raise RobotError(f"derating factors must lie in [0, 1], got {derating!r}")
+        raise RobotError(f"derating factors must lie in [0, 1], got {shown(derating)}")
     return tuple(float(f) for f in factors)
 
 
@@ -43,11 +43,11 @@ def merged_derating(current: tuple[float, ...] | None, factors: dict[int, float]
         for index, value in factors.items():
             if not is_integer(index) or not 0 <= index < n_wheels:
                 raise RobotError(
-                    f"wheel index must be an integer in 0..{n_wheels - 1}, got {index!r}"
+                    f"wheel index must be an integer in 0..{n_wheels - 1}, got {shown(index)}"
                 )
             if not is_finite_number(value):
                 raise RobotError(f"derating of wheel {index} must be a number in [0, 1], "
-                                 f"got {value!r}")
+                                 f"got {shown(value)}")
             merged[int(index)] = float(value)
         return tuple(float(v) for v in merged)
     return check_derating(factors, n_wheels)

@@ -33,7 +33,7 @@ from typing import Any, Protocol
 
 from mpc.errors import RobotError
 from mpc.robots.motor import MOTOR_PRESETS, DCMotor
-from mpc.validation import integer_at_least, non_negative, positive
+from mpc.validation import integer_at_least, non_negative, positive, shown
 
 #: [m/s^2] gravity for the wheels' normal loads.
 GRAVITY = 9.81
@@ -86,7 +86,7 @@ class RobotDynamics:
             object.__setattr__(self, name, non_negative(f"{name} [{unit}]",
                                                         getattr(self, name), RobotError))
         if not isinstance(self.motor, DCMotor):
-            raise RobotError(f"motor must be a DCMotor, got {self.motor!r}")
+            raise RobotError(f"motor must be a DCMotor, got {shown(self.motor)}")
         for name in ("current_limit", "friction"):
             if getattr(self, name) is not None:
                 unit = " [A]" if name == "current_limit" else ""
@@ -94,13 +94,13 @@ class RobotDynamics:
                                                         RobotError))
         headroom = non_negative("headroom", self.headroom, RobotError)
         if headroom >= 0.5:
-            raise RobotError(f"headroom must be a fraction in [0, 0.5), got {self.headroom!r}")
+            raise RobotError(f"headroom must be a fraction in [0, 0.5), got {shown(self.headroom)}")
         object.__setattr__(self, "headroom", headroom)
         if (self.steer_motor is None) != (self.steer_gearing is None):
             raise RobotError("steer_motor and steer_gearing go together: give both or neither")
         if self.steer_motor is not None:
             if not isinstance(self.steer_motor, DCMotor):
-                raise RobotError(f"steer_motor must be a DCMotor, got {self.steer_motor!r}")
+                raise RobotError(f"steer_motor must be a DCMotor, got {shown(self.steer_motor)}")
             object.__setattr__(self, "steer_gearing",
                                positive("steer_gearing", self.steer_gearing, RobotError))
 
@@ -146,7 +146,7 @@ def motor_from(value: object, count: object = 1, what: str = "motor") -> DCMotor
     if isinstance(value, str):
         if value not in MOTOR_PRESETS:
             raise RobotError(f"{what} must be one of {list(MOTOR_PRESETS)} or a table of "
-                             f"DCMotor fields, got {value!r}")
+                             f"DCMotor fields, got {shown(value)}")
         return DCMotor.preset(value, motors)
     if isinstance(value, Mapping):
         fields = {"nominal_voltage", "stall_torque", "stall_current", "free_current",
@@ -160,7 +160,7 @@ def motor_from(value: object, count: object = 1, what: str = "motor") -> DCMotor
         table.setdefault("count", motors)
         return DCMotor(**table)
     raise RobotError(f"{what} must be a DCMotor, a preset name {list(MOTOR_PRESETS)} or a "
-                     f"table of DCMotor fields, got {value!r}")
+                     f"table of DCMotor fields, got {shown(value)}")
 
 
 def dynamics(*, mass: float, yaw_inertia: float, motor: DCMotor | str | Mapping[str, Any],
@@ -193,7 +193,7 @@ DYNAMICS_KEYS: frozenset[str] = frozenset({
 def dynamics_from_dict(table: object, source: str = "dynamics") -> RobotDynamics:
     """A :class:`RobotDynamics` from a parsed ``[dynamics]`` table (module docstring)."""
     if not isinstance(table, Mapping):
-        raise RobotError(f"{source}: dynamics must be a table of keys, got {table!r}")
+        raise RobotError(f"{source}: dynamics must be a table of keys, got {shown(table)}")
     unknown = sorted(set(table) - DYNAMICS_KEYS)
     missing = sorted({"mass", "yaw_inertia", "motor", "gearing"} - set(table))
     if unknown or missing:
@@ -240,7 +240,7 @@ def choreo_dynamics(config: ChoreoMotorConfig, *, motor: str | DCMotor = "kraken
                      base.free_current, vmax, base.count)
     limit = tmax / scaled.kt
     if limit > scaled.stall_current:
-        raise RobotError(f"tmax {tmax!r} N m is beyond the {base!r}'s stall torque")
+        raise RobotError(f"tmax {shown(tmax)} N m is beyond the {shown(base)}'s stall torque")
     return RobotDynamics(mass=config.mass, yaw_inertia=config.inertia, motor=scaled,
                          gearing=config.gearing, battery_voltage=battery_voltage,
                          battery_resistance=battery_resistance, current_limit=limit,

@@ -33,7 +33,7 @@ from mpc.errors import RobotError
 from mpc.robots.base import Robot
 from mpc.robots.dynamics import dynamics_from_dict
 from mpc.robots.registry import robot_type
-from mpc.validation import file_text, parsed
+from mpc.validation import file_text, parsed, shown
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -56,7 +56,7 @@ def from_dict(description: Mapping[str, Any], source: str = "robot description")
             f"{source}: unknown key(s) {unknown}; expected some of {sorted(entry.keys)}")
     missing = sorted(entry.required - set(params))
     if missing:
-        raise RobotError(f"{source}: missing key(s) {missing} for type {entry.name!r}")
+        raise RobotError(f"{source}: missing key(s) {missing} for type {shown(entry.name)}")
     params.setdefault("name", entry.name)
     try:
         robot = entry.factory(**params)

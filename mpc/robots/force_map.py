@@ -43,6 +43,7 @@ import numpy as np
 from mpc.arrays import FloatArray, IntArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.dynamics import GRAVITY, RobotDynamics
+from mpc.validation import shown
 
 if TYPE_CHECKING:
     from mpc.robots.base import Robot
@@ -71,7 +72,7 @@ def wheel_radii(robot: Robot) -> FloatArray:
         if getattr(robot, "axle_offset", 0.0):
             raise RobotError("motor dynamics support swerve modules whose wheel is under the "
                              f"steering axis; robot {robot.name!r} has axle_offset "
-                             f"{robot.axle_offset!r} m")  # type: ignore[attr-defined]
+                             f"{shown(robot.axle_offset)} m")  # type: ignore[attr-defined]
         return np.full(n, float(robot.wheel_radius))  # type: ignore[attr-defined]
     if robot.kind == "spherical":
         radius: FloatArray = np.asarray(robot.wheel_radius, dtype=np.float64)  # type: ignore[attr-defined]

@@ -66,7 +66,7 @@ from mpc.robots.caster import CasterRobot
 from mpc.robots.spherical import SphericalRobot
 from mpc.robots.swedish import SwedishRobot
 from mpc.robots.swerve import SwerveRobot
-from mpc.validation import MAX_COORDINATE, MAX_LENGTH, bounded
+from mpc.validation import MAX_COORDINATE, MAX_LENGTH, bounded, shown
 
 #: A singular value counts towards a rank above this fraction of the largest one.
 RANK_TOLERANCE = 1e-9
@@ -127,17 +127,17 @@ def parse_wheels(description: object, source: str = "robot description") -> tupl
     wheels = description.get("wheels")
     if not isinstance(wheels, Sequence) or isinstance(wheels, (str, bytes)) or not wheels:
         raise RobotError(f"{source}: wheels must be a non-empty list of wheel tables, "
-                         f"got {wheels!r}")
+                         f"got {shown(wheels)}")
     return tuple(_parse_wheel(table, f"{source}: wheels[{index}]")
                  for index, table in enumerate(wheels))
 
 
 def _parse_wheel(table: object, where: str) -> WheelSpec:
     if not isinstance(table, Mapping):
-        raise RobotError(f"{where} must be a table, got {table!r}")
+        raise RobotError(f"{where} must be a table, got {shown(table)}")
     kind = table.get("type")
     if not isinstance(kind, str) or kind not in WHEEL_KEYS:
-        raise RobotError(f"{where}.type must be one of {sorted(WHEEL_KEYS)}, got {kind!r}")
+        raise RobotError(f"{where}.type must be one of {sorted(WHEEL_KEYS)}, got {shown(kind)}")
     required, optional = WHEEL_KEYS[kind]
     keys = set(table) - {"type"}
     unknown = sorted(keys - required - optional, key=str)

@@ -27,7 +27,7 @@ from dataclasses import dataclass, replace
 
 from mpc.errors import RobotError
 from mpc.robots.sysid_motor import SysIdMotor, Value
-from mpc.validation import integer_at_least, non_negative, positive
+from mpc.validation import integer_at_least, non_negative, positive, shown
 
 __all__ = ["MOTOR_PRESETS", "DCMotor", "SysIdMotor", "Value"]
 
@@ -92,7 +92,7 @@ class DCMotor:
         object.__setattr__(self, "count", integer_at_least("count", self.count, 1, RobotError))
         if free >= self.stall_current:
             raise RobotError(f"free_current must be below stall_current, got free_current "
-                             f"{free!r} A and stall_current {self.stall_current!r} A")
+                             f"{shown(free)} A and stall_current {shown(self.stall_current)} A")
 
     # ------------------------------------------------------------ presets
     @classmethod

@@ -35,7 +35,7 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.registry import register
-from mpc.validation import body_points, checked_arguments, metres, real_array
+from mpc.validation import body_points, checked_arguments, metres, real_array, shown
 
 
 def _expand(name: str, value: object, balls: int, *, pairs: bool) -> FloatArray:
@@ -135,7 +135,7 @@ class SphericalRobot(Robot):
         try:
             rates = np.asarray(spin_rates, dtype=float)
         except (TypeError, ValueError):
-            raise RobotError(f"spin_rates must be numbers, got {spin_rates!r}") from None
+            raise RobotError(f"spin_rates must be numbers, got {shown(spin_rates)}") from None
         if rates.ndim not in (1, 2) or rates.shape[-1] != self.n_wheels:
             raise RobotError(f"spin_rates must have shape ({self.n_wheels},) or "
                              f"(k, {self.n_wheels}), got shape {rates.shape}")

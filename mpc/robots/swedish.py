@@ -36,6 +36,7 @@ from mpc.validation import (
     integer_in,
     metres,
     positive,
+    shown,
 )
 
 
@@ -73,7 +74,7 @@ class SwedishWheel:
                                positive("max_accel", self.max_accel, RobotError))
         if abs(math.cos(self.gamma)) < 1e-9:
             raise RobotError(
-                f"gamma must not be +-pi/2 (rollers parallel to the axle), got {self.gamma!r}"
+                f"gamma must not be +-pi/2 (rollers parallel to the axle), got {shown(self.gamma)}"
             )
 
     @property
@@ -110,7 +111,7 @@ class SwedishRobot(Robot):
         if len(wheels) < 3 or not all(isinstance(w, SwedishWheel) for w in wheels):
             raise RobotError(
                 f"a Swedish robot needs a sequence of at least 3 SwedishWheel objects, "
-                f"got {self.wheels!r}"
+                f"got {shown(self.wheels)}"
             )
         object.__setattr__(self, "wheels", wheels)
         jacobian = np.array([w.jacobian_row for w in wheels])
@@ -261,11 +262,11 @@ def _swedish(*, wheels: Sequence[Mapping[str, Any]], name: str = "swedish") -> S
     allowed = {"alpha", "beta", "gamma", "l", "radius", "max_speed", "max_accel"}
     required = allowed - {"max_accel"}
     if not isinstance(wheels, Sequence) or isinstance(wheels, str):
-        raise RobotError(f"wheels must be a list of wheel tables, got {wheels!r}")
+        raise RobotError(f"wheels must be a list of wheel tables, got {shown(wheels)}")
     built = []
     for index, table in enumerate(wheels):
         if not isinstance(table, Mapping):
-            raise RobotError(f"wheels[{index}] must be a table, got {table!r}")
+            raise RobotError(f"wheels[{index}] must be a table, got {shown(table)}")
         unknown = sorted(set(table) - allowed)
         missing = sorted(required - set(table))
         if unknown or missing:

@@ -44,7 +44,7 @@ from mpc.robots.swerve_limits import (
     update_linearised,
 )
 from mpc.robots.swerve_states import aimed_angles, module_states, wrap_angle
-from mpc.validation import body_points, checked_arguments, metres, positive
+from mpc.validation import body_points, checked_arguments, metres, positive, shown
 
 __all__ = ["SwerveRobot", "swerve", "wrap_angle"]
 
@@ -162,7 +162,7 @@ class SwerveRobot(Robot):
             current = np.asarray(current_angles, dtype=float)
             if current.shape != (self.n_wheels,) or not np.all(np.isfinite(current)):
                 raise RobotError(f"current_angles must be {self.n_wheels} finite angles, "
-                                 f"got {current_angles!r}")
+                                 f"got {shown(current_angles)}")
         return self._states(self.wheel_blocks @ xi, current)
 
     def commands_from_velocities(self, velocities: FloatArray,

@@ -47,6 +47,7 @@ from mpc.arrays import FloatArray
 from mpc.errors import SimulationError
 from mpc.robots.swerve import wrap_angle
 from mpc.sim.result import SimResult
+from mpc.validation import shown
 from trajectories.rosbag import quaternion_from_yaw, require_rosbags
 
 #: Topic names written by :func:`write_bag`, by role.
@@ -109,7 +110,7 @@ def write_bag(result: SimResult, path: str | os.PathLike[str], *,
     if isinstance(start_stamp_ns, bool) or not isinstance(start_stamp_ns, int) or (
             start_stamp_ns < 0):
         raise SimulationError(f"start_stamp_ns must be an integer >= 0 [ns], got "
-                              f"{start_stamp_ns!r}")
+                              f"{shown(start_stamp_ns)}")
     stamps = start_stamp_ns + np.round(np.asarray(result.time) * 1e9).astype(np.int64)
     if (stamps < 0).any():
         raise SimulationError("the run starts before the bag's epoch: raise start_stamp_ns")

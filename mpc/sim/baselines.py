@@ -37,7 +37,7 @@ from mpc.control.measurements import check_steer_angles
 from mpc.errors import ControllerError
 from mpc.robots.base import Robot
 from mpc.robots.swerve import wrap_angle
-from mpc.validation import is_finite_number
+from mpc.validation import is_finite_number, shown
 from trajectories import Trajectory
 
 #: Valid ``saturation=`` names.
@@ -73,14 +73,14 @@ class FeedforwardPController:
                 f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}"
             )
         if not is_finite_number(dt) or dt <= 0:
-            raise ControllerError(f"dt must be a finite number of seconds > 0, got {dt!r}")
+            raise ControllerError(f"dt must be a finite number of seconds > 0, got {shown(dt)}")
         if saturation not in SATURATIONS:
             raise ControllerError(
-                f"unknown saturation {saturation!r}; expected one of {list(SATURATIONS)}"
+                f"unknown saturation {shown(saturation)}; expected one of {list(SATURATIONS)}"
             )
         gain = np.asarray(gains, dtype=float)
         if gain.shape != (2,) or not np.all(np.isfinite(gain)) or np.any(gain < 0):
-            raise ControllerError(f"gains must be two finite numbers >= 0, got {gains!r}")
+            raise ControllerError(f"gains must be two finite numbers >= 0, got {shown(gains)}")
         self.robot = robot
         self.trajectory = trajectory
         self.dt = float(dt)
@@ -100,9 +100,9 @@ class FeedforwardPController:
         start = time.perf_counter()
         x = np.asarray(pose, dtype=float)
         if x.shape != (3,) or not np.all(np.isfinite(x)):
-            raise ControllerError(f"pose must be a finite (3,) pose, got {pose!r}")
+            raise ControllerError(f"pose must be a finite (3,) pose, got {shown(pose)}")
         if not is_finite_number(t):
-            raise ControllerError(f"t must be a finite time in seconds, got {t!r}")
+            raise ControllerError(f"t must be a finite time in seconds, got {shown(t)}")
         # Feedforward at mid-tick: the command is held over [t, t + dt].
         reference = self.trajectory.sample(t)
         ahead = self.trajectory.sample(t + 0.5 * self.dt)

@@ -54,7 +54,7 @@ from mpc.robots.force_map import ForceMap, force_map
 from mpc.robots.swerve import wrap_angle
 from mpc.sim.motor_substep import MIN_WHEEL_INERTIA, SubStepModel
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
-from mpc.validation import is_finite_number
+from mpc.validation import is_finite_number, shown
 
 __all__ = ["EVENT_KEYS", "MIN_WHEEL_INERTIA", "MotorPlant", "MotorPlantConfig"]
 
@@ -90,19 +90,19 @@ class MotorPlantConfig(PlantConfig):
         super().__post_init__()
         if self.motor_lag != 0.0 or self.slip != 0.0:
             raise SimulationError("the motor plant models the motors and traction itself: "
-                                  f"motor_lag and slip must be 0, got {self.motor_lag!r} and "
-                                  f"{self.slip!r}")
+                                  f"motor_lag and slip must be 0, got {shown(self.motor_lag)} and "
+                                  f"{shown(self.slip)}")
         for name in ("velocity_gain", "battery_resistance"):
             value = getattr(self, name)
             if value is not None and (not is_finite_number(value) or value < 0):
                 raise SimulationError(f"{name} must be a finite number >= 0 or None, "
-                                      f"got {value!r}")
+                                      f"got {shown(value)}")
         if not is_finite_number(self.slip_speed) or self.slip_speed <= 0:
             raise SimulationError(f"slip_speed [m/s] must be a finite number > 0, "
-                                  f"got {self.slip_speed!r}")
+                                  f"got {shown(self.slip_speed)}")
         if not is_finite_number(self.slip_ratio) or self.slip_ratio < 0:
             raise SimulationError(f"slip_ratio must be a finite number >= 0, "
-                                  f"got {self.slip_ratio!r}")
+                                  f"got {shown(self.slip_ratio)}")
 
 
 # `simulate(..., plant="motor")` and `mpc-bench --plant motor`.
@@ -126,7 +126,7 @@ class MotorPlant(Plant):
             raise SimulationError(f"the motor plant needs a robot with dynamics; robot "
                                   f"{robot.name!r} has none (robot.with_dynamics(...))")
         if not isinstance(config, MotorPlantConfig):
-            raise SimulationError(f"config must be a MotorPlantConfig, got {config!r}")
+            raise SimulationError(f"config must be a MotorPlantConfig, got {shown(config)}")
         super().__init__(robot, dt, pose, config, rng)
         self.forces: ForceMap = force_map(robot)
         dyn = robot.dynamics

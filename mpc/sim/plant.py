@@ -27,7 +27,7 @@ from mpc.control.command import Command
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
 from mpc.robots.swerve import wrap_angle
-from mpc.validation import is_finite_number, is_integer
+from mpc.validation import is_finite_number, is_integer, shown
 
 
 @dataclass(frozen=True)
@@ -56,15 +56,16 @@ class PlantConfig:
 
     def __post_init__(self) -> None:
         if not is_integer(self.substeps) or self.substeps < 1:
-            raise SimulationError(f"substeps must be an integer >= 1, got {self.substeps!r}")
+            raise SimulationError(f"substeps must be an integer >= 1, got {shown(self.substeps)}")
         if not is_integer(self.delay_ticks) or self.delay_ticks < 0:
-            raise SimulationError(f"delay_ticks must be an integer >= 0, got {self.delay_ticks!r}")
+            raise SimulationError(f"delay_ticks must be an integer >= 0, "
+                                  f"got {shown(self.delay_ticks)}")
         for name in ("motor_lag", "position_noise", "heading_noise", "slip"):
             value = getattr(self, name)
             if not is_finite_number(value) or value < 0:
-                raise SimulationError(f"{name} must be a finite number >= 0, got {value!r}")
+                raise SimulationError(f"{name} must be a finite number >= 0, got {shown(value)}")
         if self.slip >= 0.5:
-            raise SimulationError(f"slip must be < 0.5 (a mean fraction), got {self.slip!r}")
+            raise SimulationError(f"slip must be < 0.5 (a mean fraction), got {shown(self.slip)}")
 
 
 #: Named plants for the CLI and tests.

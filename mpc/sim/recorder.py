@@ -26,7 +26,7 @@ from mpc.control.command import Command
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
 from mpc.sim.result import SimResult
-from mpc.validation import finite_vector, is_finite_number, positive
+from mpc.validation import finite_vector, is_finite_number, positive, shown
 from trajectories import Trajectory
 
 
@@ -44,15 +44,15 @@ class Recorder:
     def __init__(self, robot: Robot, trajectory: Trajectory, dt: float,
                  predict_every: int = 10) -> None:
         if not isinstance(robot, Robot):
-            raise SimulationError(f"robot must be an mpc.robots.Robot, got {robot!r}")
+            raise SimulationError(f"robot must be an mpc.robots.Robot, got {shown(robot)}")
         if not isinstance(trajectory, Trajectory):
-            raise SimulationError(f"trajectory must be a Trajectory, got {trajectory!r}")
+            raise SimulationError(f"trajectory must be a Trajectory, got {shown(trajectory)}")
         self.robot, self.trajectory = robot, trajectory
         self.dt = positive("dt [s]", dt, SimulationError)
         if (isinstance(predict_every, bool) or not isinstance(predict_every, int)
                 or predict_every < 0):
             raise SimulationError(
-                f"predict_every must be an integer >= 0 (ticks), got {predict_every!r}")
+                f"predict_every must be an integer >= 0 (ticks), got {shown(predict_every)}")
         self.predict_every = predict_every
         self._rows: list[tuple[float, FloatArray, FloatArray, FloatArray, Command]] = []
         self._plans: list[tuple[int, FloatArray]] = []  # (tick, predicted poses (N+1, 3))
@@ -70,11 +70,18 @@ class Recorder:
         (default: the command's) and the reference pose tracked at this tick [m, m, rad]
         (default: the trajectory at ``t - command.lag``, what the controller tracked)."""
         if not is_finite_number(t):
-            raise SimulationError(f"t must be a finite time in seconds, got {t!r}")
+            raise SimulationError(f"t must be a finite time in seconds, got {shown(t)}")
         if not isinstance(command, Command):
-            raise SimulationError(f"command must be the Command step() returned, got {command!r}")
+            raise SimulationError("command must be the Command step() returned, "
+                                  f"got {shown(command)}")
+        if np.shape(command.wheel_speeds) != (self.robot.n_wheels,):
+            raise SimulationError(
+                f"command has {np.size(command.wheel_speeds)} wheel speeds but the recorder's "
+                f"robot {self.robot.name!r} has {self.robot.n_wheels} wheels: a command of "
+                "another robot")
         if self._rows and t < self._rows[-1][0]:
-            raise SimulationError(f"t must not decrease: {t!r} s after {self._rows[-1][0]!r} s")
+            raise SimulationError(f"t must not decrease: {shown(t)} s after "
+                                  f"{self._rows[-1][0]!r} s")
         true = finite_vector("pose", pose, 3, "(x, y, theta)", SimulationError)
         seen = true if measured is None else finite_vector(
             "measured", measured, 3, "(x, y, theta)", SimulationError)

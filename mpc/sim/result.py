@@ -13,7 +13,7 @@ from mpc.arrays import FloatArray, IntArray
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
 from mpc.robots.swerve import wrap_angle
-from mpc.validation import is_finite_number
+from mpc.validation import is_finite_number, shown
 from trajectories import Trajectory
 
 #: Relative tolerance when counting wheel-limit violations.
@@ -158,7 +158,8 @@ class SimResult:
         ``min_bus_voltage`` [V] (every tick).
         """
         if not is_finite_number(skip) or skip < 0:
-            raise SimulationError(f"skip must be a finite number of seconds >= 0, got {skip!r}")
+            raise SimulationError(f"skip must be a finite number of seconds >= 0, "
+                                  f"got {shown(skip)}")
         keep = self.time >= self.time[0] + skip - 1e-12
         if not keep.any():
             raise SimulationError(f"skip={skip} s leaves no ticks of a {self.duration:.3g} s run")

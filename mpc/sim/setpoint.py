@@ -16,7 +16,7 @@ from mpc.errors import ControllerError
 from mpc.robots.base import Robot
 from mpc.robots.swerve import wrap_angle
 from mpc.sim.setpoint_generator import SwerveSetpoint, generate_setpoint, steered_robot
-from mpc.validation import finite_vector, is_finite_number
+from mpc.validation import finite_vector, is_finite_number, shown
 from trajectories import Trajectory
 
 __all__ = ["FeedforwardPSetpointController", "SwerveSetpoint", "generate_setpoint"]
@@ -44,10 +44,10 @@ class FeedforwardPSetpointController:
             raise ControllerError(
                 f"trajectory must be a trajectories.Trajectory, got {type(trajectory).__name__}")
         if not is_finite_number(dt) or dt <= 0:
-            raise ControllerError(f"dt must be a finite number of seconds > 0, got {dt!r}")
+            raise ControllerError(f"dt must be a finite number of seconds > 0, got {shown(dt)}")
         gain = finite_vector("gains", gains, 2, "(K_xy, K_theta) [1/s]", ControllerError)
         if np.any(gain < 0):
-            raise ControllerError(f"gains must be two finite numbers >= 0, got {gains!r}")
+            raise ControllerError(f"gains must be two finite numbers >= 0, got {shown(gains)}")
         self.trajectory = trajectory
         self.dt = float(dt)
         self.gains = gain
@@ -63,7 +63,7 @@ class FeedforwardPSetpointController:
         start = time.perf_counter()
         x = finite_vector("pose", pose, 3, "(x, y, theta)", ControllerError)
         if not is_finite_number(t):
-            raise ControllerError(f"t must be a finite time in seconds, got {t!r}")
+            raise ControllerError(f"t must be a finite time in seconds, got {shown(t)}")
         reference = self.trajectory.sample(t)
         ahead = self.trajectory.sample(t + 0.5 * self.dt)  # held over [t, t + dt]
         error = reference.pose - x

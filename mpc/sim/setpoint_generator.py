@@ -52,7 +52,7 @@ from mpc.control.clamp import clamp_command
 from mpc.errors import ControllerError
 from mpc.robots.base import Robot
 from mpc.robots.swerve import wrap_angle
-from mpc.validation import finite_vector, is_finite_number
+from mpc.validation import finite_vector, is_finite_number, shown
 
 #: Relative slack on the steering limit (rounding), as for the other limits.
 _STEER_SLACK = 1e-9
@@ -176,7 +176,7 @@ def generate_setpoint(robot: Robot, previous: SwerveSetpoint, desired: ArrayLike
     _check_previous(robot, previous)
     target = finite_vector("desired", desired, 3, "(vx, vy, omega)", ControllerError)
     if not is_finite_number(dt) or dt <= 0:
-        raise ControllerError(f"dt must be a finite number of seconds > 0, got {dt!r}")
+        raise ControllerError(f"dt must be a finite number of seconds > 0, got {shown(dt)}")
     turn = rates * dt
     start = robot.wheel_blocks @ previous.twist
     moving = previous.wheel_speeds != 0.0

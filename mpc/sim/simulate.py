@@ -17,7 +17,13 @@ from mpc.sim.motor_plant import MotorPlant, MotorPlantConfig
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.sim.recorder import Recorder
 from mpc.sim.result import SimResult
-from mpc.validation import MAX_SIMULATION_TICKS, checked_arguments, finite_vector, is_finite_number
+from mpc.validation import (
+    MAX_SIMULATION_TICKS,
+    checked_arguments,
+    finite_vector,
+    is_finite_number,
+    shown,
+)
 from trajectories import Trajectory
 
 
@@ -77,12 +83,13 @@ def simulate(
     """
     true_robot = _check_arguments(controller, robot, on_tick)
     if not is_finite_number(duration) or duration <= 0:
-        raise SimulationError(f"duration must be a finite number of seconds > 0, got {duration!r}")
+        raise SimulationError(f"duration must be a finite number of seconds > 0, "
+                              f"got {shown(duration)}")
     config = _plant_config(plant)
     dt = controller.dt
     ticks = max(1, round(duration / dt))
     if ticks > MAX_SIMULATION_TICKS:
-        raise SimulationError(f"duration {duration!r} s is {ticks} ticks of {dt} s; at most "
+        raise SimulationError(f"duration {shown(duration)} s is {ticks} ticks of {dt} s; at most "
                               f"{MAX_SIMULATION_TICKS} ticks are simulated at once")
     trajectory = controller.trajectory
     if initial_pose is None:
@@ -92,7 +99,7 @@ def simulate(
     kind = MotorPlant if isinstance(config, MotorPlantConfig) else Plant
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
                              or seed < 0):
-        raise SimulationError(f"seed must be None or an integer >= 0, got {seed!r}")
+        raise SimulationError(f"seed must be None or an integer >= 0, got {shown(seed)}")
     sim = kind(true_robot, dt, start, config, np.random.default_rng(seed))
     if initial_steer_angles is not None:
         sim.steer_angles = finite_vector("initial_steer_angles", initial_steer_angles,
@@ -131,7 +138,7 @@ def _check_arguments(controller: object, robot: object, on_tick: object) -> Robo
                               f"a tick dt > 0), got {type(controller).__name__}")
     if on_tick is not None and not callable(on_tick):
         raise SimulationError(f"on_tick must be None or a callable on_tick(k, ticks), "
-                              f"got {on_tick!r}")
+                              f"got {shown(on_tick)}")
     if robot is None:
         return ours
     if not isinstance(robot, Robot):
@@ -168,5 +175,5 @@ def _plant_config(plant: PlantConfig | str | None) -> PlantConfig:
     if isinstance(plant, str) and plant in PLANT_PRESETS:
         return PLANT_PRESETS[plant]
     raise SimulationError(
-        f"plant must be a PlantConfig or one of {sorted(PLANT_PRESETS)}, got {plant!r}"
+        f"plant must be a PlantConfig or one of {sorted(PLANT_PRESETS)}, got {shown(plant)}"
     )

@@ -13,6 +13,7 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
+from mpc.validation import shown
 from trajectories.rosbag import require_rosbags, stamp_nanoseconds
 
 require_rosbags()
@@ -69,7 +70,7 @@ def joint_group_command(wheel_speeds: ArrayLike, order: Sequence[int] | None = N
     if order is not None:
         if sorted(order) != list(range(len(speeds))):
             raise ControllerError(f"order must be a permutation of 0..{len(speeds) - 1}, "
-                                  f"got {order!r}")
+                                  f"got {shown(order)}")
         speeds = speeds[list(order)]
     layout = _types.std_msgs__msg__MultiArrayLayout(dim=[], data_offset=0)
     return _types.std_msgs__msg__Float64MultiArray(layout=layout, data=speeds.copy())

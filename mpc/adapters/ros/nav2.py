@@ -14,7 +14,7 @@ from mpc.arrays import FloatArray
 from mpc.control import Command, Controller
 from mpc.errors import ControllerError
 from mpc.robots import Robot
-from mpc.validation import non_negative, positive
+from mpc.validation import non_negative, positive, shown
 from trajectories import FunctionHeading, HeadingSpec, Trajectory
 from trajectories.path import PathDerivatives
 from trajectories.rosbag import (
@@ -143,8 +143,8 @@ class Nav2Controller:
             raise ControllerError("no plan yet: call set_plan(path) first")
         frame = str(pose.header.frame_id)
         if frame and self._frame and frame != self._frame:
-            raise ControllerError(f"the pose is in frame {frame!r} but the plan in "
-                                  f"{self._frame!r}: transform one into the other first")
+            raise ControllerError(f"the pose is in frame {shown(frame)} but the plan in "
+                                  f"{shown(self._frame)}: transform one into the other first")
         if self._velocity_pending and velocity is not None:
             self.controller.reset(last_twist=twist_from_message(velocity))
         self._velocity_pending = False

@@ -15,13 +15,14 @@ from mpc.arrays import FloatArray
 from mpc.control import Command
 from mpc.errors import ControllerError, RobotError
 from mpc.robots import Robot, SwedishRobot, SwerveRobot
+from mpc.validation import shown
 
 
 def pose_from_pose2d(pose: Pose2d) -> FloatArray:
     """``(x, y, theta)`` [m, m, rad] of a ``Pose2d``; theta as its ``Rotation2d`` holds it
     (odometry's are in (-pi, pi]; the controller matches any turn count to the reference)."""
     if not isinstance(pose, Pose2d):
-        raise ControllerError(f"pose must be a wpimath.geometry.Pose2d, got {pose!r}")
+        raise ControllerError(f"pose must be a wpimath.geometry.Pose2d, got {shown(pose)}")
     return np.array([pose.X(), pose.Y(), pose.rotation().radians()])
 
 
@@ -34,7 +35,7 @@ def pose2d_from_pose(pose: ArrayLike) -> Pose2d:
 def twist_from_chassis_speeds(speeds: ChassisSpeeds) -> FloatArray:
     """Robot-relative ``ChassisSpeeds`` as our body twist ``(vx, vy, omega)`` [m/s, m/s, rad/s]."""
     if not isinstance(speeds, ChassisSpeeds):
-        raise ControllerError(f"speeds must be a wpimath ChassisSpeeds, got {speeds!r}")
+        raise ControllerError(f"speeds must be a wpimath ChassisSpeeds, got {shown(speeds)}")
     return np.array([speeds.vx, speeds.vy, speeds.omega])
 
 
@@ -47,7 +48,7 @@ def swerve_module_states(robot: Robot, command: Command) -> list[SwerveModuleSta
     """A swerve command as ``SwerveModuleState`` s: signed rim speed [m/s] (wheel speed times
     the wheel radius) and steer angle, in the robot's module order, after our flip rule."""
     if not isinstance(robot, SwerveRobot) or command.steer_angles is None:
-        raise RobotError(f"module states need a swerve robot and its command, got {robot!r}")
+        raise RobotError(f"module states need a swerve robot and its command, got {shown(robot)}")
     rim = np.asarray(command.wheel_speeds) * robot.wheel_radius
     return [SwerveModuleState(float(speed), Rotation2d(float(angle)))
             for speed, angle in zip(rim, command.steer_angles, strict=True)]
@@ -57,7 +58,7 @@ def mecanum_wheel_speeds(robot: Robot, command: Command) -> MecanumDriveWheelSpe
     """A Mecanum command as ``MecanumDriveWheelSpeeds`` [m/s] (wheel speed times radius);
     our order FL, FR, RL, RR is WPILib's frontLeft, frontRight, rearLeft, rearRight."""
     if not _is_mecanum(robot):
-        raise RobotError(f"wheel speeds need a four-wheel Mecanum robot, got {robot!r}")
+        raise RobotError(f"wheel speeds need a four-wheel Mecanum robot, got {shown(robot)}")
     radii = np.array([wheel.radius for wheel in robot.wheels])
     return MecanumDriveWheelSpeeds(*(float(v) for v in np.asarray(command.wheel_speeds) * radii))
 
@@ -66,9 +67,9 @@ def _three(name: str, value: ArrayLike, what: str) -> tuple[float, float, float]
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ControllerError(f"{name} must be 3 numbers {what}, got {value!r}") from None
+        raise ControllerError(f"{name} must be 3 numbers {what}, got {shown(value)}") from None
     if array.shape != (3,) or not np.all(np.isfinite(array)):
-        raise ControllerError(f"{name} must be 3 finite numbers {what}, got {value!r}")
+        raise ControllerError(f"{name} must be 3 finite numbers {what}, got {shown(value)}")
     return float(array[0]), float(array[1]), float(array[2])
 
 

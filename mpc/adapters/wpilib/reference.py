@@ -11,6 +11,7 @@ from wpimath.trajectory import Trajectory as WpilibTrajectory
 from mpc.adapters.wpilib.conversions import pose_from_pose2d
 from mpc.arrays import FloatArray, IntArray
 from mpc.errors import TrajectoryError
+from mpc.validation import shown
 from trajectories import HeadingDerivatives, HeadingProfile, HeadingSpec, Trajectory
 from trajectories.path import PathDerivatives
 
@@ -32,7 +33,7 @@ class WpilibReference(Trajectory):
         states = trajectory.states() if isinstance(trajectory, WpilibTrajectory) else []
         if len(states) < 2:
             raise TrajectoryError("expected a wpimath.trajectory.Trajectory with at least 2 "
-                                  f"states, got {trajectory!r}")
+                                  f"states, got {shown(trajectory)}")
         self._times = np.array([s.t for s in states])
         if np.any(np.diff(self._times) < 0.0):
             raise TrajectoryError("WPILib trajectory state times must not decrease")
