@@ -303,15 +303,20 @@ def checked_arguments(error: type[MpcError]) -> Callable[[F], F]:
 
         @functools.wraps(function)
         def checked(*args: Any, **kwargs: Any) -> Any:
+            # Call first and look at the signature only on a TypeError: free on the hot
+            # path (Controller.step), and a TypeError from inside the call goes on as is.
             try:
-                signature.bind(*args, **kwargs)
-            except TypeError as problem:
-                unknown = sorted(set(kwargs) - set(names))
-                reason = (f"unknown keyword argument(s) {', '.join(map(repr, unknown))}"
-                          if unknown else str(problem))
-                raise error(f"{shown}(): {reason}; its parameters are "
-                            f"{', '.join(names)}") from None
-            return function(*args, **kwargs)
+                return function(*args, **kwargs)
+            except TypeError:
+                try:
+                    signature.bind(*args, **kwargs)
+                except TypeError as problem:
+                    unknown = sorted(set(kwargs) - set(names))
+                    reason = (f"unknown keyword argument(s) {', '.join(map(repr, unknown))}"
+                              if unknown else str(problem))
+                    raise error(f"{shown}(): {reason}; its parameters are "
+                                f"{', '.join(names)}") from None
+                raise
 
         return checked  # type: ignore[return-value]
 

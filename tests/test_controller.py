@@ -397,3 +397,13 @@ def test_reset_refuses_a_last_twist_the_wheels_cannot_drive(name: str, last_twis
     with pytest.raises(ControllerError, match="last_twist") as raised:
         controller.reset(last_twist=last_twist)
     assert needle in str(raised.value)
+
+
+def test_step_arguments_that_do_not_fit_its_signature_are_the_projects_error() -> None:
+    controller = Controller(preset("mecanum"), Circle(0.5, 10.0))
+    pose = controller.trajectory.sample(0.0).pose
+    with pytest.raises(ControllerError, match="unknown keyword argument.*'speed'"):
+        controller.step(pose=pose, t=0.0, speed=1)  # type: ignore[call-arg]
+    with pytest.raises(ControllerError, match="its parameters are pose, t, steer_angles"):
+        controller.step(pose, 0.0, None, 5)  # type: ignore[call-arg]
+    assert controller.step(pose, 0.0).wheel_speeds.shape == (4,)

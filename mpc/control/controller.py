@@ -216,6 +216,7 @@ class Controller:
         self._timing.reset()
         self.solver.reset()
 
+    @checked_arguments(ControllerError)
     def step(self, pose: ArrayLike, t: float, steer_angles: ArrayLike | None = None) -> Command:
         """Plan from the measured pose at time ``t`` and return this tick's command.
 
