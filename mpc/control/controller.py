@@ -191,9 +191,11 @@ class Controller:
         at rest where it was last commanded (straight ahead at first)."""
         last = np.zeros(3) if last_twist is None else finite_vector(
             "last_twist", last_twist, 3, "(vx, vy, omega) [m/s, m/s, rad/s]", ControllerError)
+        # Casters are left out: their drive joints' speeds depend on the measured steer
+        # angles, and the clamp takes them at those angles.
         speeds = self.robot.wheel_magnitudes(last)
         limit = self.robot.max_wheel_speed
-        if np.any(speeds - limit > 1e-9 * np.maximum(limit, 1.0)):
+        if not self.robot.steer_states and np.any(speeds - limit > 1e-9 * np.maximum(limit, 1.0)):
             wheel = int(np.argmax(speeds - limit))
             raise ControllerError(
                 f"last_twist {last.tolist()} drives wheel {wheel} at {speeds[wheel]:.6g} "
