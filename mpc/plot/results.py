@@ -239,7 +239,8 @@ def _float_array(series: Mapping[str, Any], key: str, columns: int | None, name:
         index = tuple(int(i) for i in np.argwhere(bad)[0])
         raise ReportError(
             f"run {name}: series {key!r} holds {float(array[index])!r} at index "
-            f"{list(index)}: beyond +-{_MAX_SERIES_VALUE:g} (not a value a run records)")
+            f"{list(index)}; expected values within +-{_MAX_SERIES_VALUE:g} (a run records "
+            "no larger)")
     if columns is None:
         return array.reshape(-1)
     if array.size == 0:

@@ -76,9 +76,9 @@ class Recorder:
                                   f"got {shown(command)}")
         if np.shape(command.wheel_speeds) != (self.robot.n_wheels,):
             raise SimulationError(
-                f"command has {np.size(command.wheel_speeds)} wheel speeds but the recorder's "
-                f"robot {self.robot.name!r} has {self.robot.n_wheels} wheels: a command of "
-                "another robot")
+                f"command must be a Command of the recorder's robot {self.robot.name!r} "
+                f"({self.robot.n_wheels} wheel speeds), got one with "
+                f"{np.size(command.wheel_speeds)} wheel speeds (another robot's)")
         if self._rows and t < self._rows[-1][0]:
             raise SimulationError(f"t must not decrease: {shown(t)} s after "
                                   f"{self._rows[-1][0]!r} s")
