@@ -16,18 +16,14 @@ from .errors import TrajectoryError
 
 FloatArray = npt.NDArray[np.float64]
 
+
 def as_times(t: npt.ArrayLike) -> FloatArray:
     """Times [s] as a float64 array of any shape (0-d for a scalar), all finite: booleans
     and strings (numeric ones too) are refused, not converted."""
-    try:
-        raw = np.asarray(t)
-        if raw.dtype.kind not in "iuf" or has_bool(t):
-            raise TypeError("not real numbers")
-        times = raw.astype(np.float64)
-    except (TypeError, ValueError, OverflowError, RecursionError) as error:
-        raise TrajectoryError(
-            f"t must be a finite number or an array of finite numbers [s], got {shown(t)}"
-        ) from error
+    if type(t) is np.ndarray and t.dtype == np.float64:  # the controller's own, every tick
+        times = t.copy()
+    else:
+        times = _converted_times(t)
     # A finite sum means every entry is finite (a huge sum that overflows is checked again).
     if not math.isfinite(float(times.sum())) and not np.isfinite(times).all():
         if times.ndim == 0:
@@ -39,6 +35,20 @@ def as_times(t: npt.ArrayLike) -> FloatArray:
             "t must be a finite number or an array of finite numbers [s], got an array of "
             f"shape {times.shape} with t[{', '.join(map(str, bad))}]={float(times[bad])!r}"
         )
+    return times
+
+
+def _converted_times(t: npt.ArrayLike) -> FloatArray:
+    """``t`` as a float64 array (a copy), booleans and strings refused."""
+    try:
+        raw = np.asarray(t)
+        if raw.dtype.kind not in "iuf" or has_bool(t):
+            raise TypeError("not real numbers")
+        times = raw.astype(np.float64)
+    except (TypeError, ValueError, OverflowError, RecursionError) as error:
+        raise TrajectoryError(
+            f"t must be a finite number or an array of finite numbers [s], got {shown(t)}"
+        ) from error
     return times
 
 

@@ -150,19 +150,16 @@ class Trajectory(abc.ABC):
         if outside is not None:
             rate = np.where(outside, 0.0, rate)
             accel = np.where(outside, 0.0, accel)
-        shape = times.shape + (3,)
-        pose = np.empty(shape)
-        velocity = np.empty(shape)
-        acceleration = np.empty(shape)
-        pose[..., :2] = path.position
-        pose[..., 2] = theta
-        velocity[..., :2] = path.velocity
-        velocity[..., 2] = rate
-        acceleration[..., :2] = path.acceleration
-        acceleration[..., 2] = accel
+        # pose, velocity and acceleration: the leading slices of one array (fewer NumPy
+        # calls; this runs every control tick), each slice contiguous.
+        values = np.empty((3,) + times.shape + (3,))
+        planar, angular = values[..., :2], values[..., 2]
+        planar[0], planar[1], planar[2] = path.position, path.velocity, path.acceleration
+        angular[0], angular[1], angular[2] = theta, rate, accel
+        pose, velocity, acceleration = values[0], values[1], values[2]
         # One sum is finite iff every entry is (and no sum overflows): a reference whose
         # numbers overflow (extreme sizes, waypoints 1e-300 s apart) fails here, named.
-        if not math.isfinite(float(pose.sum() + velocity.sum() + acceleration.sum())):
+        if not math.isfinite(float(values.sum())):
             self._not_finite(times, pose, velocity, acceleration)
         if not float(np.abs(pose[..., :2]).max(initial=0.0)) <= MAX_COORDINATE:
             far = np.abs(pose[..., :2]).max(axis=-1) > MAX_COORDINATE

@@ -117,6 +117,7 @@ class PathProgress:
         self.durations, self.max_rate = model.durations, model.max_progress_rate
         self.tick = float(model.durations[0])
         self.offsets = window.offsets
+        self._max_steps = self.max_rate * self.durations  # the progress's largest steps [s]
         self.reset()
 
     def reset(self) -> None:
@@ -171,7 +172,7 @@ class PathProgress:
         """Stage k's feedforward per unit progress rate: the sampled feedforward divided by
         the guess's rate (exact on the discrete model), or where the guess stands still,
         the reference's body twist per unit progress at the stage's start."""
-        rates = np.diff(guess) / self.durations
+        rates = (guess[1:] - guess[:-1]) / self.durations
         moving = rates > 1e-9
         out = self.path.feedforward_rates
         np.divide(self.window.tick.twists_ref, rates[:, None], out=out, where=moving[:, None])
@@ -206,7 +207,11 @@ class PathProgress:
             beyond = times > offsets[-1]
             last_rate = (plan[-1] - plan[-2]) / self.durations[-1]
             moved[beyond] = plan[-1] + last_rate * (times[beyond] - offsets[-1])
-            steps = np.diff(moved)
-        np.clip(steps, 0.0, self.max_rate * self.durations, out=steps)
-        guess = start + np.concatenate(([0.0], np.cumsum(steps)))
-        return np.minimum(guess, t_plan + self.offsets)
+            steps = moved[1:] - moved[:-1]
+        # (np.diff, np.clip and np.concatenate cost several times these ufuncs a tick)
+        np.minimum(np.maximum(steps, 0.0, out=steps), self._max_steps, out=steps)
+        guess = np.empty(steps.size + 1)
+        guess[0] = 0.0
+        np.cumsum(steps, out=guess[1:])
+        guess += start
+        return np.minimum(guess, t_plan + self.offsets, out=guess)

@@ -122,12 +122,16 @@ class Condenser:
         """Whether the scattered cost weighs every stage's position error alike in all
         directions and has no position-progress coupling: then ``H`` is unchanged when the
         whole plan turns (``B_k -> R B_k`` for one rotation ``R``)."""
+        if self._s is not None and self.dense[self._x, self._s].any():
+            return False  # path mode's contouring couples positions and progress
         stages = self.dense[self._xx]
         planar = stages[:, :2, :2]
-        round_ = (np.allclose(planar[:, 0, 1], 0.0)
-                  and np.allclose(planar[:, 0, 0], planar[:, 1, 1])
-                  and np.allclose(stages[:, :2, 2], 0.0))
-        return bool(round_ and (self._s is None or not self.dense[self._x, self._s].any()))
+        # np.allclose's tolerances (1e-8 absolute, 1e-5 relative), without its overhead
+        # (this runs on every tick whose cost terms changed: path mode's do, every tick).
+        xx, yy = planar[:, 0, 0], planar[:, 1, 1]
+        return bool(np.abs(planar[:, 0, 1]).max() <= 1e-8
+                    and (np.abs(xx - yy) <= 1e-8 + 1e-5 * np.abs(yy)).all()
+                    and np.abs(stages[:, :2, 2]).max() <= 1e-8)
 
     def state_sensitivities(self, sensitivity: FloatArray,
                             displacement: FloatArray) -> FloatArray:

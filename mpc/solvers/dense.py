@@ -183,7 +183,7 @@ class DenseSolver:
         tolerances, :meth:`HessianReuse.drift`)."""
         self._bind(tick)()
         sensitivity = self._sensitivities()
-        p_changed = not np.array_equal(self._p_data, self._scattered)
+        p_changed = not (self._p_data == self._scattered).all()  # (np.array_equal: slower)
         if p_changed:
             self.condenser.scatter(self._p_data)
             self._scattered[:] = self._p_data
