@@ -167,7 +167,7 @@ class Condenser:
             # P_xs couples x_k with s_k only: column k is stage k's 3-vector.
             stages_k = np.arange(self.horizon + 1)
             columns = coupling[stages_k, :, stages_k]  # (N+1, 3)
-            us = np.einsum("kam,ka->mk", states, columns) + dense[self._u, self._s]
+            us = np.matmul(columns[:, None, :], states)[:, 0, :].T + dense[self._u, self._s]
             hessian[:n3, n3:] = us
             hessian[n3:, :n3] = us.T
             hessian[n3:, n3:] = dense[self._s, self._s]

@@ -105,6 +105,7 @@ class DenseSolver:
         # 1.1-1.6x faster on Mecanum and swerve, ticks without one unchanged).
         self._unwhiten = np.eye(self.condenser.size)  # L^{-T}: d = L^{-T} y
         self._whitened_rows = self.condenser.constraints.copy()
+        self._extra = _SparseRows(self.condenser.constraints[n * self.limits.rows:])
         self._rebuild: Iterator[bool] | None = None  # a Hessian being built, stage by stage
         self._rows_stale = True  # the whitened rows are not yet of the present L^{-T}
         self._rows_new = False  # new whitened rows for daqp (a finished rebuild's)
@@ -299,7 +300,7 @@ class DenseSolver:
         if n > 1:
             rows[1:] += np.matmul(limits.before[1:], blocks[:-1])
         if whitened.shape[0] > n * m:  # path mode's progress rows
-            whitened[n * m:] = self.condenser.constraints[n * m:] @ unwhiten
+            self._extra.times(unwhiten, out=whitened[n * m:])
         return whitened
 
     def _result(self, tick: TickInput, step: FloatArray, flag: int, info: dict[str, float],
@@ -320,11 +321,33 @@ class DenseSolver:
             iterations=int(info["iterations"]))
 
 
+class _SparseRows:
+    """Rows with few nonzeros each (path mode's progress rows: one or two), for their
+    product with a dense matrix as that many scaled row gathers (a dense product with
+    the mostly-zero rows cost three times as much)."""
+
+    def __init__(self, rows: FloatArray) -> None:
+        width = max(int((rows != 0).sum(axis=1).max(initial=0)), 1)
+        self.columns = np.zeros((rows.shape[0], width), dtype=np.intp)
+        self.values = np.zeros((rows.shape[0], width))
+        for i, row in enumerate(rows):
+            nonzero = np.flatnonzero(row)
+            self.columns[i, :nonzero.size] = nonzero
+            self.values[i, :nonzero.size] = row[nonzero]
+
+    def times(self, matrix: FloatArray, out: FloatArray) -> None:
+        """``rows @ matrix`` into ``out``."""
+        np.multiply(self.values[:, 0, None], matrix[self.columns[:, 0]], out=out)
+        for j in range(1, self.values.shape[1]):
+            out += self.values[:, j, None] * matrix[self.columns[:, j]]
+
+
 def _factor(hessian: FloatArray) -> FloatArray:
     """``L`` with ``H = L L'`` (LAPACK directly: numpy's and scipy's wrappers cost several
     times the work); a Hessian that is not positive definite (daqp would refuse it too) is
-    regularised first."""
-    factor, info = lapack.dpotrf(hessian, lower=1, clean=1)
+    regularised first. ``H`` is symmetric: its transpose is the same matrix in the column
+    order LAPACK reads, so it goes in without a transposing copy."""
+    factor, info = lapack.dpotrf(hessian.T, lower=1, clean=1)
     if info != 0:
         factor, info = lapack.dpotrf(hessian + 1e-9 * np.trace(hessian)
                                      * np.eye(hessian.shape[0]), lower=1, clean=1)
@@ -333,5 +356,5 @@ def _factor(hessian: FloatArray) -> FloatArray:
 
 def _inverse_transpose(factor: FloatArray) -> FloatArray:
     """``L^{-T}`` of a lower-triangular ``L``."""
-    inverse, _ = lapack.dtrtri(factor, lower=1)
+    inverse, _ = lapack.dtrtri(factor, lower=1, overwrite_c=1)  # the factor is ours
     return np.ascontiguousarray(inverse.T)

@@ -7,7 +7,6 @@ convergence; it does not move its fixed point, see :mod:`.condensed`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -72,28 +71,32 @@ class HessianReuse:
         self._p_stale = False
 
 
-@dataclass(frozen=True, eq=False)
 class _HessianCache:
     """The cost terms, sensitivities and rollout steps a Hessian was built from (as they
-    are and turned to stage 0's body frame)."""
+    are and, when first asked, turned to stage 0's body frame: only an isotropic cost
+    looks at those, and turning costs as much as the rest of the check)."""
 
-    p_data: FloatArray
-    sensitivity: FloatArray
-    displacement: FloatArray
-    turned_sensitivity: FloatArray
-    turned_displacement: FloatArray
+    def __init__(self, p_data: FloatArray, sensitivity: FloatArray,
+                 displacement: FloatArray) -> None:
+        self.p_data = p_data
+        self.sensitivity = sensitivity
+        self.displacement = displacement
+        self._turned: tuple[FloatArray, FloatArray] | None = None
 
     @classmethod
     def of(cls, p_data: FloatArray, sensitivity: FloatArray,
            displacement: FloatArray) -> _HessianCache:
-        turned = _unrotated(sensitivity, displacement)
-        return cls(p_data.copy(), sensitivity.copy(), displacement.copy(), *turned)
+        return cls(p_data.copy(), sensitivity.copy(), displacement.copy())
 
     def moved(self, sensitivity: FloatArray, displacement: FloatArray, dt: float,
               turned: bool = False) -> float:
         """The largest change of a sensitivity or of a step times ``dt`` from the cached."""
-        b = self.turned_sensitivity if turned else self.sensitivity
-        d = self.turned_displacement if turned else self.displacement
+        if turned:
+            if self._turned is None:
+                self._turned = _unrotated(self.sensitivity, self.displacement)
+            b, d = self._turned
+        else:
+            b, d = self.sensitivity, self.displacement
         return max(float(np.abs(sensitivity - b).max()),
                    float(np.abs(displacement - d).max()) * dt)
 
