@@ -269,8 +269,11 @@ def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> Sta
     limits = StageLimits(now=np.zeros((horizon, m, 3)), before=np.zeros((horizon, m, 3)),
                          lower=-bound, upper=bound, constant=False,
                          change_times=np.array(change_times, dtype=float))
-    limits.memory["angles"] = np.zeros((disks, horizon, n))
-    _fill_faces(robot, limits)
+    directions = np.zeros((disks, horizon, n, 2))
+    directions[..., 0] = 1.0
+    limits.memory["directions"] = directions  # each disk's unit direction (N, n, 2)
+    limits.memory["faces"] = _face_bases(robot)
+    _fill_faces(limits)
     return limits
 
 
@@ -281,38 +284,47 @@ def update_linearised(robot: SwerveRobot, limits: StageLimits, guess: FloatArray
     to give a direction, the faces keep the one they had."""
     n = robot.n_wheels
     velocities = (guess @ robot.flat_wheel_blocks.T).reshape(-1, n, 2)  # (N, n, 2)
-    angles = limits.memory["angles"]
+    directions = limits.memory["directions"]
     floor = _DIRECTION_FLOOR * robot.nominal_max_wheel_speed
-    _turn(angles[0], velocities, floor)
-    if angles.shape[0] > 1:
+    _turn(directions[0], velocities, floor)
+    if directions.shape[0] > 1:
         changes = np.empty_like(velocities)
         np.subtract(velocities[0], (robot.flat_wheel_blocks @ last).reshape(n, 2),
                     out=changes[0])
         np.subtract(velocities[1:], velocities[:-1], out=changes[1:])
-        _turn(angles[1], changes, floor)
-    _fill_faces(robot, limits)
+        _turn(directions[1], changes, floor)
+    _fill_faces(limits)
 
 
-def _turn(angles: FloatArray, vectors: FloatArray, floor: FloatArray) -> None:
-    """The angles of ``vectors`` (N, n, 2) into ``angles`` where they are longer than
-    ``floor`` (n,)."""
-    x, y = vectors[..., 0], vectors[..., 1]
-    np.copyto(angles, np.arctan2(y, x), where=x * x + y * y > floor * floor)
+def _turn(directions: FloatArray, vectors: FloatArray, floor: FloatArray) -> None:
+    """The unit directions of ``vectors`` (N, n, 2) into ``directions`` where they are
+    longer than ``floor`` (n,)."""
+    squares = np.einsum("kid,kid->ki", vectors, vectors)
+    long = squares > floor * floor
+    np.divide(vectors, np.sqrt(squares)[..., None], out=directions, where=long[..., None])
 
 
-def _fill_faces(robot: SwerveRobot, limits: StageLimits) -> None:
-    """The faces' rows from the angles: ``n_j . W_i u`` for each disk (acceleration rows
-    on ``u_k - u_{k-1}``)."""
+def _face_bases(robot: SwerveRobot) -> FloatArray:
+    """(2, n, F, 3): module ``i``'s face ``j`` row for a direction (1, 0) and for (0, 1),
+    so that the row for a unit direction ``(c, s)`` is ``c bases[0] + s bases[1]`` (the
+    face normal turned by the face's angle from the direction, times ``W_i``)."""
     blocks = robot.wheel_blocks  # (n, 2, 3): module i's velocity is blocks[i] @ u
-    n = robot.n_wheels
     offsets = np.asarray(FACE_ANGLES)
-    along, across = blocks[None, :, None, 0, :], blocks[None, :, None, 1, :]  # (1, n, 1, 3)
-    for disk, angles in enumerate(limits.memory["angles"]):
-        faces = (angles[:, :, None] + offsets)[..., None]  # (N, n, F, 1)
+    c, s = np.cos(offsets)[None, :, None], np.sin(offsets)[None, :, None]  # (1, F, 1)
+    along, across = blocks[:, None, 0, :], blocks[:, None, 1, :]  # (n, 1, 3)
+    return np.stack([c * along + s * across, c * across - s * along])
+
+
+def _fill_faces(limits: StageLimits) -> None:
+    """The faces' rows from the directions: ``n_j . W_i u`` for each disk (acceleration
+    rows on ``u_k - u_{k-1}``)."""
+    bases = limits.memory["faces"]  # (2, n, F, 3)
+    n = bases.shape[1]
+    for disk, directions in enumerate(limits.memory["directions"]):
         start = FACES * n * disk
-        rows = limits.now[:, start:start + FACES * n].reshape(len(angles), n, FACES, 3)
-        np.multiply(np.cos(faces), along, out=rows)
-        rows += np.sin(faces) * across
+        rows = limits.now[:, start:start + FACES * n].reshape(len(directions), n, FACES, 3)
+        np.multiply(directions[..., 0, None, None], bases[0], out=rows)
+        rows += directions[..., 1, None, None] * bases[1]
         if disk:
             np.negative(limits.now[:, start:], out=limits.before[:, start:])
     limits.changed = True
