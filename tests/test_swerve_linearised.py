@@ -12,7 +12,13 @@ import pytest
 from benchmarks.perf import SPEEDS, reference
 from mpc import Controller
 from mpc.robots import SwerveRobot, preset
-from mpc.robots.swerve_limits import FACE_ANGLES, FACES, linearised_stage_limits
+from mpc.robots.swerve_limits import (
+    ACCEL_SIDES,
+    FACE_ANGLES,
+    FACES,
+    linearised_stage_limits,
+    qp_speed_rows,
+)
 from mpc.sim import simulate
 
 DT = 0.05
@@ -24,7 +30,8 @@ def test_the_middle_face_is_the_disk_tangent_at_the_guess_and_the_rows_are_two_s
     n = robot.n_wheels
     change_times = np.full(3, DT)
     limits = linearised_stage_limits(robot, change_times)
-    assert limits.rows == 2 * FACES * n and not limits.constant
+    accel = FACES * n  # the first acceleration row
+    assert limits.rows == accel + ACCEL_SIDES // 2 * n and not limits.constant
     guess = np.array([[0.6, 0.2, 0.5], [0.5, -0.3, 0.0], [0.0, 0.0, 0.0]])
     last = np.array([0.4, 0.0, 0.1])
     robot.update_stage_limits(limits, guess, last, None)
@@ -41,17 +48,17 @@ def test_the_middle_face_is_the_disk_tangent_at_the_guess_and_the_rows_are_two_s
             assert limits.now[k, i * FACES + middle] @ guess[k] == pytest.approx(
                 np.linalg.norm(v), rel=1e-12)
     # Stage 2's guess is at rest: its speed faces keep the last direction (stage 2 started
-    # along the body x axis), its change faces turn to the change from stage 1.
+    # along the body x axis).
     np.testing.assert_allclose(limits.now[2, middle], robot.wheel_blocks[0][0], atol=1e-12)
-    change = robot.wheel_blocks[0] @ (guess[2] - guess[1])
-    accel = FACES * n  # the first acceleration row
-    assert limits.now[2, accel + middle] @ (guess[2] - guess[1]) == pytest.approx(
-        np.linalg.norm(change), rel=1e-12)
-    np.testing.assert_allclose(limits.before[1:, accel:], -limits.now[1:, accel:])
+    # The acceleration rows: the constant polygon on u_k - u_{k-1}, every stage, every tick.
+    polygon = qp_speed_rows(robot, ACCEL_SIDES)
+    np.testing.assert_allclose(limits.now[:, accel:], np.tile(polygon.rows, (3, 1, 1)))
+    np.testing.assert_allclose(limits.before[:, accel:], -limits.now[:, accel:])
+    np.testing.assert_allclose(limits.before[:, :accel], 0.0)
     speed = np.repeat(robot.max_wheel_speed, FACES)
     np.testing.assert_allclose(limits.upper[:, :accel], np.tile(speed, (3, 1)))
     np.testing.assert_allclose(limits.lower, -limits.upper)
-    accel_bound = np.repeat(robot.max_wheel_accel, FACES) * DT
+    accel_bound = polygon.scale * robot.max_wheel_accel[polygon.wheel] * DT
     np.testing.assert_allclose(limits.upper[:, accel:], np.tile(accel_bound, (3, 1)))
 
 

@@ -234,7 +234,8 @@ class SwerveRobot(Robot):
 
     def stage_limits(self, change_times: FloatArray,
                      polygon_sides: int | None) -> StageLimits:
-        """Each module's disks linearised around the plan the solver starts from
+        """Each module's speed disk linearised around the plan the solver starts from and
+        its acceleration disk a constant 16-gon
         (:func:`~mpc.robots.swerve_limits.linearised_stage_limits`), or with
         ``polygon_sides`` the constant polygon of :meth:`qp_speed_rows`. Always the
         polygon with an axle offset, and with a motor model: there the linearised disks'

@@ -10,10 +10,10 @@ For module ``i`` with velocity ``v = W_i u`` [rad/s] (ground velocity / r):
 
 The NLP takes the disks and, between consecutive stages of the plan, the steering
 bound (squared, so smooth; exact for modules at speed, see :data:`NLP_STEERING_SLACK`).
-The QPs take each disk linearised around the plan the solver starts from
-(:func:`linearised_stage_limits`: faces of a circumscribed polygon turned each tick to
-the planned direction), or a constant regular polygon (:func:`qp_speed_rows`) when asked
-for one, and the steering rate as the cost on the change of module velocity
+The QPs take the speed disk linearised around the plan the solver starts from and the
+acceleration disk as a constant polygon (:func:`linearised_stage_limits`), or both disks
+as a constant regular polygon (:func:`qp_speed_rows`) when asked for one, and the
+steering rate as the cost on the change of module velocity
 (``Weights.module_rate``). For every command, the final clamp
 (:func:`mpc.control.clamp.clamp_command`) keeps every module within all three limits: the
 first command's turn against the present steer angles is the clamp's to keep, in both
@@ -226,12 +226,12 @@ def qp_speed_rows(robot: SwerveRobot, polygon_sides: int) -> SpeedRows:
     return SpeedRows(rows.reshape(-1, 3), wheel, 0.5 * (1.0 + math.cos(math.pi / sides)))
 
 
-#: Below this module speed (and speed change) [rad/s, per the wheel's limit] the guess gives
-#: no direction to linearise about: the faces keep the last direction they had.
+#: Below this module speed [rad/s, per the wheel's limit] the guess gives no direction to
+#: linearise about: the faces keep the last direction they had.
 _DIRECTION_FLOOR = 1e-3
 
-#: The linearised disk: faces of a polygon circumscribed about it, their normals at these
-#: angles [rad] from the planned direction (two-sided rows, so each face has its
+#: The linearised speed disk: faces of a polygon circumscribed about it, their normals at
+#: these angles [rad] from the planned direction (two-sided rows, so each face has its
 #: opposite). The face along the planned direction is the tangent; the two 5 deg beside it
 #: leave its corners 0.1 % outside the disk (a fan whose corners reach further draws the
 #: plan to them, a tick at a time); the ones at 45 and 90 deg keep a turning plan within
@@ -243,35 +243,52 @@ _DIRECTION_FLOOR = 1e-3
 FACE_ANGLES = tuple(math.radians(angle) for angle in (-45.0, -5.0, 0.0, 5.0, 45.0, 90.0))
 FACES = len(FACE_ANGLES)
 
+#: The acceleration disk: a constant regular polygon of this many sides (half as many
+#: two-sided rows a module), midway between the inscribed and the circumscribed one (within
+#: 1 % of the disk). The same six faces turned to each stage's planned change of velocity
+#: tracked as well but cost daqp about 45 iterations a tick beyond the limits: the change's
+#: direction swings from tick to tick and the active faces with it. Measured with
+#: ``mpc-bench --layouts swerve --controllers mpc-daqp,mpc-path,mpc-ipopt --workers 1``,
+#: 1.3x beyond (circle fixed / tangent, figure-eight fixed / tangent), RMS position error
+#: [mm] and tick p99 [ms]: this polygon 234.5 / 340.5 / 79.7 / 34.9 and 1.49 / 1.46 /
+#: 1.38 / 1.04; turned faces 236.0 / 341.5 / 81.1 / 34.4 and 1.81 / 1.93 / 2.24 / 1.44;
+#: IPOPT 234.1 / 342.2 / 81.1 / 34.7. Path mode's largest distance to the figure-eight
+#: 2.4 mm against 4.6. Faces turned to the planned velocity instead: 14 mm off the path.
+ACCEL_SIDES = 16
+
 
 def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> StageLimits:
-    """Each module's speed and acceleration disk as faces of a polygon circumscribed about
-    it (:data:`FACE_ANGLES`), turned to the direction the plan the solver starts from gives
-    (:func:`update_linearised`): two-sided rows ``|n_j . v| <= R``.
+    """Each module's speed disk as faces of a polygon circumscribed about it
+    (:data:`FACE_ANGLES`), turned to the direction of the module's velocity in the plan the
+    solver starts from (:func:`update_linearised`): two-sided rows ``|n_j . v| <= R``;
+    its acceleration disk as the constant :data:`ACCEL_SIDES`-gon.
 
-    The face along the planned direction is the disk's linearisation at the guess (a
+    The face along the planned direction is the speed disk's linearisation at the guess (a
     sequential linear programme of the exact disk: at a fixed point of the real-time
     iteration the planned module speed meets the disk exactly, not a polygon); the others
-    keep a step that turns the module close to the disk. Rows a stage:
-    ``FACES n`` speed, then ``FACES n`` acceleration with an acceleration limit; filled
-    along the body x axis until the first tick refills them.
+    keep a step that turns the module close to the disk. Rows a stage: ``FACES n`` speed,
+    then ``ACCEL_SIDES / 2 n`` acceleration with an acceleration limit; the speed faces
+    along the body x axis until the first tick turns them.
     """
     n = robot.n_wheels
     horizon = len(change_times)
+    speed_rows = FACES * n
     accel = robot.max_wheel_accel
-    disks = 2 if accel is not None else 1
-    m = FACES * n * disks
+    polygon = None if accel is None else qp_speed_rows(robot, ACCEL_SIDES)
+    m = speed_rows + (0 if polygon is None else len(polygon.rows))
     bound = np.zeros((horizon, m))
-    bound[:, :FACES * n] = np.repeat(robot.max_wheel_speed, FACES)
-    if accel is not None:
-        bound[:, FACES * n:] = (np.repeat(accel, FACES)[None, :]
-                                * np.asarray(change_times, dtype=float)[:, None])
-    limits = StageLimits(now=np.zeros((horizon, m, 3)), before=np.zeros((horizon, m, 3)),
-                         lower=-bound, upper=bound, constant=False,
+    bound[:, :speed_rows] = np.repeat(robot.max_wheel_speed, FACES)
+    now, before = np.zeros((horizon, m, 3)), np.zeros((horizon, m, 3))
+    if polygon is not None and accel is not None:
+        bound[:, speed_rows:] = (polygon.scale * accel[polygon.wheel][None, :]
+                                 * np.asarray(change_times, dtype=float)[:, None])
+        now[:, speed_rows:] = polygon.rows
+        before[:, speed_rows:] = -polygon.rows
+    limits = StageLimits(now=now, before=before, lower=-bound, upper=bound, constant=False,
                          change_times=np.array(change_times, dtype=float))
-    directions = np.zeros((disks, horizon, n, 2))
+    directions = np.zeros((horizon, n, 2))
     directions[..., 0] = 1.0
-    limits.memory["directions"] = directions  # each disk's unit direction (N, n, 2)
+    limits.memory["directions"] = directions  # each module's planned unit direction
     limits.memory["faces"] = _face_bases(robot)
     _fill_faces(limits)
     return limits
@@ -279,20 +296,14 @@ def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> Sta
 
 def update_linearised(robot: SwerveRobot, limits: StageLimits, guess: FloatArray,
                       last: FloatArray) -> None:
-    """Turn each disk's faces to the direction of its module's guess velocity (speed
-    rows) and of its guess change of velocity (acceleration rows); where one is too small
-    to give a direction, the faces keep the one they had."""
+    """Turn each speed disk's faces to the direction of its module's velocity in
+    ``guess`` (N, 3); where that is too slow to give a direction, the faces keep the one
+    they had. (``last``, the last command, bounds the first stage's acceleration rows,
+    which do not move.)"""
     n = robot.n_wheels
     velocities = (guess @ robot.flat_wheel_blocks.T).reshape(-1, n, 2)  # (N, n, 2)
-    directions = limits.memory["directions"]
     floor = _DIRECTION_FLOOR * robot.nominal_max_wheel_speed
-    _turn(directions[0], velocities, floor)
-    if directions.shape[0] > 1:
-        changes = np.empty_like(velocities)
-        np.subtract(velocities[0], (robot.flat_wheel_blocks @ last).reshape(n, 2),
-                    out=changes[0])
-        np.subtract(velocities[1:], velocities[:-1], out=changes[1:])
-        _turn(directions[1], changes, floor)
+    _turn(limits.memory["directions"], velocities, floor)
     _fill_faces(limits)
 
 
@@ -316,15 +327,11 @@ def _face_bases(robot: SwerveRobot) -> FloatArray:
 
 
 def _fill_faces(limits: StageLimits) -> None:
-    """The faces' rows from the directions: ``n_j . W_i u`` for each disk (acceleration
-    rows on ``u_k - u_{k-1}``)."""
+    """The speed faces' rows ``n_j . W_i u`` from the directions."""
     bases = limits.memory["faces"]  # (2, n, F, 3)
+    directions = limits.memory["directions"]  # (N, n, 2)
     n = bases.shape[1]
-    for disk, directions in enumerate(limits.memory["directions"]):
-        start = FACES * n * disk
-        rows = limits.now[:, start:start + FACES * n].reshape(len(directions), n, FACES, 3)
-        np.multiply(directions[..., 0, None, None], bases[0], out=rows)
-        rows += directions[..., 1, None, None] * bases[1]
-        if disk:
-            np.negative(limits.now[:, start:], out=limits.before[:, start:])
+    rows = limits.now[:, :FACES * n].reshape(len(directions), n, FACES, 3)
+    np.multiply(directions[..., 0, None, None], bases[0], out=rows)
+    rows += directions[..., 1, None, None] * bases[1]
     limits.changed = True
