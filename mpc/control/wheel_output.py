@@ -55,7 +55,7 @@ def tick_rates(robot: Robot, twist: FloatArray, angles: FloatArray,
     all down together."""
     flow = robot.predict_steer_angles(angles, np.tile(twist, (2, 1)),
                                       np.array([0.5 * dt, 0.5 * dt]))
-    rows = [robot.joint_rows(flow[k])[0] @ twist for k in range(3)]
+    rows = robot.joint_rows(flow)[0] @ twist  # (3, n): at the start, middle and end
     drive = (rows[0] + 4.0 * rows[1] + rows[2]) / 6.0
     steer = (flow[2] - flow[0]) / dt
     limit_steer = robot.max_steer_rates

@@ -31,6 +31,7 @@ constants ``d / |v(P)|`` a step for the fast path's prediction, 2.5 in the NLP).
 from __future__ import annotations
 
 import math
+import threading
 from typing import TYPE_CHECKING
 
 import casadi as ca
@@ -38,6 +39,7 @@ import numpy as np
 
 from mpc.arrays import FloatArray
 from mpc.errors import RobotError
+from mpc.model.buffered import BufferedFunction
 from mpc.robots.limits import StageLimits
 
 if TYPE_CHECKING:
@@ -53,8 +55,11 @@ def joint_rows(robot: CasterRobot, angles: FloatArray) -> tuple[FloatArray, Floa
     px, py = positions[:, 0], positions[:, 1]
     c, s = np.cos(angles), np.sin(angles)
     d, r = robot.offsets, robot.radii
-    drive = np.stack([c, s, px * s - py * c], axis=-1) / r[:, None]
-    steer = np.stack([-s, c, px * c + py * s - d], axis=-1) / d[:, None]
+    rows = np.empty((2,) + c.shape + (3,))  # (one array: this runs several times a tick)
+    drive, steer = rows[0], rows[1]
+    drive[..., 0], drive[..., 1], drive[..., 2] = c / r, s / r, (px * s - py * c) / r
+    steer[..., 0], steer[..., 1] = -s / d, c / d
+    steer[..., 2] = (px * c + py * s - d) / d
     return drive, steer
 
 
@@ -128,18 +133,53 @@ def _flow(robot: CasterRobot, angles: ca.SX, twist: ca.SX, duration: float,
     return beta
 
 
-def _predictor(robot: CasterRobot, durations: tuple[float, ...]) -> ca.Function:
-    """CasADi ``(beta_0 (n), twists (3 x k)) -> angles (n x k+1)``, built once per grid."""
-    key = ("predictor", durations)
-    cached = robot._cache.get(key)
-    if cached is None:
+class _Predictor:
+    """The steer-angle prediction over one grid of ``durations``: a CasADi function
+    ``(beta_0 (n), twists (3 x k)) -> angles (n x k+1)`` evaluated through its buffers (a
+    call by NumPy arguments costs more than the RK4 itself on a short grid), each thread
+    with its own."""
+
+    def __init__(self, robot: CasterRobot, durations: tuple[float, ...]) -> None:
         start = ca.SX.sym("beta0", robot.n_wheels)
         twists = ca.SX.sym("u", 3, len(durations))
         columns = [start]
         for k, duration in enumerate(durations):
             columns.append(_flow(robot, columns[-1], twists[:, k], duration))
-        cached = ca.Function("caster_angles", [start, twists], [ca.horzcat(*columns)])
-        robot._cache[key] = cached
+        self.function = ca.Function("caster_angles", [start, twists], [ca.horzcat(*columns)])
+        self._shape = (robot.n_wheels, len(durations))
+        self._local = threading.local()
+
+    def __call__(self, angles: FloatArray, twists: FloatArray) -> FloatArray:
+        """Angles (k+1, n) [rad] from ``angles`` (n,) under ``twists`` (k, 3)."""
+        local = self._local
+        evaluate: BufferedFunction | None = getattr(local, "evaluate", None)
+        if evaluate is None:
+            n, k = self._shape
+            # CasADi reads a C-ordered (k, 3) array as its 3 x k argument, and writes its
+            # n x (k+1) result as a C-ordered (k+1, n) one.
+            local.arrays = (np.zeros(n), np.zeros((k, 3)), np.zeros((k + 1, n)))
+            evaluate = local.evaluate = BufferedFunction(self.function, local.arrays[:2],
+                                                         local.arrays[2:])
+        start, held, out = local.arrays
+        start[:] = angles
+        held[:] = twists
+        evaluate()
+        return out.copy()
+
+    def __getstate__(self) -> dict[str, object]:  # a robot that is copied or pickled
+        return {"function": self.function, "_shape": self._shape}
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._local = threading.local()
+
+
+def _predictor(robot: CasterRobot, durations: tuple[float, ...]) -> _Predictor:
+    """The prediction over ``durations``, built once per grid (and robot)."""
+    key = ("predictor", durations)
+    cached = robot._cache.get(key)
+    if cached is None:
+        cached = robot._cache[key] = _Predictor(robot, durations)
     return cached
 
 
@@ -154,8 +194,7 @@ def predict(robot: CasterRobot, angles: FloatArray, twists: FloatArray,
                          f"{len(steps)} durations for {twists.shape[0]} twists")
     if not steps:
         return np.asarray(angles, dtype=float)[None, :].copy()
-    out = _predictor(robot, steps)(np.asarray(angles, dtype=float), twists.T)
-    return np.asarray(out, dtype=float).T
+    return _predictor(robot, steps)(np.asarray(angles, dtype=float), twists)
 
 
 def stage_limits(robot: CasterRobot, change_times: FloatArray) -> StageLimits:
