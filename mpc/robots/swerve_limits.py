@@ -110,31 +110,59 @@ def turns(robot: SwerveRobot, velocities: FloatArray, steer_angles: FloatArray) 
     return np.where(moving, turn, 0.0)
 
 
+#: The search for the drives' limit (axle offsets): rounds, each splitting the interval
+#: left into this many parts at once (16^5: the fraction to 1e-6 of the turn's; one
+#: bisection step a call of the wheel commands took ~1 ms a tick on the MPO-700).
+_SEARCH_ROUNDS, _SEARCH_PARTS = 5, 16
+
+
 def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
                       steer_angles: FloatArray, dt: float) -> float:
     """:func:`turn_fraction`, and with an axle offset no further than every wheel's drive
-    rate, corrected for the module's steering over ``dt``, stays within its limit
-    (bisection below the turn's fraction)."""
+    rate, corrected for the module's steering over ``dt``, stays within its limit (searched
+    below the turn's fraction: the first point of a fine grid where a drive leaves it)."""
     fraction = turn_fraction(robot, last, target, steer_angles, dt)
     if not robot.axle_offset or fraction == 0.0:
         return fraction
+    step = target - last
 
-    def drives(part: float) -> bool:
-        twist = last + part * (target - last)
-        speeds, _ = robot.wheel_commands(twist, steer_angles, None, dt)
-        return bool(np.all(np.abs(speeds) <= robot.max_wheel_speed * (1.0 + 1e-12)))
+    def drives(parts: FloatArray) -> npt.NDArray[np.bool_]:
+        return _drives_within(robot, last + parts[:, None] * step, steer_angles, dt)
 
-    if drives(fraction):
+    whole, rest = drives(np.array([fraction, 0.0]))
+    if whole:
         return fraction
-    if not drives(0.0):
+    if not rest:
         return 0.0
     # Below the turn's limit on the whole way from last (the target may fit where points
     # on the way to it do not), search the drives' limit.
     low, high = 0.0, turn_fraction(robot, last, target, steer_angles, dt, whole=False)
-    for _ in range(30):
-        middle = 0.5 * (low + high)
-        low, high = (middle, high) if drives(middle) else (low, middle)
+    for _ in range(_SEARCH_ROUNDS):
+        parts = np.linspace(low, high, _SEARCH_PARTS + 1)[1:]
+        bad = np.flatnonzero(~drives(parts))
+        if bad.size == 0:
+            return high
+        first = int(bad[0])
+        low, high = (parts[first - 1] if first else low), parts[first]
     return low
+
+
+def _drives_within(robot: SwerveRobot, twists: FloatArray, steer_angles: FloatArray,
+                   dt: float) -> npt.NDArray[np.bool_]:
+    """For each of ``twists`` (K, 3): whether every wheel's drive rate as
+    :meth:`SwerveRobot.wheel_commands` gives it (flip rule, axle correction for the
+    steering over ``dt``) is within its limit; the K twists at once."""
+    from mpc.robots.swerve_states import module_states, wrap_angle  # (imports this module)
+
+    n = robot.n_wheels
+    velocities = np.matmul(robot.wheel_blocks[None], twists[:, None, :, None])  # (K, n, 2, 1)
+    current = np.tile(steer_angles, len(twists))
+    speeds, angles = module_states(velocities.reshape(-1, 2), current, robot.wheel_radius)
+    turning = wrap_angle(angles - current) / dt
+    speeds = speeds + robot.axle_offset * (np.repeat(twists[:, 2], n) + turning) / (
+        robot.wheel_radius)
+    within = np.abs(speeds.reshape(-1, n)) <= robot.max_wheel_speed * (1.0 + 1e-12)
+    return np.all(within, axis=1)
 
 
 def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
