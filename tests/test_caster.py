@@ -269,3 +269,38 @@ def test_axle_offset_drive_correction_and_solvers_agree() -> None:
     late = results["daqp"].time >= 2.0
     gap = np.abs(results["daqp"].pose[late] - results["ipopt"].pose[late]).max()
     assert gap < 1e-3
+
+
+def test_the_angle_prediction_survives_copies_and_threads() -> None:
+    """The prediction keeps CasADi buffers per thread: a robot that was used still pickles
+    and copies, and threads predicting at once get each their own answer."""
+    import copy
+    import pickle
+    import threading
+
+    robot = preset("caster4")
+    assert isinstance(robot, CasterRobot)
+    durations = np.full(6, 0.05)
+    rng = np.random.default_rng(5)
+    cases = [(rng.uniform(-3.0, 3.0, robot.n_wheels), rng.normal(0.0, 0.5, (6, 3)))
+             for _ in range(8)]
+    expected = [robot.predict_steer_angles(a, u, durations) for a, u in cases]
+    for twin in (pickle.loads(pickle.dumps(robot)), copy.deepcopy(robot)):
+        for (angles, twists), want in zip(cases, expected, strict=True):
+            np.testing.assert_array_equal(twin.predict_steer_angles(angles, twists, durations),
+                                          want)
+    mismatches: list[int] = []
+
+    def work(offset: int) -> None:
+        for round_ in range(50):
+            k = (offset + round_) % len(cases)
+            got = robot.predict_steer_angles(*cases[k], durations)
+            if not np.array_equal(got, expected[k]):
+                mismatches.append(k)
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert not mismatches

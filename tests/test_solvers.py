@@ -304,3 +304,24 @@ def test_daqp_refusing_the_set_up_is_a_failed_tick_and_the_next_tick_sets_up_aga
     assert np.all(np.abs(first.wheel_speeds) <= robot.max_wheel_speed)
     second = controller.step(controller.trajectory.sample(0.05).pose, 0.05)
     assert second.status is Status.SOLVED and RefusesOnce.refused == 1
+
+
+def test_sparse_rows_times_a_matrix_as_the_dense_product() -> None:
+    """Path mode's progress rows are whitened by row gathers: the same as the dense product
+    for rows of one, two or more nonzeros, and for none at all."""
+    from mpc.solvers.dense import _SparseRows
+
+    rng = np.random.default_rng(4)
+    rows = np.zeros((7, 9))
+    rows[0, 3] = 1.0
+    rows[1, [2, 3]] = [-1.0, 1.0]
+    rows[2, [0, 4, 8]] = rng.normal(size=3)
+    rows[4, 8] = -2.5  # row 3 and 5 stay empty
+    rows[6, [1, 7]] = rng.normal(size=2)
+    matrix = rng.normal(size=(9, 9))
+    out = np.empty((7, 9))
+    _SparseRows(rows).times(matrix, out)
+    np.testing.assert_allclose(out, rows @ matrix, rtol=0.0, atol=1e-14)
+    none = np.empty((0, 9))
+    _SparseRows(np.zeros((0, 9))).times(matrix, none)
+    assert none.shape == (0, 9)

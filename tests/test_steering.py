@@ -97,3 +97,40 @@ def test_exact_path_solves_through_the_end_of_a_reference_that_ends_at_speed() -
         pose = integrate(pose, command.twist, 0.02)
     assert statuses == [Status.SOLVED] * 60
     assert np.allclose(pose, [1.0, 0.0, 0.5], atol=2e-3)
+
+
+def test_the_axle_offset_search_checks_twists_as_the_wheel_commands_drive_them() -> None:
+    """The vectorised check behind the axle-offset clamp's search agrees with
+    ``wheel_commands`` (flip rule, steering correction) twist by twist, limits included."""
+    from mpc.robots.swerve_limits import _drives_within
+
+    robot = preset("mpo700")
+    assert isinstance(robot, SwerveRobot) and robot.axle_offset > 0.0
+    rng = np.random.default_rng(11)
+    dt = 0.05
+    outcomes = set()
+    for _ in range(200):
+        twists = rng.normal(0.0, 1.0, (4, 3))
+        steer = rng.uniform(-math.pi, math.pi, robot.n_wheels)
+        within = _drives_within(robot, twists, steer, dt)
+        for twist, ok in zip(twists, within, strict=True):
+            speeds, _ = robot.wheel_commands(twist, steer, None, dt)
+            assert bool(ok) == bool(np.all(np.abs(speeds)
+                                           <= robot.max_wheel_speed * (1.0 + 1e-12)))
+            outcomes.add(bool(ok))
+    assert outcomes == {True, False}  # both sides of the limits were tried
+
+
+def test_the_axle_offset_clamp_keeps_every_drive_within_its_limit() -> None:
+    robot = preset("mpo700")
+    assert isinstance(robot, SwerveRobot)
+    rng = np.random.default_rng(12)
+    dt = 0.05
+    for _ in range(40):
+        steer = rng.uniform(-math.pi, math.pi, robot.n_wheels)
+        last = np.zeros(3)
+        target = rng.normal(0.0, 2.0, 3)
+        fraction = steering_fraction(robot, last, target, steer, dt)
+        assert 0.0 <= fraction <= 1.0
+        speeds, _ = robot.wheel_commands(last + fraction * (target - last), steer, None, dt)
+        assert np.all(np.abs(speeds) <= robot.max_wheel_speed * (1.0 + 1e-12))

@@ -537,3 +537,21 @@ def test_center_is_read_only() -> None:
     with pytest.raises(ValueError):
         circle.center[0] = 5.0
     assert "Circle(radius=1.0, period=1.0, center=(1.0, 2.0)" in repr(circle)
+
+
+def test_sampling_copies_the_times_and_refuses_non_finite_ones() -> None:
+    """Float64 arrays take the fast way in: still a copy of the caller's times (the sample
+    never aliases them), and still refused when not finite."""
+    from trajectories._validation import as_times
+
+    times = np.linspace(0.0, 1.0, 5)
+    copied = as_times(times)
+    assert copied is not times and not np.shares_memory(copied, times)
+    np.testing.assert_array_equal(copied, times)
+    circle = Circle(1.0, 4.0)
+    sample = circle.sample(times)
+    times[:] = 99.0
+    np.testing.assert_array_equal(sample.pose, circle.sample(np.linspace(0.0, 1.0, 5)).pose)
+    for bad in (np.array([0.0, np.nan]), np.array([np.inf])):
+        with pytest.raises(TrajectoryError, match="finite"):
+            circle.sample(bad)
