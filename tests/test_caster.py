@@ -304,3 +304,15 @@ def test_the_angle_prediction_survives_copies_and_threads() -> None:
     for thread in threads:
         thread.join()
     assert not mismatches
+
+
+def test_the_angle_predictions_are_built_at_set_up_not_on_the_first_tick() -> None:
+    """Building a prediction takes tens of milliseconds: the controller builds the three it
+    uses (the limits' grid, one tick in two halves, the plan's stages) when it is made."""
+    robot = preset("caster4")
+    assert isinstance(robot, CasterRobot)
+    control = Controller(robot, Circle(1.0, 20.0), horizon=6, dt=0.05)
+    grids = {key[1] for key in robot._cache if isinstance(key, tuple) and key[0] == "predictor"}
+    durations = tuple(float(h) for h in control.model.durations)
+    limits = tuple(float(h) for h in control.model.change_times[1:])
+    assert {(0.025, 0.025), durations, limits} <= grids

@@ -27,7 +27,7 @@ from mpc.control.settings import (
 )
 from mpc.control.timing import PathProgress, ReferenceWindow, TimeIndexed
 from mpc.control.warm_start import WarmStart
-from mpc.control.wheel_output import feedforward_fields, wheel_commands
+from mpc.control.wheel_output import feedforward_fields, prepare_commands, wheel_commands
 from mpc.errors import ControllerError
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
@@ -141,6 +141,7 @@ class Controller:
                                    path=self.mode == "path", max_progress_rate=rate,
                                    tick=self.dt)
         self.solver = make_solver(self.model, solver, polygon_sides, max_iter, time_limit)
+        prepare_commands(robot, self.dt, self.model.durations)
         self._profile: TickProfile | None = None
         self._tick = TickInput(self.model.layouts)
         self._warm = WarmStart(self._tick, self.model.offsets, self.dt)

@@ -41,6 +41,18 @@ def wheel_commands(robot: Robot, twist: FloatArray, target: FloatArray,
     return twist, speeds, None, None, steer
 
 
+def prepare_commands(robot: Robot, dt: float, durations: FloatArray) -> None:
+    """Build what :func:`wheel_commands` predicts with for robots whose steer angles are
+    measured (casters: the angle flow over a tick, :func:`tick_rates`, and along the plan's
+    stage ``durations`` [s]) now, at set-up, so that the first tick is as quick as the rest
+    (building them took ~70 ms on it)."""
+    if not robot.steer_states:
+        return
+    angles = np.zeros(robot.n_wheels)
+    robot.predict_steer_angles(angles, np.zeros((2, 3)), np.array([0.5 * dt, 0.5 * dt]))
+    robot.predict_steer_angles(angles, np.zeros((len(durations), 3)), durations)
+
+
 def tick_rates(robot: Robot, twist: FloatArray, angles: FloatArray,
                dt: float) -> tuple[FloatArray, FloatArray]:
     """Joint rates to hold over a tick for ``twist``, from the measured steer ``angles``.
