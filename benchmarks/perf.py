@@ -84,6 +84,9 @@ TARGET_TICK_P99 = 300e-6  # [s], reference scenario
 TARGET_OVER_DO_MPC = 100.0  # do-mpc tick / daqp tick at least
 TARGET_OVER_IPOPT = 50.0  # IPOPT-path tick / daqp tick at least
 TARGET_RMS_VS_IPOPT = 0.10  # daqp RMS error within 10% of IPOPT's, inside the limits
+#: Issue 11's speed targets for swerve, time mode 1.3x beyond the limits, same run.
+TARGET_SWERVE_P99 = 2e-3  # [s] swerve's tick p99
+TARGET_SWERVE_OVER_MECANUM = 2.0  # swerve's tick p50 / Mecanum's at most
 
 
 def _settle(ticks: int) -> int:
@@ -388,7 +391,7 @@ def peers_section(ticks: int, say: Printer) -> dict[str, Any]:
 # ------------------------------------------------------------------------------- summary
 def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, Any]],
               peer: dict[str, Any] | None, drift: dict[str, Any] | None) -> dict[str, Any]:
-    """Ratios within this run, and issue 12's targets checked against them."""
+    """Ratios within this run, and issues 11 and 12's targets checked against them."""
     summary: dict[str, Any] = {}
     at = {(row["solver"], row["horizon"]): row for row in horizon_rows}
     fast = at.get((FAST, REFERENCE_HORIZON))
@@ -411,6 +414,13 @@ def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, 
                           ("scenarios_cpu_over_p99_limit", "cpu_over_p99_limit")):
             summary[key] = [f"{row['layout']} {row['trajectory']} {row['heading']} "
                             f"{row['mode']} {row['speed']}" for row in scenario_rows if row[flag]]
+        by_layout = {(row["layout"], row["mode"], row["speed"]): row for row in scenario_rows}
+        swerve = by_layout.get(("swerve", "time", "beyond"))
+        mecanum = by_layout.get(("mecanum", "time", "beyond"))
+        if swerve is not None and mecanum is not None:
+            summary["swerve_tick_p99_beyond"] = swerve["tick_p99"]
+            summary["swerve_over_mecanum_tick_p50_beyond"] = (swerve["tick_p50"]
+                                                              / mecanum["tick_p50"])
     if peer is not None and peer["rows"]:
         by = {(row["speed"], row["solver"]): row for row in peer["rows"]}
         for speed in ("inside", "beyond"):
@@ -433,7 +443,8 @@ def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, 
 
 
 def _targets(summary: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """Issue 12's "done when", each with the measured value and whether it is met."""
+    """Issue 12's "done when" (and issue 11's swerve speed lines), each with the measured
+    value and whether it is met."""
     checks: dict[str, dict[str, Any]] = {}
 
     def check(name: str, value: float | None, limit: float, at_most: bool) -> None:
@@ -457,6 +468,11 @@ def _targets(summary: dict[str, Any]) -> dict[str, dict[str, Any]]:
     if "scenario_tick_p99_max" in summary:
         check("scenario_tick_p99_max", summary["scenario_tick_p99_max"], P99_LIMIT, True)
         check("scenario_cpu_p99_max", summary["scenario_cpu_p99_max"], P99_LIMIT, True)
+    if "swerve_tick_p99_beyond" in summary:
+        check("swerve_tick_p99_beyond", summary["swerve_tick_p99_beyond"], TARGET_SWERVE_P99,
+              True)
+        check("swerve_over_mecanum_tick_p50_beyond",
+              summary["swerve_over_mecanum_tick_p50_beyond"], TARGET_SWERVE_OVER_MECANUM, True)
     fast_growth = summary.get("growth", {}).get(FAST)
     if fast_growth is not None:
         check(f"{FAST}_tick_growth", fast_growth["tick_ratio"], fast_growth["horizon_ratio"],
@@ -504,7 +520,7 @@ def _print_summary(summary: dict[str, Any], say: Printer) -> None:
             f"{drift['end_over_start']:.2f} (the machine's noise over this run)")
     targets = summary["targets"]
     if targets:
-        say("issue 12 targets on this machine:")
+        say("issue 12 targets (and issue 11's swerve_ lines) on this machine:")
         for name, item in targets.items():
             sign = "<=" if item.get("at_most") else ">="
             value, limit = item["measured"], item["limit"]

@@ -157,3 +157,23 @@ def test_do_mpc_solves_the_same_problem(tmp_path: Path,
                                                              rel=1e-2, abs=1e-7)
         ratios = document["summary"][f"same_ticks_{speed}"]
         assert ratios["do_mpc_over_daqp_tick"] > 0 and ratios["do_mpc_over_ipopt_tick"] > 0
+
+
+def test_the_summary_checks_swerve_against_mecanum_in_the_same_run() -> None:
+    """Issue 11's speed lines: swerve's tick p99 and its p50 over Mecanum's, time mode
+    beyond the limits, from the scenario rows of the same run."""
+    from benchmarks.perf import summarise
+
+    def row(layout: str, p50: float, p99: float) -> dict[str, Any]:
+        return {"layout": layout, "trajectory": "figure8", "heading": "fixed", "mode": "time",
+                "speed": "beyond", "tick_p50": p50, "tick_p99": p99, "cpu_p99": p99,
+                "over_p99_limit": p99 > 1e-3, "cpu_over_p99_limit": p99 > 1e-3}
+
+    summary = summarise([], [row("mecanum", 2e-4, 4e-4), row("swerve", 9e-4, 1.5e-3)], None,
+                        None)
+    assert summary["swerve_over_mecanum_tick_p50_beyond"] == pytest.approx(4.5)
+    targets = summary["targets"]
+    assert targets["swerve_tick_p99_beyond"]["met"] is True
+    assert targets["swerve_over_mecanum_tick_p50_beyond"]["met"] is False
+    assert "swerve_tick_p99_beyond" not in summarise([], [row("mecanum", 2e-4, 4e-4)], None,
+                                                     None)["targets"]
