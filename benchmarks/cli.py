@@ -100,8 +100,8 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
     parser.add_argument("--polygon-sides", type=int,
                         help="fast paths: take each swerve module's speed and acceleration "
                              "disks as a constant polygon of this many sides (even, >= 4) "
-                             "instead of the default, the disks linearised around each "
-                             "tick's plan")
+                             "instead of the default, the speed disk linearised around "
+                             "each tick's plan and the acceleration disk a 16-gon")
     parser.add_argument("--duration", type=float,
                         help="simulated seconds per run (default: 2.2 laps at the fastest "
                              "pace the wheels allow + --skip, at least 6 s)")

@@ -179,7 +179,8 @@ class Settings:
     horizon: int = 20
     dt: float = 0.05
     #: sides of a constant polygon standing in for a swerve module's disks (None: the
-    #: fast paths' default, the disks linearised around each tick's plan)
+    #: fast paths' default, the speed disk linearised around each tick's plan and the
+    #: acceleration disk a 16-gon)
     polygon_sides: int | None = None
 
 

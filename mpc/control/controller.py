@@ -92,9 +92,10 @@ class Controller:
         weights: :class:`~mpc.model.weights.Weights` or a dict of overrides.
         polygon_sides: QP paths only: take each swerve module's speed and acceleration
             disks as a constant polygon of this many sides (even, >= 4) instead of the
-            default, a square turned each tick to the planned direction (the disk
-            linearised: exact at a converged plan); casters and modules with an axle
-            offset always take a polygon (default 16 sides). IPOPT uses the exact disk.
+            default: the speed disk's faces turned each tick to the planned direction (the
+            disk linearised: exact at a converged plan), the acceleration disk a constant
+            16-gon; casters and modules with an axle offset always take a polygon (default
+            16 sides). IPOPT uses the exact disks.
         max_iter: solver iterations per tick at most (default 1000 daqp, 500 OSQP,
             100 IPOPT).
         time_limit: solver time per tick at most [s]; 0 for none.
