@@ -49,8 +49,13 @@ def prepare_commands(robot: Robot, dt: float, durations: FloatArray) -> None:
     if not robot.steer_states:
         return
     angles = np.zeros(robot.n_wheels)
-    robot.predict_steer_angles(angles, np.zeros((2, 3)), np.array([0.5 * dt, 0.5 * dt]))
+    robot.predict_steer_angles(angles, np.zeros((2, 3)), _tick_halves(dt))
     robot.predict_steer_angles(angles, np.zeros((len(durations), 3)), durations)
+
+
+def _tick_halves(dt: float) -> FloatArray:
+    """The grid :func:`tick_rates` predicts the angles on: the tick in two halves [s]."""
+    return np.array([0.5 * dt, 0.5 * dt])
 
 
 def tick_rates(robot: Robot, twist: FloatArray, angles: FloatArray,
@@ -65,8 +70,7 @@ def tick_rates(robot: Robot, twist: FloatArray, angles: FloatArray,
     the measured angles. A rate that ends up past its limit (the clamp kept them within
     at the measured angles; a leading caster's rate grows within the tick) scales them
     all down together."""
-    flow = robot.predict_steer_angles(angles, np.tile(twist, (2, 1)),
-                                      np.array([0.5 * dt, 0.5 * dt]))
+    flow = robot.predict_steer_angles(angles, np.tile(twist, (2, 1)), _tick_halves(dt))
     rows = robot.joint_rows(flow)[0] @ twist  # (3, n): at the start, middle and end
     drive = (rows[0] + 4.0 * rows[1] + rows[2]) / 6.0
     steer = (flow[2] - flow[0]) / dt

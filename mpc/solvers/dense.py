@@ -170,8 +170,7 @@ class DenseSolver:
         step = self._unwhiten @ np.asarray(step, dtype=float)
         if profile is not None:
             profile.mark("solve: daqp")
-        result = self._result(tick, np.asarray(step, dtype=float), int(flag), info,
-                              sensitivity, displacement)
+        result = self._result(tick, step, int(flag), info, sensitivity, displacement)
         if profile is not None:
             profile.mark("solve: result")
         return result
