@@ -90,3 +90,24 @@ def test_beyond_the_limits_the_linearised_disk_tracks_as_the_exact_nlp(shape: st
         assert metrics["limit_violations"] == metrics["accel_violations"] == 0
         assert metrics["max_wheel_speed_ratio"] <= 1.0 + 1e-9
     assert errors["daqp"] <= errors["ipopt"] * 1.05
+
+
+def test_daqp_whitens_again_only_the_moving_faces_and_gets_the_whole_product() -> None:
+    """The speed faces are the only rows a refill moves (``moving``, on ``u_k`` alone):
+    after ticks of turning faces, the rows daqp holds equal the whole ``A L^{-T}`` of the
+    rows as they are now."""
+    robot = preset("swerve")
+    controller = Controller(robot, reference("figure8", "fixed", robot, SPEEDS["beyond"]),
+                            horizon=8, dt=DT, solver="daqp")
+    solver = controller.solver
+    limits = solver.limits
+    assert limits.moving == FACES * robot.n_wheels
+    assert not limits.before[:, :limits.moving].any()
+    simulate(controller, 1.5)
+    assert solver.factorisations >= 1
+    before = limits.now[:, :limits.moving].copy()
+    controller.step(np.array([0.01, 0.0, 0.02]), 1.55)
+    assert not np.array_equal(limits.now[:, :limits.moving], before)  # the faces turned
+    assert not solver._rows_stale
+    whole = solver._whitened(solver._unwhiten)
+    np.testing.assert_allclose(solver._whitened_rows, whole, rtol=0.0, atol=1e-12)

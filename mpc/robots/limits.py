@@ -54,6 +54,9 @@ class StageLimits:
         change_times: time from ``u_{k-1}`` to ``u_k`` (N,) [s].
         changed: whether the last refill changed any row (the solvers skip the update
             when not).
+        moving: if not None, a refill changes only each stage's first ``moving`` rows, and
+            those are on ``u_k`` alone (``before`` zero there): a solver that transforms
+            the rows (daqp's whitening) redoes only them.
         memory: whatever the robot keeps between refills.
     """
 
@@ -64,6 +67,7 @@ class StageLimits:
     constant: bool
     change_times: FloatArray
     changed: bool = True
+    moving: int | None = None
     memory: dict[str, FloatArray] = field(default_factory=dict)
 
     @property

@@ -313,7 +313,7 @@ def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> Sta
         now[:, speed_rows:] = polygon.rows
         before[:, speed_rows:] = -polygon.rows
     limits = StageLimits(now=now, before=before, lower=-bound, upper=bound, constant=False,
-                         change_times=np.array(change_times, dtype=float))
+                         change_times=np.array(change_times, dtype=float), moving=speed_rows)
     directions = np.zeros((horizon, n, 2))
     directions[..., 0] = 1.0
     limits.memory["directions"] = directions  # each module's planned unit direction

@@ -260,8 +260,10 @@ class DenseSolver:
         """Hand daqp what changed, in whitened steps ``y = L' d``: Hessian the identity,
         rows ``A L^{-T}``, gradient ``L^{-1} g`` (None if daqp refuses to set it up)."""
         new_rows = rows_changed or self._rows_stale or self._rows_new
-        if rows_changed or self._rows_stale:
+        if self._rows_stale or (rows_changed and self.limits.moving is None):
             self._whitened_rows = self._whitened(self._unwhiten, self._whitened_rows)
+        elif rows_changed:  # the rest are whitened already by the same L^{-T}
+            self._whiten_moving()
         self._rows_stale = self._rows_new = False
         whitened_gradient = self._unwhiten.T @ gradient
         if self._solver is None:
@@ -301,6 +303,16 @@ class DenseSolver:
         if whitened.shape[0] > n * m:  # path mode's progress rows
             self._extra.times(unwhiten, out=whitened[n * m:])
         return whitened
+
+    def _whiten_moving(self) -> None:
+        """Whiten again only the rows a refill moves (``limits.moving`` a stage, on
+        ``u_k`` alone: a swerve module's speed faces, 24 of 56 rows a stage, a fifth of
+        the whole product's time)."""
+        limits = self.limits
+        n, m, k = limits.horizon, limits.rows, limits.moving
+        blocks = self._unwhiten[:3 * n].reshape(n, 3, -1)
+        rows = self._whitened_rows[:n * m].reshape(n, m, -1)
+        np.matmul(limits.now[:, :k], blocks, out=rows[:, :k])
 
     def _result(self, tick: TickInput, step: FloatArray, flag: int, info: dict[str, float],
                 sensitivity: FloatArray, displacement: FloatArray) -> SolveResult:
