@@ -20,6 +20,7 @@ from mpc.robots.swerve_limits import (
     qp_speed_rows,
 )
 from mpc.sim import simulate
+from mpc.solvers.dense import DenseSolver
 
 DT = 0.05
 
@@ -100,6 +101,7 @@ def test_daqp_whitens_again_only_the_moving_faces_and_gets_the_whole_product() -
     controller = Controller(robot, reference("figure8", "fixed", robot, SPEEDS["beyond"]),
                             horizon=8, dt=DT, solver="daqp")
     solver = controller.solver
+    assert isinstance(solver, DenseSolver)
     limits = solver.limits
     assert limits.moving == FACES * robot.n_wheels
     assert not limits.before[:, :limits.moving].any()
