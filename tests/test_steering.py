@@ -111,6 +111,10 @@ def test_the_axle_offset_search_checks_twists_as_the_wheel_commands_drive_them()
     outcomes = set()
     for _ in range(200):
         twists = rng.normal(0.0, 1.0, (4, 3))
+        # one module at rest: the body turning about it (its angle kept, its drive only the
+        # axle offset's L omega / r)
+        (x, y), omega = robot.module_positions[rng.integers(robot.n_wheels)], twists[0, 2]
+        twists[0, :2] = omega * y, -omega * x
         steer = rng.uniform(-math.pi, math.pi, robot.n_wheels)
         within = _drives_within(robot, twists, steer, dt)
         for twist, ok in zip(twists, within, strict=True):
@@ -134,3 +138,45 @@ def test_the_axle_offset_clamp_keeps_every_drive_within_its_limit() -> None:
         assert 0.0 <= fraction <= 1.0
         speeds, _ = robot.wheel_commands(last + fraction * (target - last), steer, None, dt)
         assert np.all(np.abs(speeds) <= robot.max_wheel_speed * (1.0 + 1e-12))
+
+
+def test_the_axle_offset_clamp_goes_as_far_as_a_brute_force_scan_of_the_way() -> None:
+    """From a moving start, the clamp's fraction keeps every drive and every moving
+    module's turn within its limit, and reaches within 1e-3 of the longest stretch of the
+    way that a scan of 2,001 points finds within them all (an independent answer)."""
+    robot = preset("mpo700")
+    assert isinstance(robot, SwerveRobot)
+    rng = np.random.default_rng(13)
+    dt = 0.05
+    scan = np.linspace(0.0, 1.0, 2001)
+    searched = 0
+    for _ in range(60):
+        last = rng.normal(0.0, 0.3, 3)
+        _, aligned = robot.wheel_commands(last, None)
+        assert aligned is not None
+        steer = aligned + rng.uniform(-0.3, 0.3, robot.n_wheels) * robot.max_steer_rate * dt
+        target = last + rng.normal(0.0, 1.5, 3)
+        if not _within_on_the_way(robot, last, target, steer, dt, 0.0):
+            continue
+        fraction = steering_fraction(robot, last, target, steer, dt)
+        assert _within_on_the_way(robot, last, target, steer, dt, fraction)
+        if fraction < 1.0:
+            searched += 1
+            fits = np.array([_within_on_the_way(robot, last, target, steer, dt, g)
+                             for g in scan])
+            longest = scan[np.argmin(fits) - 1] if not fits.all() else 1.0
+            assert longest - 1e-3 <= fraction <= longest + 1e-3
+    assert searched >= 10
+
+
+def _within_on_the_way(robot: SwerveRobot, last: np.ndarray, target: np.ndarray,
+                       steer: np.ndarray, dt: float, g: float) -> bool:
+    """Whether the wheel commands of ``last + g (target - last)`` keep every drive and every
+    moving module's turn from ``steer`` within its limit."""
+    twist = last + g * (target - last)
+    speeds, angles = robot.wheel_commands(twist, steer, None, dt)
+    velocity = robot.wheel_blocks @ twist
+    moving = np.hypot(velocity[:, 0], velocity[:, 1]) * robot.wheel_radius > 1e-6
+    turned = np.abs(np.mod(angles - steer + math.pi, 2.0 * math.pi) - math.pi)
+    return bool(np.all(np.abs(speeds) <= robot.max_wheel_speed * (1.0 + 1e-12))
+                and np.all(~moving | (turned <= robot.max_steer_rate * dt * (1.0 + 1e-9))))

@@ -113,33 +113,35 @@ def turns(robot: SwerveRobot, velocities: FloatArray, steer_angles: FloatArray) 
 #: The search for the drives' limit (axle offsets): rounds, each splitting the interval
 #: left into this many parts at once (16^5: the fraction to 1e-6 of the turn's; one
 #: bisection step a call of the wheel commands took ~1 ms a tick on the MPO-700).
-_SEARCH_ROUNDS, _SEARCH_PARTS = 5, 16
+_SEARCH_ROUNDS, _SEARCH_PARTS = 3, 40
 
 
 def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
                       steer_angles: FloatArray, dt: float) -> float:
     """:func:`turn_fraction`, and with an axle offset no further than every wheel's drive
     rate, corrected for the module's steering over ``dt``, stays within its limit (searched
-    below the turn's fraction: the first point of a fine grid where a drive leaves it)."""
+    below the turn's fraction: the last point of a fine grid before the first where a drive
+    or a module's turn leaves its limit)."""
     fraction = turn_fraction(robot, last, target, steer_angles, dt)
     if not robot.axle_offset or fraction == 0.0:
         return fraction
     step = target - last
+    reach = robot.max_steer_rate * dt * (1.0 - 1e-9)
 
-    def drives(parts: FloatArray) -> npt.NDArray[np.bool_]:
-        return _drives_within(robot, last + parts[:, None] * step, steer_angles, dt)
+    def within(parts: FloatArray) -> npt.NDArray[np.bool_]:
+        return _drives_within(robot, last + parts[:, None] * step, steer_angles, dt, reach)
 
-    whole, rest = drives(np.array([fraction, 0.0]))
+    whole, rest = within(np.array([fraction, 0.0]))
     if whole:
         return fraction
     if not rest:
         return 0.0
-    # Below the turn's limit on the whole way from last (the target may fit where points
-    # on the way to it do not), search the drives' limit.
-    low, high = 0.0, turn_fraction(robot, last, target, steer_angles, dt, whole=False)
+    # The turn is checked with the drives on the grid: the target may fit where points on
+    # the way to it do not.
+    low, high = 0.0, fraction
     for _ in range(_SEARCH_ROUNDS):
         parts = np.linspace(low, high, _SEARCH_PARTS + 1)[1:]
-        bad = np.flatnonzero(~drives(parts))
+        bad = np.flatnonzero(~within(parts))
         if bad.size == 0:
             return high
         first = int(bad[0])
@@ -148,27 +150,34 @@ def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
 
 
 def _drives_within(robot: SwerveRobot, twists: FloatArray, steer_angles: FloatArray,
-                   dt: float) -> npt.NDArray[np.bool_]:
+                   dt: float, reach: float | None = None) -> npt.NDArray[np.bool_]:
     """For each of ``twists`` (K, 3): whether every wheel's drive rate as
-    :meth:`SwerveRobot.wheel_commands` gives it (flip rule, axle correction for the
-    steering over ``dt``) is within its limit; the K twists at once."""
-    from mpc.robots.swerve_states import module_states, wrap_angle  # (imports this module)
+    :meth:`SwerveRobot.wheel_commands` gives it is within its limit (and with ``reach``
+    [rad], every moving module's turn within it); the K twists at once.
 
-    n = robot.n_wheels
-    velocities = np.matmul(robot.wheel_blocks[None], twists[:, None, :, None])  # (K, n, 2, 1)
-    current = np.tile(steer_angles, len(twists))
-    speeds, angles = module_states(velocities.reshape(-1, 2), current, robot.wheel_radius)
-    turning = wrap_angle(angles - current) / dt
-    speeds = speeds + robot.axle_offset * (np.repeat(twists[:, 2], n) + turning) / (
-        robot.wheel_radius)
-    within = np.abs(speeds.reshape(-1, n)) <= robot.max_wheel_speed * (1.0 + 1e-12)
+    The flip rule in closed form: a module turns by ``turn`` (in [-pi/2, pi/2)) from its
+    present angle and drives backwards where its velocity points away from it; a module at
+    rest keeps its angle; the axle offset adds ``L (omega + turn / dt) / r``.
+    """
+    velocities = twists @ robot.flat_wheel_blocks.T  # (K, 2n): (x, y) a module [rad/s]
+    x, y = velocities[:, 0::2], velocities[:, 1::2]
+    turn = np.mod(np.arctan2(y, x) - steer_angles + 0.5 * math.pi, math.pi) - 0.5 * math.pi
+    magnitude = np.hypot(x, y)
+    speed = np.copysign(magnitude, x * np.cos(steer_angles) + y * np.sin(steer_angles))
+    lever = robot.axle_offset / robot.wheel_radius
+    drive = np.where(magnitude * robot.wheel_radius < STOPPED_MODULE_SPEED, 0.0,
+                     speed + lever * turn / dt)
+    drive += lever * twists[:, 2:3]
+    within = np.abs(drive) <= robot.max_wheel_speed * (1.0 + 1e-12)
+    if reach is not None:
+        within &= (np.abs(turn) <= reach) | (magnitude * robot.wheel_radius <= _MOVING)
     return np.all(within, axis=1)
 
 
 def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
-                  steer_angles: FloatArray, dt: float, whole: bool = True) -> float:
+                  steer_angles: FloatArray, dt: float) -> float:
     """1 if ``target`` turns no module by more than ``max_steer_rate dt`` from its present
-    angle (only the command sent has to: ``whole``); else the largest ``f`` in [0, 1] such
+    angle (only the command sent has to); else the largest ``f`` in [0, 1] such
     that every point of ``last + g (target - last)``, ``0 <= g <= f``, does so (0 if
     ``last`` itself does not).
 
@@ -192,7 +201,7 @@ def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
         return np.all(~moving | (turn <= reach), axis=1)
 
     ends = fits(np.array([0.0, 1.0]))
-    if ends[1] and whole:
+    if ends[1]:
         return 1.0
     if not ends[0]:  # the last command itself is out of line (e.g. after a reset)
         return 0.0
