@@ -113,7 +113,8 @@ def test_the_axle_offset_search_checks_twists_as_the_wheel_commands_drive_them()
         twists = rng.normal(0.0, 1.0, (4, 3))
         # one module at rest: the body turning about it (its angle kept, its drive only the
         # axle offset's L omega / r)
-        (x, y), omega = robot.module_positions[rng.integers(robot.n_wheels)], twists[0, 2]
+        positions = np.asarray(robot.module_positions)
+        (x, y), omega = positions[rng.integers(robot.n_wheels)], twists[0, 2]
         twists[0, :2] = omega * y, -omega * x
         steer = rng.uniform(-math.pi, math.pi, robot.n_wheels)
         within = _drives_within(robot, twists, steer, dt)
