@@ -53,6 +53,8 @@ def aimed_angles(robot: SwerveRobot, speeds: FloatArray, angles: FloatArray,
     """The commanded ``angles`` with each module the command leaves at rest turned towards
     its direction in the twist ``aim``, by at most ``max_steer_rate dt`` from its present
     angle (``steer_angles``)."""
+    if (speeds != 0.0).all():  # every module drives: nothing waits (most ticks)
+        return angles
     goal = robot.wheel_blocks @ aim
     wanted = np.arctan2(goal[:, 1], goal[:, 0])
     # turn the short way, flipping beyond 90 deg (exactly 90 deg: no flip), at most
