@@ -291,6 +291,11 @@ FACES = len(FACE_ANGLES)
 #: 1.38 / 1.04; turned faces 236.0 / 341.5 / 81.1 / 34.4 and 1.81 / 1.93 / 2.24 / 1.44;
 #: IPOPT 234.1 / 342.2 / 81.1 / 34.7. Path mode's largest distance to the figure-eight
 #: 2.4 mm against 4.6. Faces turned to the planned velocity instead: 14 mm off the path.
+#: An 8-gon (4 rows a module, 40 rows a stage against 56): time-mode ticks 2-20 % quicker
+#: at the median, RMS within 2 % either way, but path mode left the fixed-heading
+#: figure-eight beyond the limits by up to 9.9 mm against 2.3 and its tangent one took 1.5x
+#: as long a tick (``mpc-bench --layouts swerve --controllers
+#: mpc-daqp,mpc-tuned,mpc-ipopt,mpc-path,ff-p-setpoint --workers 2``, 2026-11-28).
 ACCEL_SIDES = 16
 
 
