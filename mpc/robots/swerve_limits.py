@@ -101,11 +101,21 @@ STOPPED_MODULE_SPEED = 1e-6
 _MOVING = STOPPED_MODULE_SPEED * (1.0 - 1e-3)
 
 
+def _flip_turn(x: FloatArray, y: FloatArray, steer_angles: FloatArray) -> FloatArray:
+    """The signed turn [rad] in [-pi/2, pi/2) from ``steer_angles`` to the velocities'
+    (``x``, ``y``) directions under the flip rule (a module may drive backwards)."""
+    return np.mod(np.arctan2(y, x) - steer_angles + 0.5 * math.pi, math.pi) - 0.5 * math.pi
+
+
+def _reach(robot: SwerveRobot, dt: float) -> float:
+    """The turn a module may make in ``dt`` [rad], a hair inside the steering rate."""
+    return robot.max_steer_rate * dt * (1.0 - 1e-9)
+
+
 def turns(robot: SwerveRobot, velocities: FloatArray, steer_angles: FloatArray) -> FloatArray:
     """How far each module must turn [rad] to drive ``velocities`` (n, 2) from its present
     angle, with the flip rule (so in [0, pi / 2]); 0 for a module at rest."""
-    angle = np.arctan2(velocities[:, 1], velocities[:, 0])
-    turn = np.abs(np.mod(angle - steer_angles + math.pi / 2, math.pi) - math.pi / 2)
+    turn = np.abs(_flip_turn(velocities[:, 0], velocities[:, 1], steer_angles))
     moving = np.hypot(velocities[:, 0], velocities[:, 1]) * robot.wheel_radius > _MOVING
     return np.where(moving, turn, 0.0)
 
@@ -128,7 +138,7 @@ def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
     if not robot.axle_offset or fraction == 0.0:
         return fraction
     step = target - last
-    reach = robot.max_steer_rate * dt * (1.0 - 1e-9)
+    reach = _reach(robot, dt)
 
     def within(parts: FloatArray) -> npt.NDArray[np.bool_]:
         return _drives_within(robot, last + parts[:, None] * step, steer_angles, dt, reach)
@@ -163,7 +173,7 @@ def _drives_within(robot: SwerveRobot, twists: FloatArray, steer_angles: FloatAr
     """
     velocities = twists @ robot.flat_wheel_blocks.T  # (K, 2n): (x, y) a module [rad/s]
     x, y = velocities[:, 0::2], velocities[:, 1::2]
-    turn = np.mod(np.arctan2(y, x) - steer_angles + 0.5 * math.pi, math.pi) - 0.5 * math.pi
+    turn = _flip_turn(x, y, steer_angles)
     magnitude = np.hypot(x, y)
     speed = np.copysign(magnitude, x * np.cos(steer_angles) + y * np.sin(steer_angles))
     lever = robot.axle_offset / robot.wheel_radius
@@ -189,15 +199,14 @@ def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
     where the module's speed crosses the stopped threshold (a module at rest turns by 0):
     the answer is one of those roots, checked at all of them and between them at once.
     """
-    reach = robot.max_steer_rate * dt * (1.0 - 1e-9)
+    reach = _reach(robot, dt)
     blocks = robot.wheel_blocks
     start = blocks @ last  # (n, 2)
     change = blocks @ (target - last)
 
     def fits(fractions: FloatArray) -> npt.NDArray[np.bool_]:
         velocities = start[None] + fractions[:, None, None] * change[None]  # (K, n, 2)
-        angle = np.arctan2(velocities[..., 1], velocities[..., 0])
-        turn = np.abs(np.mod(angle - steer_angles + math.pi / 2, math.pi) - math.pi / 2)
+        turn = np.abs(_flip_turn(velocities[..., 0], velocities[..., 1], steer_angles))
         moving = (np.hypot(velocities[..., 0], velocities[..., 1]) * robot.wheel_radius
                   > _MOVING)
         return np.all(~moving | (turn <= reach), axis=1)

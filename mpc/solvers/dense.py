@@ -260,10 +260,10 @@ class DenseSolver:
         """Hand daqp what changed, in whitened steps ``y = L' d``: Hessian the identity,
         rows ``A L^{-T}``, gradient ``L^{-1} g`` (None if daqp refuses to set it up)."""
         new_rows = rows_changed or self._rows_stale or self._rows_new
-        if self._rows_stale or (rows_changed and self.limits.moving is None):
-            self._whitened_rows = self._whitened(self._unwhiten, self._whitened_rows)
-        elif rows_changed:  # the rest are whitened already by the same L^{-T}
-            self._whiten_moving()
+        if self._rows_stale or rows_changed:
+            # rows whitened by the same L^{-T} before, and not moved since, are kept
+            self._whitened_rows = self._whitened(self._unwhiten, self._whitened_rows,
+                                                 moving_only=not self._rows_stale)
         self._rows_stale = self._rows_new = False
         whitened_gradient = self._unwhiten.T @ gradient
         if self._solver is None:
@@ -287,32 +287,30 @@ class DenseSolver:
         self._solver.update(**update)
         return self._solver
 
-    def _whitened(self, unwhiten: FloatArray, out: FloatArray | None = None) -> FloatArray:
+    def _whitened(self, unwhiten: FloatArray, out: FloatArray | None = None,
+                  moving_only: bool = False) -> FloatArray:
         """``A L^{-T}`` (into ``out`` if given), stage by stage: stage ``k``'s limit rows
         touch ``u_k`` and ``u_{k-1}`` only, so it is a batch of (m, 3) x (3, n) products
         (small enough that BLAS stays on one thread; one dense product of the whole matrix
-        went to 5-15 ms with threads on a loaded 2-core machine)."""
+        went to 5-15 ms with threads on a loaded 2-core machine). ``moving_only``: ``out``
+        holds the rest already, and only the rows a refill moves are done again
+        (``limits.moving`` a stage, on ``u_k`` alone: a swerve module's speed faces, 24 of
+        56 rows a stage, a fifth of the whole product's time)."""
         limits = self.limits
         n, m = limits.horizon, limits.rows
         whitened = np.empty_like(self._whitened_rows) if out is None else out
         blocks = unwhiten[:3 * n].reshape(n, 3, -1)
         rows = whitened[:n * m].reshape(n, m, -1)
+        if moving_only and out is not None and limits.moving is not None:
+            k = limits.moving
+            np.matmul(limits.now[:, :k], blocks, out=rows[:, :k])
+            return whitened
         np.matmul(limits.now, blocks, out=rows)
         if n > 1:
             rows[1:] += np.matmul(limits.before[1:], blocks[:-1])
         if whitened.shape[0] > n * m:  # path mode's progress rows
             self._extra.times(unwhiten, out=whitened[n * m:])
         return whitened
-
-    def _whiten_moving(self) -> None:
-        """Whiten again only the rows a refill moves (``limits.moving`` a stage, on
-        ``u_k`` alone: a swerve module's speed faces, 24 of 56 rows a stage, a fifth of
-        the whole product's time)."""
-        limits = self.limits
-        n, m, k = limits.horizon, limits.rows, limits.moving
-        blocks = self._unwhiten[:3 * n].reshape(n, 3, -1)
-        rows = self._whitened_rows[:n * m].reshape(n, m, -1)
-        np.matmul(limits.now[:, :k], blocks, out=rows[:, :k])
 
     def _result(self, tick: TickInput, step: FloatArray, flag: int, info: dict[str, float],
                 sensitivity: FloatArray, displacement: FloatArray) -> SolveResult:
