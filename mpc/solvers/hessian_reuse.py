@@ -20,11 +20,11 @@ SENSITIVITY_TOLERANCE = 2e-2
 
 #: Largest change of a cost Hessian entry ``P_ij`` before the Hessian is rebuilt, as a
 #: fraction of ``sqrt(P_ii P_jj)`` in the Hessian in use (path mode: the path's direction
-#: turns the contour terms, its speed scales the progress terms). Measured in path mode
-#: (400-600 ticks, N = 20): 0.25 rebuilt on 35-95 % of the ticks (every tick before, on
-#: swerve); 0.5 on fewer, but its stale Hessian took the swerve circle 1.3x beyond the
-#: limits to 53 daqp iterations a tick (3 at 0.25) and 3.1 mm off the path (0.13).
-COST_TOLERANCE = 0.25
+#: turns the contour terms, its speed scales the progress terms). Measured in path mode on
+#: the figure-eights (400 ticks): 0.5 rebuilt on 21-75 % of the ticks (Mecanum, swerve,
+#: MPO-700, omni-3), RMS within 10 % of rebuilding on every tick except the MPO-700 beyond
+#: its limits (24 mm against 48: better); 0.25 and 0.1 rebuilt more, no closer.
+COST_TOLERANCE = 0.5
 
 
 class HessianReuse:
