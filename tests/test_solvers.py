@@ -325,35 +325,3 @@ def test_sparse_rows_times_a_matrix_as_the_dense_product() -> None:
     none = np.empty((0, 9))
     _SparseRows(np.zeros((0, 9))).times(matrix, none)
     assert none.shape == (0, 9)
-
-
-def test_cost_drift_is_measured_against_each_entrys_own_scale() -> None:
-    """The cost terms' drift (hand-derived): entry ``P_ij`` against ``COST_TOLERANCE
-    sqrt(P_ii P_jj)`` of the remembered terms, whatever the units; an unweighted variable
-    is measured on the smallest weight; nothing remembered is an infinite drift."""
-    from mpc.solvers.hessian_reuse import COST_TOLERANCE, HessianReuse
-
-    # upper triangle of a 3 x 3 P: (0,0) (0,1) (1,1) (2,2); variable 2 unweighted
-    rows, columns = np.array([0, 0, 1, 2]), np.array([0, 1, 1, 2])
-    terms = np.array([400.0, 30.0, 10000.0, 0.0])
-    sensitivity, steps = np.zeros((1, 3, 3)), np.zeros((1, 2))
-    for scale in (1.0, 1e3):  # the same relative moves in other units: the same drift
-        reuse = HessianReuse(rows, columns, dt=0.05)
-        assert reuse.drift(terms, sensitivity, steps, True, False, 1.0)[0] == np.inf
-        reuse.remember(scale * terms, sensitivity, steps)
-        assert reuse.drift(scale * terms, sensitivity, steps, False, False, 1.0) == (0.0, 0.0)
-        # the large entry grew by a tenth: 1000 / (0.5 * 10000) = 0.2 (against the largest
-        # entry at set-up it would have been 2.5 tolerances)
-        moved = scale * (terms + [0.0, 0.0, 1000.0, 0.0])
-        drift = reuse.drift(moved, sensitivity, steps, True, False, 1.0)[0]
-        assert drift == pytest.approx(0.1 / COST_TOLERANCE)
-        # the coupling turned by 200 against sqrt(400 * 10000) = 2000
-        moved = scale * (terms + [0.0, 200.0, 0.0, 0.0])
-        drift = reuse.drift(moved, sensitivity, steps, True, False, 1.0)[0]
-        assert drift == pytest.approx(0.1 / COST_TOLERANCE)
-        # the unweighted variable gained a weight of 40 against the smallest, 400
-        moved = scale * (terms + [0.0, 0.0, 0.0, 40.0])
-        drift = reuse.drift(moved, sensitivity, steps, True, False, 1.0)[0]
-        assert drift == pytest.approx(0.1 / COST_TOLERANCE)
-        reuse.forget()
-        assert reuse.drift(terms, sensitivity, steps, True, False, 1.0)[0] == np.inf

@@ -81,7 +81,7 @@ class Condenser:
         progress = variables.fields.get("progress")
         self.size = self.n_inputs + (progress.size if progress is not None else 0)
         coo = structure.hessian.tocoo()  # same entry order as the CSC data
-        self.p_rows, self.p_columns = coo.row.astype(np.intp), coo.col.astype(np.intp)
+        self._rows, self._cols = coo.row.astype(np.intp), coo.col.astype(np.intp)
         self.dense = np.zeros((variables.size, variables.size))  # symmetric P
         stage = np.arange(n + 1)[:, None, None]
         a, b = np.meshgrid(np.arange(3), np.arange(3), indexing="ij")
@@ -118,8 +118,8 @@ class Condenser:
 
     def scatter(self, p_data: FloatArray) -> None:
         """Write the upper-triangle values of ``P`` into the dense symmetric ``P``."""
-        self.dense[self.p_rows, self.p_columns] = p_data
-        self.dense[self.p_columns, self.p_rows] = p_data
+        self.dense[self._rows, self._cols] = p_data
+        self.dense[self._cols, self._rows] = p_data
 
     def isotropic(self) -> bool:
         """Whether the scattered cost weighs every stage's position error alike in all

@@ -93,7 +93,7 @@ class DenseSolver:
         self._sensitivity_vec = np.zeros((n, 9))
         self._gradient = np.zeros(self.condenser.size)  # the cost's, in y, at the guess
         self._lower, self._upper = structure.lower.copy(), structure.upper.copy()
-        self._reuse = HessianReuse(self.condenser.p_rows, self.condenser.p_columns, model.dt)
+        self._reuse = HessianReuse(self._p_data, model.dt)
         self._scattered = np.full_like(self._p_data, np.nan)
         self._isotropic = False  # whether the cost weighs positions alike in every direction
         self._settings = {"iter_limit": int(max_iter), "time_limit": float(time_limit)}

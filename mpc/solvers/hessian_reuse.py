@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from mpc.arrays import FloatArray, IntArray
+from mpc.arrays import FloatArray
 
 #: Largest change of an input sensitivity ``B_k`` [s] before the Hessian is rebuilt, as a
 #: fraction of ``dt`` (0.02: a heading that moved by 0.02 rad relative to the others). A
@@ -18,12 +18,8 @@ from mpc.arrays import FloatArray, IntArray
 #: :mod:`.condensed`); it is a trade of tracking precision (one step a tick) for speed.
 SENSITIVITY_TOLERANCE = 2e-2
 
-#: Largest change of a cost Hessian entry ``P_ij`` before the Hessian is rebuilt, as a
-#: fraction of ``sqrt(P_ii P_jj)`` in the Hessian in use (path mode: the path's direction
-#: turns the contour terms, its speed scales the progress terms). Measured in path mode on
-#: the figure-eights (400 ticks): 0.5 rebuilt on 21-75 % of the ticks (Mecanum, swerve,
-#: MPO-700, omni-3), RMS within 10 % of rebuilding on every tick except the MPO-700 beyond
-#: its limits (24 mm against 48: better); 0.25 and 0.1 rebuilt more, no closer.
+#: Largest change of a cost Hessian entry before the Hessian is rebuilt, as a fraction of
+#: the largest entry at set-up (path mode: the path's direction turns the contour terms).
 COST_TOLERANCE = 0.5
 
 
@@ -31,29 +27,18 @@ class HessianReuse:
     """The terms the Hessian in use (or being built) came from, and how far a tick's terms
     have moved from them.
 
-    The cost terms' drift is scale-free: entry ``P_ij`` is measured against
-    ``sqrt(P_ii P_jj)`` of the Hessian in use (a relative change on the diagonal, a turn
-    of the coupling off it), so progress terms that grow with the path's speed squared
-    and pose terms of a few hundred are held to the same standard. (Measured against the
-    largest entry at set-up, path mode rebuilt on every tick of the swerve figure-eight
-    and 88 % of the MPO-700's, see :data:`COST_TOLERANCE`.)
-
     Args:
-        rows, columns: the index of each cost Hessian entry (the upper triangle's
-            pattern, in the order of the values the drift is given).
+        p_data: the cost Hessian's entries at set-up (their largest scales
+            :data:`COST_TOLERANCE`).
         dt: the model's stage duration [s] (scales :data:`SENSITIVITY_TOLERANCE`).
     """
 
-    def __init__(self, rows: IntArray, columns: IntArray, dt: float) -> None:
+    def __init__(self, p_data: FloatArray, dt: float) -> None:
         self.dt = dt
         self._cache: _HessianCache | None = None  # what the Hessian was built from
         self._p_stale = False  # the scattered cost terms differ from the cached Hessian's
         self._tolerance = SENSITIVITY_TOLERANCE * dt
-        self._rows, self._columns = rows, columns
-        self._size = int(max(rows.max(initial=-1), columns.max(initial=-1))) + 1
-        self._on_diagonal = np.flatnonzero(rows == columns)
-        # 1 / (COST_TOLERANCE sqrt(P_ii P_jj)) of the cached terms, entry by entry
-        self._p_scale = np.ones(rows.size)
+        self._p_tolerance = COST_TOLERANCE * float(np.abs(p_data).max() or 1.0)
 
     def forget(self) -> None:
         """Drop the cache: the next tick rebuilds."""
@@ -71,7 +56,7 @@ class HessianReuse:
             return math.inf, math.inf
         p_moved = 0.0
         if p_changed or self._p_stale:
-            p_moved = float((np.abs(p_data - cache.p_data) * self._p_scale).max())
+            p_moved = float(np.abs(p_data - cache.p_data).max()) / self._p_tolerance
         self._p_stale = self._p_stale or p_changed
         moved = cache.moved(sensitivity, displacement, self.dt) / self._tolerance
         if isotropic and moved > enough:
@@ -84,14 +69,6 @@ class HessianReuse:
         """The terms a new build starts from."""
         self._cache = _HessianCache.of(p_data, sensitivity, displacement)
         self._p_stale = False
-        diagonal = np.zeros(self._size)
-        diagonal[self._rows[self._on_diagonal]] = np.abs(p_data[self._on_diagonal])
-        # a variable the cost does not weigh (the first pose) is measured on the smallest
-        # weight there is
-        weighted = diagonal[diagonal > 0]
-        np.maximum(diagonal, weighted.min() if weighted.size else 1.0, out=diagonal)
-        scale = np.sqrt(diagonal)
-        self._p_scale = 1.0 / (COST_TOLERANCE * scale[self._rows] * scale[self._columns])
 
 
 class _HessianCache:
