@@ -325,3 +325,64 @@ def test_sparse_rows_times_a_matrix_as_the_dense_product() -> None:
     none = np.empty((0, 9))
     _SparseRows(np.zeros((0, 9))).times(matrix, none)
     assert none.shape == (0, 9)
+
+
+@pytest.mark.parametrize("horizon", [1, 2, 20])
+def test_state_sensitivities_are_the_rollouts_jacobian(horizon: int) -> None:
+    """``S`` (gathered block by block, lever arms from the rollout's steps) against central
+    differences of the exact SE(2) rollout CasADi computes, on a turning, strafing guess."""
+    from mpc import Controller
+
+    robot = preset("mecanum")
+    controller = Controller(robot, FigureEight(1.0, 12.0, heading="tangent"), horizon=horizon)
+    solver, tick = controller.solver, controller._tick
+    controller.step(controller.trajectory.sample(0.0).pose, 0.0)
+    rng = np.random.default_rng(7)
+    twists = rng.normal(scale=[0.8, 0.5, 1.5], size=(horizon, 3))
+    parameters = np.array(tick.parameters)
+
+    def rollout(u: np.ndarray) -> np.ndarray:
+        poses = solver._terms(parameters, u.T)[1]
+        return np.array(poses).T  # (N+1, 3)
+
+    # the terms at the guess, as the tick's own CasADi call gives them
+    _, poses, vec_b, _ = solver._terms(parameters, twists.T)
+    poses = np.array(poses).T
+    sensitivity = np.array(vec_b).T.reshape(-1, 3, 3).transpose(0, 2, 1)
+    steps = poses[1:, :2] - poses[:-1, :2]
+    states = solver.condenser.state_sensitivities(sensitivity, steps)
+    h = 1e-6
+    for column in range(3 * horizon):
+        bump = np.zeros(3 * horizon)
+        bump[column] = h
+        numeric = (rollout(twists + bump.reshape(-1, 3))
+                   - rollout(twists - bump.reshape(-1, 3))) / (2 * h)
+        np.testing.assert_allclose(states[:, :, column], numeric, rtol=0.0, atol=1e-7)
+
+
+def test_a_rotation_of_the_whole_plan_is_not_a_drift() -> None:
+    """An isotropic cost's drift check turns the terms to stage 0's frame: a plan turned
+    as a whole by any angle gives the same turned terms (hand-built ``B_k``: the body
+    twist's rotation into the world times ``dt``)."""
+    from mpc.solvers.hessian_reuse import _unrotated
+
+    rng = np.random.default_rng(3)
+    dt, headings = 0.05, rng.uniform(-1.0, 1.0, size=6)
+    steps = rng.normal(size=(6, 2))
+
+    def terms(turn: float) -> tuple[np.ndarray, np.ndarray]:
+        c, s = np.cos(headings + turn), np.sin(headings + turn)
+        sensitivity = np.zeros((6, 3, 3))
+        sensitivity[:, 0, 0], sensitivity[:, 0, 1] = c * dt, -s * dt
+        sensitivity[:, 1, 0], sensitivity[:, 1, 1] = s * dt, c * dt
+        sensitivity[:, 2, 2] = dt
+        rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+        return sensitivity, steps @ rotation.T
+
+    base = _unrotated(*terms(0.0))
+    for turn in (0.3, -2.0, 3.1):
+        turned = _unrotated(*terms(turn))
+        np.testing.assert_allclose(turned[0], base[0], rtol=0.0, atol=1e-15)
+        np.testing.assert_allclose(turned[1], base[1], rtol=0.0, atol=1e-14)
+    # stage 0's body x axis is the world x axis after turning
+    np.testing.assert_allclose(base[0][0, :2, :2], dt * np.eye(2), atol=1e-15)

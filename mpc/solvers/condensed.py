@@ -92,9 +92,16 @@ class Condenser:
                                                       progress.start + progress.size)
         # later[j] = sum over stages k > j of a per-stage quantity: one small matrix product.
         self._after = (np.arange(n + 1)[None, :] > np.arange(n)[:, None]).astype(float)
-        self._before_stage = self._after.T[:, None, :, None].copy()  # (N+1, 1, N, 1): j < k
+        # S's nonzero blocks (k, j), j < k: their entries' flat places in S (N+1, 3, N, 3)
+        # and in B (N, 3, 3), and each pair's place in an (N+1) x N grid
+        later, earlier = np.nonzero(self._after.T)
+        row, column = np.arange(3)[None, :, None], np.arange(3)[None, None, :]
+        k, j = later[:, None, None], earlier[:, None, None]
+        self._block_target = (((k * 3 + row) * n + j) * 3 + column).ravel()
+        self._block_source = ((j * 3 + row) * 3 + column).ravel()
+        self._pair_index = later * n + earlier
         self._states = np.zeros((n + 1, 3, n, 3))  # S, stage by stage (N+1, 3, N, 3)
-        self._turned = np.zeros((n + 1, 2))  # sums of the rollout's steps turned 90 deg
+        self._summed_steps = np.zeros((n + 1, 2))  # the rollout's planar steps summed
         self._check_structure(structure)
         rows = structure.constraints[3 * (n + 1):, :]
         self.columns: IntArray = (np.r_[self._u, self._s] if self._s is not None
@@ -140,21 +147,22 @@ class Condenser:
                             displacement: FloatArray) -> FloatArray:
         """``S`` as (N+1, 3, 3N): stage ``k``'s pose against every input (Gauss-Newton).
 
-        Written into one buffer kept between calls (the caller uses it before the next)."""
+        Written into one buffer kept between calls (the caller uses it before the next):
+        only its blocks ``j < k`` (the rest stay zero), gathered and written by flat
+        indices built once (a third of the time of the masked products it replaced)."""
         n = self.horizon
-        states = self._states
         # S[k, :, j, :] = B_j for every input j acting before stage k (j < k).
-        np.multiply(sensitivity.transpose(1, 0, 2)[None], self._before_stage, out=states)
+        blocks = sensitivity.reshape(-1)[self._block_source].reshape(-1, 3, 3)
         # The heading row of B_j is (0, 0, dt_j): a heading change of omega_j dt turns the
-        # steps of stages j+1 .. k-1, which moves x_k by sum of (-D_y, D_x) of those steps.
-        turned = self._turned
-        np.cumsum(displacement[:, 1], out=turned[1:, 0])
-        np.negative(turned[1:, 0], out=turned[1:, 0])
-        np.cumsum(displacement[:, 0], out=turned[1:, 1])
-        lever = turned[:, :, None] - turned[None, 1:].transpose(0, 2, 1)  # (N+1, 2, N)
-        lever *= self._before_stage[:, :, :, 0]
-        lever *= sensitivity[:, 2, 2]
-        states[:, :2, :, 2] += lever
+        # steps of stages j+1 .. k-1, which moves x_k by the sum of (-D_y, D_x) of those.
+        summed = self._summed_steps
+        np.cumsum(displacement, axis=0, out=summed[1:])
+        between = (summed[:, None, :] - summed[None, 1:, :]).reshape(-1, 2)[self._pair_index]
+        between *= blocks[:, 2, 2, None]
+        blocks[:, 0, 2] -= between[:, 1]
+        blocks[:, 1, 2] += between[:, 0]
+        states = self._states
+        states.reshape(-1)[self._block_target] = blocks.reshape(-1)
         return states.reshape(n + 1, 3, 3 * n)
 
     def hessian(self, states: FloatArray) -> FloatArray:

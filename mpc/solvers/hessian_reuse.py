@@ -65,10 +65,13 @@ class HessianReuse:
         return p_moved, moved
 
     def remember(self, p_data: FloatArray, sensitivity: FloatArray,
-                 displacement: FloatArray) -> None:
-        """The terms a new build starts from."""
-        self._cache = _HessianCache.of(p_data, sensitivity, displacement)
+                 displacement: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The terms a new build starts from; returns the copies of the sensitivities and
+        the steps it keeps (the build may run on later ticks, after the tick's own buffers
+        were written again)."""
+        cache = self._cache = _HessianCache.of(p_data, sensitivity, displacement)
         self._p_stale = False
+        return cache.sensitivity, cache.displacement
 
 
 class _HessianCache:
@@ -109,9 +112,8 @@ def _unrotated(sensitivity: FloatArray,
     first = sensitivity[0]
     angle = math.atan2(first[1, 0] - first[0, 1], first[0, 0] + first[1, 1])
     c, s = math.cos(angle), math.sin(angle)
-    turned = sensitivity.copy()
-    turned[:, 0, :] = c * sensitivity[:, 0, :] + s * sensitivity[:, 1, :]
-    turned[:, 1, :] = c * sensitivity[:, 1, :] - s * sensitivity[:, 0, :]
-    planar = np.stack((c * steps[:, 0] + s * steps[:, 1], c * steps[:, 1] - s * steps[:, 0]),
-                      axis=1)
-    return turned, planar
+    turn = np.array([[c, s], [-s, c]])  # world -> stage 0's frame
+    turned = np.empty_like(sensitivity)
+    np.matmul(turn, sensitivity[:, :2, :], out=turned[:, :2, :])
+    turned[:, 2, :] = sensitivity[:, 2, :]
+    return turned, steps @ turn.T
