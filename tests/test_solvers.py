@@ -332,10 +332,12 @@ def test_state_sensitivities_are_the_rollouts_jacobian(horizon: int) -> None:
     """``S`` (gathered block by block, lever arms from the rollout's steps) against central
     differences of the exact SE(2) rollout CasADi computes, on a turning, strafing guess."""
     from mpc import Controller
+    from mpc.solvers.dense import DenseSolver
 
     robot = preset("mecanum")
     controller = Controller(robot, FigureEight(1.0, 12.0, heading="tangent"), horizon=horizon)
     solver, tick = controller.solver, controller._tick
+    assert isinstance(solver, DenseSolver)
     controller.step(controller.trajectory.sample(0.0).pose, 0.0)
     rng = np.random.default_rng(7)
     twists = rng.normal(scale=[0.8, 0.5, 1.5], size=(horizon, 3))
