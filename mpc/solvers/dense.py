@@ -10,9 +10,9 @@ The QP is posed in the step from the guess with the cost's exact gradient
 there, so the Hessian only shapes the step: a new one is begun only when the
 sensitivities or the rollout's steps moved by :data:`REBUILD_EARLY` times
 :data:`SENSITIVITY_TOLERANCE` since the last build (:mod:`.hessian_reuse`), and
-built over the next four ticks so that no tick carries a whole rebuild; it is
-rebuilt at once when they moved beyond :data:`REBUILD_NOW` times, or the cost terms
-beyond :data:`COST_TOLERANCE`. daqp sees the QP in whitened steps (Hessian the
+built over four ticks so that no tick carries a whole rebuild; it is rebuilt at
+once when they moved beyond :data:`REBUILD_NOW` times, or the cost terms beyond
+:data:`COST_TOLERANCE`. daqp sees the QP in whitened steps (Hessian the
 identity), so a new Hessian costs it new rows, not a refactorisation.
 """
 
@@ -40,8 +40,8 @@ __all__ = ["COST_TOLERANCE", "REBUILD_EARLY", "REBUILD_NOW", "SENSITIVITY_TOLERA
            "DenseSolver"]
 
 #: A new Hessian is begun once the sensitivities or the rollout's steps moved this
-#: multiple of their tolerance from the one in use; it is built over the next four ticks,
-#: of about the same work (see :meth:`DenseSolver._rebuild_stages`), so no tick carries a whole
+#: multiple of their tolerance from the one in use; it is built over four ticks of about
+#: the same work (see :meth:`DenseSolver._rebuild_stages`), so no tick carries a whole
 #: rebuild. Cost terms that moved beyond their tolerance (path mode's contour directions)
 #: rebuild at once: a staged contour weighting left the fixed-heading circles slower and
 #: further off the path (omni-3 lap 6.40 against 6.35 s, 3.5 against 0.85 mm).
@@ -196,20 +196,19 @@ class DenseSolver:
 
     def _start_rebuild(self, sensitivity: FloatArray,
                        displacement: FloatArray) -> Iterator[bool]:
-        """Begin a new Hessian from this tick's terms: its stages are returned (and kept in
-        ``_rebuild``) to run one a tick from the next (this tick has found the drift that
-        asked for it: with the first stage on top it was the slowest tick of all, the
-        Mecanum figure-eight's p99)."""
+        """Begin a new Hessian from this tick's terms: its first stage runs now; the rest
+        are returned (and kept in ``_rebuild``)."""
         self.factorisations += 1
-        kept = self._reuse.remember(self._p_data, sensitivity, displacement)
-        rebuild = self._rebuild_stages(*kept)
+        self._reuse.remember(self._p_data, sensitivity, displacement)
+        rebuild = self._rebuild_stages(sensitivity, displacement)
+        next(rebuild)
         self._rebuild = rebuild
         return rebuild
 
     def _rebuild_stages(self, sensitivity: FloatArray,
                         displacement: FloatArray) -> Iterator[bool]:
         """A new Hessian in stages of about the same work, one a tick (see
-        :data:`REBUILD_EARLY`): the state sensitivities ``S`` from the terms it began with; ``H``
+        :data:`REBUILD_EARLY`): the state sensitivities ``S`` from this tick's terms; ``H``
         and its Cholesky factor; the whitening ``L^{-T}`` and the rows whitened by it; then
         the switch (daqp gets the rows with the same tick's gradient, so every QP is posed
         with one Hessian)."""

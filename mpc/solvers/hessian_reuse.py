@@ -65,13 +65,10 @@ class HessianReuse:
         return p_moved, moved
 
     def remember(self, p_data: FloatArray, sensitivity: FloatArray,
-                 displacement: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """The terms a new build starts from; returns the copies of the sensitivities and
-        the steps it keeps (the build may run on later ticks, after the tick's own buffers
-        were written again)."""
-        cache = self._cache = _HessianCache.of(p_data, sensitivity, displacement)
+                 displacement: FloatArray) -> None:
+        """The terms a new build starts from."""
+        self._cache = _HessianCache.of(p_data, sensitivity, displacement)
         self._p_stale = False
-        return cache.sensitivity, cache.displacement
 
 
 class _HessianCache:
