@@ -55,7 +55,7 @@ from benchmarks.scenarios import (
     parse_speeds,
     reference,
 )
-from mpc import SOLVERS, Command, Controller
+from mpc import SOLVERS, Command, Controller, ControllerError
 from mpc.arrays import FloatArray
 from mpc.control.controller import MODES
 from mpc.profiling import TickProfile
@@ -69,6 +69,10 @@ REFERENCE_HORIZON = 20
 DT = 0.05  # control tick [s]
 #: The fast path every ratio is taken against.
 FAST = "daqp"
+#: The fast path with its CasADi terms compiled to C (``Controller(jit=True)``), at N = 20,
+#: run alternately with the default this many times.
+JIT = "daqp_jit"
+JIT_REPEATS = 3
 #: A scenario's tick p99 above this is flagged [s].
 P99_LIMIT = 1e-3
 SECTIONS: tuple[str, ...] = ("profile", "horizons", "scenarios", "peers")
@@ -286,6 +290,46 @@ def horizons_section(solvers: list[str], horizons: list[int], ticks: int, ipopt_
     return rows
 
 
+def jit_comparison(ticks: int, repeats: int, say: Printer) -> dict[str, Any] | None:
+    """The reference scenario at N = 20: the fast path with ``jit=True`` (its CasADi terms
+    compiled to C) against the default, both built once and run alternately ``repeats``
+    times, so that their ratio is taken under the same load; None (and said so) when it
+    cannot compile."""
+    robot = preset(REFERENCE_LAYOUT)
+    trajectory = reference(REFERENCE_SHAPE, REFERENCE_HEADING, robot, SPEEDS["inside"])
+    started = time.perf_counter()
+    try:
+        compiled = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT,
+                              solver=FAST, jit=True)
+    except ControllerError as error:
+        say(f"skipped: {error}")
+        return None
+    build = time.perf_counter() - started
+    default = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT, solver=FAST)
+    ticks_of: dict[str, list[FloatArray]] = {"default": [], "jit": []}
+    commands_equal = True
+    for _ in range(repeats):
+        results = {label: simulate(control, ticks * DT)
+                   for label, control in (("default", default), ("jit", compiled))}
+        for label, result in results.items():
+            ticks_of[label].append(result.tick_time[_settle(ticks):])
+        commands_equal &= bool(np.array_equal(results["jit"].twist_command,
+                                              results["default"].twist_command))
+    document: dict[str, Any] = {"build_s": build, "repeats": repeats, "ticks": ticks,
+                                "same_commands": commands_equal}
+    for label, parts in ticks_of.items():
+        pooled = np.concatenate(parts)
+        document[f"{label}_p50"] = float(np.median(pooled))
+        document[f"{label}_p99"] = float(np.percentile(pooled, 99))
+    document["jit_over_default_p50"] = document["jit_p50"] / document["default_p50"]
+    say(f"{FAST} N={REFERENCE_HORIZON}, {repeats} alternating runs each: default p50 "
+        f"{document['default_p50'] * 1e6:.1f} us, p99 {document['default_p99'] * 1e6:.1f} us; "
+        f"jit=True p50 {document['jit_p50'] * 1e6:.1f} us, p99 "
+        f"{document['jit_p99'] * 1e6:.1f} us ({document['jit_over_default_p50']:.2f} x; "
+        f"{build:.1f} s to build; the same commands: {'yes' if commands_equal else 'NO'})")
+    return document
+
+
 def growth(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """Per solver: tick p50 at the largest horizon over the smallest, against their ratio."""
     found: dict[str, dict[str, Any]] = {}
@@ -390,8 +434,10 @@ def peers_section(ticks: int, say: Printer) -> dict[str, Any]:
 
 # ------------------------------------------------------------------------------- summary
 def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, Any]],
-              peer: dict[str, Any] | None, drift: dict[str, Any] | None) -> dict[str, Any]:
-    """Ratios within this run, and issues 11 and 12's targets checked against them."""
+              peer: dict[str, Any] | None, drift: dict[str, Any] | None,
+              jit: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Ratios within this run, and issues 11 and 12's targets checked against them
+    (``jit``: :func:`jit_comparison`'s document, reported beside them, not a target)."""
     summary: dict[str, Any] = {}
     at = {(row["solver"], row["horizon"]): row for row in horizon_rows}
     fast = at.get((FAST, REFERENCE_HORIZON))
@@ -404,6 +450,11 @@ def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, 
             other = at.get((solver, REFERENCE_HORIZON))
             if solver != FAST and other is not None:
                 summary[f"{solver}_over_{FAST}_tick_N20"] = other["tick_p50"] / fast["tick_p50"]
+    if jit is not None:
+        summary[JIT] = dict(jit)
+        ipopt_over = summary.get(f"ipopt_over_{FAST}_tick_N20")
+        if ipopt_over is not None:  # the two ratios, each within this run
+            summary[JIT]["ipopt_over_jit_tick_N20"] = ipopt_over / jit["jit_over_default_p50"]
     if horizon_rows:
         summary["growth"] = growth(horizon_rows)
     if scenario_rows:
@@ -493,6 +544,14 @@ def _print_summary(summary: dict[str, Any], say: Printer) -> None:
         key = f"{solver}_over_{FAST}_tick_N20"
         if key in summary:
             say(f"  {solver} / {FAST} at N=20: {summary[key]:.1f}")
+    if JIT in summary:
+        jit = summary[JIT]
+        line = (f"  {FAST} with jit=True (its terms compiled to C) at N=20, alternating with "
+                f"the default: {jit['jit_over_default_p50']:.2f} x its tick p50 "
+                f"({jit['jit_p50'] * 1e6:.1f} against {jit['default_p50'] * 1e6:.1f} us)")
+        if "ipopt_over_jit_tick_N20" in jit:
+            line += f"; ipopt / it {jit['ipopt_over_jit_tick_N20']:.1f}"
+        say(line)
     for solver, item in summary.get("growth", {}).items():
         verdict = "at most linear" if item["at_most_linear"] else "MORE than linear"
         say(f"  growth {solver}: tick(N={item['to']}) / tick(N={item['from']}) = "
@@ -617,7 +676,7 @@ def main(argv: list[str]) -> int:
     commit = _commit()
     say(f"{command}: sections {', '.join(sections)}; {ticks} ticks a run (IPOPT and peers "
         f"{ipopt_ticks}), dt {DT} s, ideal plant")
-    profile = horizon_rows = scenario_rows = peer = drift = None
+    profile = horizon_rows = scenario_rows = peer = drift = jit = None
     if "profile" in sections:
         say("\n== 1. tick split (TickProfile) ==")
         profile = profile_section(profile_horizons, ticks, out, command, say)
@@ -625,6 +684,10 @@ def main(argv: list[str]) -> int:
         say(f"\n== 2. horizons: {REFERENCE_LAYOUT} {REFERENCE_SHAPE} inside, solvers "
             f"{', '.join(solvers)} ==")
         horizon_rows = horizons_section(solvers, horizons, ticks, ipopt_ticks, say)
+        if FAST in solvers:
+            say(f"\n{FAST} with jit=True against the default (same scenario, N="
+                f"{REFERENCE_HORIZON}):")
+            jit = jit_comparison(ticks, JIT_REPEATS, say)
     if "scenarios" in sections:
         say(f"\n== 3. scenarios at N={REFERENCE_HORIZON}, {FAST} (p99 flagged above "
             f"{P99_LIMIT * 1e3:g} ms) ==")
@@ -643,7 +706,7 @@ def main(argv: list[str]) -> int:
                      _settle(ticks))
         drift = {"start_tick_p50": first["tick_p50"], "end_tick_p50": again["tick_p50"],
                  "end_over_start": again["tick_p50"] / first["tick_p50"]}
-    summary = summarise(horizon_rows or [], scenario_rows or [], peer, drift)
+    summary = summarise(horizon_rows or [], scenario_rows or [], peer, drift, jit)
     say()
     _print_summary(summary, say)
     rows = [*(horizon_rows or []), *(scenario_rows or []), *((peer or {}).get("rows", []))]
@@ -664,6 +727,7 @@ def main(argv: list[str]) -> int:
         "rows": rows,
         "peers": None if peer is None else {key: value for key, value in peer.items()
                                             if key != "rows"},
+        "jit": jit,
         "summary": summary,
         "wall_time": time.perf_counter() - started,
     }

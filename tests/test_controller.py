@@ -7,6 +7,9 @@ from __future__ import annotations
 
 import logging
 import math
+import os
+import shutil
+import tempfile
 import time
 from collections.abc import Callable
 from typing import Any
@@ -407,3 +410,37 @@ def test_step_arguments_that_do_not_fit_its_signature_are_the_projects_error() -
     with pytest.raises(ControllerError, match="its parameters are pose, t, steer_angles"):
         controller.step(pose, 0.0, None, 5)  # type: ignore[call-arg]
     assert controller.step(pose, 0.0).wheel_speeds.shape == (4,)
+
+
+_COMPILER = os.environ.get("CC") or "gcc"
+
+
+@pytest.mark.skipif(shutil.which(_COMPILER) is None, reason=f"no C compiler ({_COMPILER})")
+@pytest.mark.parametrize(("layout", "mode"), [("mecanum", "time"), ("swerve", "path")])
+def test_jit_compiled_terms_give_the_same_commands(layout: str, mode: str) -> None:
+    """``jit=True`` evaluates the tick's CasADi terms as compiled C: the same commands, to
+    the last bit, as CasADi's virtual machine, tick after tick (a turning reference, so the
+    Hessian is rebuilt and the swerve faces turn)."""
+    robot = preset(layout)
+    trajectory = FigureEight(1.0, 8.0, heading="tangent")
+    runs = [simulate(Controller(robot, trajectory, horizon=4, mode=mode, jit=jit), 3.0)
+            for jit in (False, True)]
+    np.testing.assert_array_equal(runs[1].twist_command, runs[0].twist_command)
+    np.testing.assert_array_equal(runs[1].wheel_actual, runs[0].wheel_actual)
+
+
+def test_jit_errors_say_what_was_expected(monkeypatch: pytest.MonkeyPatch) -> None:
+    """jit takes a bool, applies to daqp only, and a compiler that cannot run is a
+    ControllerError naming what was tried (no temporary files left behind)."""
+    robot, trajectory = preset("mecanum"), FigureEight(1.0, 12.0)
+    with pytest.raises(ControllerError, match="jit must be True or False, got 'yes'"):
+        Controller(robot, trajectory, horizon=3, jit="yes")  # type: ignore[arg-type]
+    with pytest.raises(ControllerError, match="solver 'osqp' does not use them"):
+        Controller(robot, trajectory, horizon=3, solver="osqp", jit=True)
+    monkeypatch.setenv("CC", "/nonexistent/cc")
+    before = set(os.listdir(tempfile.gettempdir()))
+    with pytest.raises(ControllerError, match=r"needs a C compiler.*/nonexistent/cc"):
+        Controller(robot, trajectory, horizon=3, jit=True)
+    left = {name for name in set(os.listdir(tempfile.gettempdir())) - before
+            if name.startswith("mpc-jit-")}
+    assert not left

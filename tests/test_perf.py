@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -48,8 +50,8 @@ def test_quick_run_writes_every_section_and_skips_an_absent_peer(
         assert header in out
 
     document = json.loads((tmp_path / "perf.json").read_text())
-    assert {"command", "commit", "machine", "settings", "profiles", "rows", "peers", "summary",
-            "wall_time"} <= set(document)
+    assert {"command", "commit", "machine", "settings", "profiles", "rows", "peers", "jit",
+            "summary", "wall_time"} <= set(document)
     assert document["command"] == f"mpc-bench perf --quick --out {tmp_path}"
     assert {"cpu_count", "python", "processor", "load_average_start",
             "thread_env"} <= set(document["machine"])
@@ -70,6 +72,14 @@ def test_quick_run_writes_every_section_and_skips_an_absent_peer(
         _sane(row)
     horizons = {(row["solver"], row["horizon"]) for row in rows if row["section"] == "horizons"}
     assert horizons == {(s, n) for s in ("daqp", "osqp", "ipopt") for n in (10, 20)}
+    if shutil.which(os.environ.get("CC") or "gcc"):  # daqp with jit=True against the default
+        jit = document["jit"]
+        assert jit["same_commands"] is True and jit["repeats"] == 3 and jit["build_s"] > 0
+        assert 0 < jit["jit_p50"] <= jit["jit_p99"] and 0 < jit["default_p50"]
+        assert document["summary"]["daqp_jit"]["jit_over_default_p50"] > 0
+        assert "daqp with jit=True (its terms compiled to C)" in out
+    else:
+        assert document["jit"] is None and "skipped: jit=True" in out
     scenarios = {(row["layout"], row["mode"], row["speed"]) for row in rows
                  if row["section"] == "scenarios"}
     assert scenarios == {("mecanum", m, s) for m in ("time", "path") for s in ("inside", "beyond")}

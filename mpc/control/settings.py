@@ -114,8 +114,9 @@ def check_plan_size(robot: Robot, horizon: int, solver: str, polygon_sides: int 
 
 
 def make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
-                max_iter: int | None, time_limit: float) -> TrackingSolver:
-    """The solver ``name`` (one of :data:`SOLVERS`) for ``model``, with its options checked."""
+                max_iter: int | None, time_limit: float, jit: bool = False) -> TrackingSolver:
+    """The solver ``name`` (one of :data:`SOLVERS`) for ``model``, with its options checked
+    (``jit``: daqp only, checked by the caller)."""
     if name not in SOLVERS:
         raise ControllerError(f"unknown solver {name!r}; expected one of {list(SOLVERS)}")
     iterations = None if max_iter is None else integer_in("max_iter", max_iter, 1,
@@ -136,5 +137,5 @@ def make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
     check_plan_size(model.robot, model.horizon, str(name), sides)
     if name == "daqp":
         return DenseSolver(model, polygon_sides=sides, max_iter=iterations or 1000,
-                           time_limit=limit)
+                           time_limit=limit, jit=jit)
     return QpSolver(model, polygon_sides=sides, max_iter=iterations or 500, time_limit=limit)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 
+import casadi as ca
 import numpy as np
 
 from mpc.arrays import FloatArray
@@ -45,14 +46,16 @@ PROGRESS_SETTLED = 1e-3
 
 
 class ReferenceWindow:
-    """Samples a trajectory over the horizon into a :class:`~mpc.model.layout.TickInput`."""
+    """Samples a trajectory over the horizon into a :class:`~mpc.model.layout.TickInput`
+    (``terms``: the model's ``reference_terms`` or a compiled copy of them)."""
 
-    def __init__(self, trajectory: Trajectory, model: TrackingModel, tick: TickInput) -> None:
+    def __init__(self, trajectory: Trajectory, model: TrackingModel, tick: TickInput,
+                 terms: ca.Function | None = None) -> None:
         self.trajectory = trajectory
         self.tick = tick
         self.offsets = model.offsets
         self._velocities = np.zeros((model.horizon + 1, 3))
-        self._evaluate = BufferedFunction(model.reference_terms,
+        self._evaluate = BufferedFunction(model.reference_terms if terms is None else terms,
                                           [tick.poses_ref, self._velocities],
                                           [tick.twists_ref, tick.directions])
 

@@ -27,6 +27,7 @@ from scipy.linalg import lapack
 
 from mpc.arrays import FloatArray
 from mpc.model.buffered import BufferedFunction
+from mpc.model.jit import jitted
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
@@ -72,12 +73,13 @@ class DenseSolver:
             disk (even, >= 4); robots with exact linear rows ignore it.
         max_iter: daqp iterations per tick at most.
         time_limit: daqp time per tick at most [s]; 0 for none.
+        jit: compile the tick's CasADi terms to C (:func:`~mpc.model.jit.jitted`).
     """
 
     name = "daqp"
 
     def __init__(self, model: TrackingModel, polygon_sides: int | None = None, max_iter: int = 1000,
-                 time_limit: float = 0.0) -> None:
+                 time_limit: float = 0.0, jit: bool = False) -> None:
         self.model = model
         n = model.horizon
         self.limits = stage_limits(model.robot, model.change_times, polygon_sides)
@@ -85,7 +87,8 @@ class DenseSolver:
         self.structure = structure
         self.condenser = Condenser(model, structure)
         self._p_data = structure.hessian.data.copy()
-        self._terms = tick_terms(model, structure.cost_terms)
+        terms = tick_terms(model, structure.cost_terms)
+        self._terms = jitted(terms) if jit else terms
         self._terms_for: TickInput | None = None
         self._evaluate: BufferedFunction | None = None
         self._rollout = np.zeros((n + 1, 3))
