@@ -33,7 +33,7 @@ def jitted(function: ca.Function) -> ca.Function:
     clean-up is off: it would look for them again when the function is dropped).
 
     Raises:
-        JitError: no C compiler, or it failed (the first lines of CasADi's message).
+        JitError: no C compiler, or it failed (the message has the command CasADi tried).
     """
     inputs = function.sx_in()
     folder = tempfile.mkdtemp(prefix="mpc-jit-")
