@@ -44,7 +44,6 @@ from mpc.validation import (
     checked_arguments,
     finite_vector,
     integer_in,
-    shown,
 )
 from trajectories import Trajectory, TrajectoryError
 
@@ -149,11 +148,6 @@ class Controller:
         self.model = TrackingModel(robot, self.horizon, self.stage_dt, self.weights,
                                    path=self.mode == "path", max_progress_rate=rate,
                                    tick=self.dt)
-        if not isinstance(jit, bool):
-            raise ControllerError(f"jit must be True or False, got {shown(jit)}")
-        if jit and solver != "daqp":
-            raise ControllerError(f"jit=True compiles the daqp fast path's terms; solver "
-                                  f"{shown(solver)} does not use them")
         try:
             self.solver = make_solver(self.model, solver, polygon_sides, max_iter, time_limit,
                                       jit)

@@ -116,9 +116,15 @@ def check_plan_size(robot: Robot, horizon: int, solver: str, polygon_sides: int 
 def make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
                 max_iter: int | None, time_limit: float, jit: bool = False) -> TrackingSolver:
     """The solver ``name`` (one of :data:`SOLVERS`) for ``model``, with its options checked
-    (``jit``: daqp only, checked by the caller)."""
+    (``jit``: daqp's terms compiled to C; :class:`~mpc.model.jit.JitError` if they cannot
+    be)."""
     if name not in SOLVERS:
         raise ControllerError(f"unknown solver {name!r}; expected one of {list(SOLVERS)}")
+    if not isinstance(jit, bool):
+        raise ControllerError(f"jit must be True or False, got {shown(jit)}")
+    if jit and name != "daqp":
+        raise ControllerError(f"jit=True compiles the daqp fast path's terms; solver "
+                              f"{shown(name)} does not use them")
     iterations = None if max_iter is None else integer_in("max_iter", max_iter, 1,
                                                           MAX_ITERATIONS, ControllerError)
     limit = non_negative("time_limit [s]", time_limit, ControllerError)
