@@ -5,7 +5,8 @@ into the tick's parameter views and evaluates the model's reference terms
 there: the feedforward twist of stage ``k`` is the constant body twist that
 drives the model exactly from reference pose ``k`` to ``k + 1`` in one tick
 (the SE(2) logarithm divided by ``dt``), so a robot on the reference with
-the feedforward stays on it.
+the feedforward stays on it. Time mode's windows are read from a grid sampled
+ahead (:mod:`mpc.control.lookahead`) when the clock advances by whole ticks.
 
 Two timing laws use it (both with one ``reset``):
 
@@ -29,6 +30,7 @@ import casadi as ca
 import numpy as np
 
 from mpc.arrays import FloatArray
+from mpc.control.lookahead import Lookahead
 from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import PathInput, TickInput
 from mpc.model.tracking import TrackingModel
@@ -54,14 +56,20 @@ class ReferenceWindow:
         self.trajectory = trajectory
         self.tick = tick
         self.offsets = model.offsets
+        self.lookahead = Lookahead(trajectory, model.offsets, float(model.durations[0]))
         self._velocities = np.zeros((model.horizon + 1, 3))
         self._evaluate = BufferedFunction(model.reference_terms if terms is None else terms,
                                           [tick.poses_ref, self._velocities],
                                           [tick.twists_ref, tick.directions])
 
-    def fill(self, time: float, heading: float, rate: float = 1.0) -> TrajectorySample:
-        """The window at ``time + rate * k dt`` [s] (see :meth:`fill_at`)."""
-        return self.fill_at(np.asarray(time + rate * self.offsets, dtype=float), heading)
+    def fill(self, time: float, heading: float, rate: float = 1.0) -> None:
+        """The window at ``time + rate * offsets`` [s] (see :meth:`fill_at`; at rate 1 read
+        from the :class:`~mpc.control.lookahead.Lookahead`)."""
+        if rate != 1.0:
+            self.fill_at(np.asarray(time + rate * self.offsets, dtype=float), heading)
+            return
+        pose, velocity = self.lookahead.window(time)
+        self._write(pose, velocity, heading)
 
     def fill_at(self, times: FloatArray, heading: float) -> TrajectorySample:
         """Write the reference at the stage ``times`` (N+1,) [s] into the tick's views.
@@ -71,14 +79,18 @@ class ReferenceWindow:
         quadratic heading cost measure the wrapped error. Returns the sample.
         """
         sample = self.trajectory.sample(times)
+        self._write(sample.pose, sample.velocity, heading)
+        return sample
+
+    def _write(self, pose: FloatArray, velocity: FloatArray, heading: float) -> None:
+        """The reference's poses and velocities (N+1, 3) into the tick, and its terms."""
         poses = self.tick.poses_ref
-        poses[:] = sample.pose
+        poses[:] = pose
         turns = math.floor((poses[0, 2] - heading) / (2.0 * math.pi) + 0.5)
         if turns:
             poses[:, 2] -= 2.0 * math.pi * turns
-        self._velocities[:] = sample.velocity
+        self._velocities[:] = velocity
         self._evaluate()
-        return sample
 
 
 class TimeIndexed:

@@ -1,0 +1,96 @@
+"""The lookahead grid (:mod:`mpc.control.lookahead`): every window it hands out is the
+reference sampled at exactly ``time + offsets`` (the independent answer: the trajectory's
+own ``sample``), on a regular clock from a grid sampled once per window, on a clock with
+jitter sampled as asked; a reference that fails beyond the window does not fail it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mpc import Controller
+from mpc.control.lookahead import Lookahead
+from mpc.robots import preset
+from mpc.sim import simulate
+from trajectories import Circle, FigureEight, FunctionHeading, Trajectory, TrajectoryError
+
+DT = 0.05
+HORIZON = 10
+OFFSETS = DT * np.arange(HORIZON + 1.0)
+
+
+def assert_window(trajectory: Trajectory, ahead: Lookahead, time: float,
+                  offsets: np.ndarray) -> None:
+    pose, velocity = ahead.window(time)
+    direct = trajectory.sample(time + offsets)
+    np.testing.assert_allclose(pose, direct.pose, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(velocity, direct.velocity, rtol=0, atol=1e-12)
+
+
+def test_regular_clock_reads_the_grid() -> None:
+    trajectory = FigureEight(1.5, 9.0, heading="tangent")
+    ahead = Lookahead(trajectory, OFFSETS, DT)
+    ticks = 200
+    for k in range(ticks):
+        assert_window(trajectory, ahead, k * DT, OFFSETS)
+    # The first tick's window, then a grid of two windows (22 points) every 12 ticks.
+    assert ahead.gridded
+    assert ahead.samples == 1 + int(np.ceil((ticks - 1) / (HORIZON + 2)))
+
+
+def test_clock_with_jitter_is_sampled_as_asked() -> None:
+    trajectory = FigureEight(1.5, 9.0, heading="tangent")
+    ahead = Lookahead(trajectory, OFFSETS, DT)
+    times = np.arange(60) * DT + np.random.default_rng(3).uniform(-1e-3, 1e-3, 60)
+    for time in times:
+        assert_window(trajectory, ahead, float(time), OFFSETS)
+    assert ahead.samples == times.size
+
+
+def test_clock_that_jumps_back_or_ahead() -> None:
+    trajectory = Circle(1.0, 6.0, heading="tangent")
+    ahead = Lookahead(trajectory, OFFSETS, DT)
+    for time in (0.0, DT, 2 * DT, 0.0, 40 * DT, 41 * DT, 5 * DT, 5 * DT, 1e4 + DT):
+        assert_window(trajectory, ahead, time, OFFSETS)
+
+
+@pytest.mark.parametrize(("tick", "gridded"), [(DT / 5, True), (0.013, False)])
+def test_short_first_stage(tick: float, gridded: bool) -> None:
+    """A tick shorter than the stages: offsets (0, tick + k dt); on the grid of ticks when
+    dt is a whole number of them."""
+    offsets = np.concatenate(([0.0], tick + DT * np.arange(HORIZON)))
+    trajectory = FigureEight(1.5, 9.0, heading="fixed")
+    ahead = Lookahead(trajectory, offsets, tick)
+    assert ahead.gridded is gridded
+    for k in range(80):
+        assert_window(trajectory, ahead, k * tick, offsets)
+    assert ahead.samples < 20 if gridded else ahead.samples == 80
+
+
+def test_reference_failing_beyond_the_window() -> None:
+    """A heading that is not finite from t = 1 s on: windows before it are served (the
+    grid reaching past it is dropped), the first window that reaches it fails, named."""
+    def angle(t: np.ndarray) -> np.ndarray:
+        return np.where(t < 1.0, 0.1 * t, np.inf)
+
+    trajectory = Circle(1.0, 6.0, heading=FunctionHeading(angle, rate=lambda t: 0.1 + 0 * t,
+                                                          accel=lambda t: 0 * t))
+    ahead = Lookahead(trajectory, OFFSETS, DT)
+    last = 1.0 - OFFSETS[-1] - DT  # the last window that ends before 1 s
+    for k in range(int(round(last / DT)) + 1):
+        assert_window(trajectory, ahead, k * DT, OFFSETS)
+    with pytest.raises(TrajectoryError, match="non-finite"):
+        ahead.window(1.0 - OFFSETS[-1] + DT)
+
+
+def test_controller_commands_match_sampling_every_window() -> None:
+    """The same commands, to rounding, as a controller that samples each window afresh
+    (its lookahead made to see every clock as off the grid)."""
+    robot = preset("mecanum")
+    trajectory = FigureEight(1.2, 8.0, heading="tangent")
+    grid = Controller(robot, trajectory, horizon=HORIZON, dt=DT, solver="daqp")
+    fresh = Controller(robot, trajectory, horizon=HORIZON, dt=DT, solver="daqp")
+    fresh._window.lookahead.gridded = False
+    a, b = simulate(grid, 4.0), simulate(fresh, 4.0)
+    assert grid._window.lookahead.samples < 20 < fresh._window.lookahead.samples
+    np.testing.assert_allclose(a.twist_command, b.twist_command, rtol=0, atol=1e-9)
