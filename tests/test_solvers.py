@@ -327,6 +327,47 @@ def test_sparse_rows_times_a_matrix_as_the_dense_product() -> None:
     assert none.shape == (0, 9)
 
 
+@pytest.mark.parametrize(("robot_name", "mode"), [("mecanum", "time"), ("mecanum", "path"),
+                                                  ("mpo700", "time"), ("omni3", "path")])
+def test_fixed_limit_bounds_are_the_bounds_filled_anew(robot_name: str, mode: str) -> None:
+    """Robots whose limit rows never move take the step's bounds from fixed bounds minus one
+    product (dense or sparse): the same as filling every bound anew, along a closed loop
+    whose guesses and last commands vary."""
+    from mpc import Controller
+    from mpc.sim import simulate
+    from mpc.solvers.dense import DenseSolver
+    from mpc.solvers.qp_structure import fill_inequality_bounds
+
+    robot = preset(robot_name)
+    controller = Controller(robot, FigureEight(1.5, 4.0, heading="tangent"), horizon=12,
+                            solver="daqp", mode=mode)
+    solver = controller.solver
+    assert isinstance(solver, DenseSolver) and solver._fixed_bounds is not None
+    fixed = solver._fixed_bounds
+    compared = 0
+
+    def check(*_: object) -> None:
+        nonlocal compared
+        tick = controller._tick
+        lower, upper = (b.copy() for b in fixed.step(tick))
+        fill_inequality_bounds(solver.structure, tick, solver._lower, solver._upper)
+        at_guess = solver._rows_at_guess(tick)
+        first = solver.condenser.first_row
+        np.testing.assert_allclose(lower, solver._lower[first:] - at_guess, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(upper, solver._upper[first:] - at_guess, rtol=0, atol=1e-12)
+        compared += 1
+
+    original = solver._update
+
+    def update(*args: object, **kwargs: object) -> object:
+        check()
+        return original(*args, **kwargs)  # type: ignore[arg-type]
+
+    solver._update = update  # type: ignore[method-assign,assignment]
+    simulate(controller, 1.5)
+    assert compared >= 30
+
+
 @pytest.mark.parametrize("horizon", [1, 2, 20])
 def test_state_sensitivities_are_the_rollouts_jacobian(horizon: int) -> None:
     """``S`` (gathered block by block, lever arms from the rollout's steps) against central

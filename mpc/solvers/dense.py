@@ -23,6 +23,7 @@ from collections.abc import Iterator
 
 import daqp
 import numpy as np
+from scipy import sparse
 from scipy.linalg import lapack
 
 from mpc.arrays import FloatArray
@@ -35,7 +36,7 @@ from mpc.robots.motor_limits import stage_limits, update_stage_limits
 from mpc.solvers.base import SolveResult
 from mpc.solvers.condensed import Condenser, tick_terms
 from mpc.solvers.hessian_reuse import COST_TOLERANCE, SENSITIVITY_TOLERANCE, HessianReuse
-from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds
+from mpc.solvers.qp_structure import QpStructure, assemble_qp, fill_inequality_bounds
 
 __all__ = ["COST_TOLERANCE", "REBUILD_EARLY", "REBUILD_NOW", "SENSITIVITY_TOLERANCE",
            "DenseSolver"]
@@ -55,6 +56,10 @@ REBUILD_EARLY = 1.0
 #: 4) in 0.58x the tick; N = 100 0.18 mm (0.49 at 4; 0.008 rebuilding every tick, 1.5x
 #: the tick).
 REBUILD_NOW = 2.0
+
+#: Row sets up to this many entries are multiplied dense, larger ones sparse
+#: (:class:`_FixedBounds`).
+_DENSE_ROWS = 20_000
 
 #: daqp's constraint flag for an equality row (active and immutable).
 _EQUALITY = 5
@@ -96,6 +101,8 @@ class DenseSolver:
         self._sensitivity_vec = np.zeros((n, 9))
         self._gradient = np.zeros(self.condenser.size)  # the cost's, in y, at the guess
         self._lower, self._upper = structure.lower.copy(), structure.upper.copy()
+        self._fixed_bounds = (_FixedBounds(structure, self.condenser)
+                              if self.limits.constant else None)
         self._reuse = HessianReuse(self._p_data, model.dt)
         self._scattered = np.full_like(self._p_data, np.nan)
         self._isotropic = False  # whether the cost weighs positions alike in every direction
@@ -238,6 +245,9 @@ class DenseSolver:
 
     def _step_bounds(self, tick: TickInput) -> tuple[FloatArray, FloatArray]:
         """The condensed rows' bounds on the step from the guess."""
+        fixed = self._fixed_bounds
+        if fixed is not None:
+            return fixed.step(tick)
         fill_inequality_bounds(self.structure, tick, self._lower, self._upper)
         condenser = self.condenser
         first = condenser.first_row
@@ -331,6 +341,47 @@ class DenseSolver:
             twists=tick.guess_twists + input_step, progress=progress,
             solve_time=float(info["solve_time"]) + float(info["setup_time"]),
             iterations=int(info["iterations"]))
+
+
+class _FixedBounds:
+    """The step's bounds for limit rows that never move (every robot's but swerve's and
+    motor limits'): the rows' bounds are fixed, so a tick is the rows' values at the guess
+    (one product), stage 0's part on the last command, and path mode's progress bounds.
+    The product is dense for small row sets and sparse for large ones (the N = 20
+    Mecanum's 160 x 60 rows 1.9 us dense against 3.4 sparse; the MPO-700's 1280 x 60,
+    9.5 against 5.1); 10.4 -> 5 us on the Mecanum tick against filling every bound anew."""
+
+    def __init__(self, structure: QpStructure, condenser: Condenser) -> None:
+        rows = condenser.constraints
+        self._rows: FloatArray | sparse.csr_matrix = (
+            rows if rows.size <= _DENSE_ROWS else sparse.csr_matrix(rows))
+        self._columns = condenser.columns
+        first = condenser.first_row
+        self._lower_fixed = structure.lower[first:].copy()
+        self._upper_fixed = structure.upper[first:].copy()
+        self._lower = np.empty_like(self._lower_fixed)
+        self._upper = np.empty_like(self._upper_fixed)
+        limits = structure.limits
+        start = structure.limit_slots.start - first
+        self._first_stage = slice(start, start + limits.rows)  # stage 0's limit rows
+        self._before = limits.before[0]
+        progress = structure.progress
+        self._progress = (None if progress is None else
+                          slice(progress.start - first, progress.start - first + progress.stages))
+
+    def step(self, tick: TickInput) -> tuple[FloatArray, FloatArray]:
+        """This tick's bounds on the step (lower, upper), buffers kept between calls."""
+        at_guess = self._rows @ tick.guess[self._columns]
+        lower = np.subtract(self._lower_fixed, at_guess, out=self._lower)
+        upper = np.subtract(self._upper_fixed, at_guess, out=self._upper)
+        shift = self._before @ tick.last_twist
+        lower[self._first_stage] -= shift
+        upper[self._first_stage] -= shift
+        rows, path = self._progress, tick.path
+        if rows is not None and path is not None:
+            np.subtract(path.lower, at_guess[rows], out=lower[rows])
+            np.subtract(path.upper, at_guess[rows], out=upper[rows])
+        return lower, upper
 
 
 class _SparseRows:
