@@ -403,6 +403,54 @@ def test_state_sensitivities_are_the_rollouts_jacobian(horizon: int) -> None:
         np.testing.assert_allclose(states[:, :, column], numeric, rtol=0.0, atol=1e-7)
 
 
+@pytest.mark.parametrize("mode", ["time", "path"])
+def test_tick_gradient_is_the_cost_along_the_rollout_differentiated(mode: str) -> None:
+    """The tick's gradient (the cost's partial derivatives carried back through the rollout
+    by the adjoint recursion) against central differences of the cost, in CasADi, of the
+    exact rollout of the twists (and the progress), on a turning, strafing guess off the
+    reference, with a tick's real parameters."""
+    import casadi as ca
+
+    from mpc import Controller
+    from mpc.solvers.dense import DenseSolver
+
+    robot, horizon = preset("mecanum"), 6
+    controller = Controller(robot, FigureEight(1.0, 6.0, heading="tangent"), horizon=horizon,
+                            mode=mode)
+    solver, tick = controller.solver, controller._tick
+    assert isinstance(solver, DenseSolver)
+    controller.step(controller.trajectory.sample(0.0).pose + [0.05, -0.03, 0.2], 0.0)
+    model = controller.model
+    variables, _ = model.layouts
+    rng = np.random.default_rng(11)
+    twists = rng.normal(scale=[0.8, 0.5, 1.5], size=(horizon, 3))
+    parameters = np.array(tick.parameters)
+    point, p = ca.SX.sym("z", variables.size), ca.SX.sym("p", parameters.size)
+    cost = ca.Function("cost", [point, p], [model.cost(point, p)])
+    extra: list[np.ndarray] = []
+    if tick.path is not None:
+        extra = [tick.path.guess_progress + rng.normal(scale=0.02, size=horizon + 1)]
+
+    def along_rollout(y: np.ndarray) -> float:
+        u = y[:3 * horizon].reshape(-1, 3)
+        poses = np.array(solver._terms(parameters, u.T, *extra)[1]).T
+        z = np.zeros(variables.size)
+        z[variables["poses"].start:][:3 * (horizon + 1)] = poses.ravel()
+        z[variables["twists"].start:][:3 * horizon] = u.ravel()
+        if extra:
+            field = variables["progress"]
+            z[field.start:field.start + field.size] = y[3 * horizon:]
+        return float(cost(z, parameters))
+
+    gradient = np.array(solver._terms(parameters, twists.T, *extra)[3]).ravel()
+    y = np.concatenate([twists.ravel(), *extra])
+    assert gradient.shape == y.shape
+    h = 1e-6
+    numeric = np.array([(along_rollout(y + h * e) - along_rollout(y - h * e)) / (2 * h)
+                        for e in np.eye(y.size)])
+    np.testing.assert_allclose(gradient, numeric, rtol=1e-6, atol=1e-5)
+
+
 def test_a_rotation_of_the_whole_plan_is_not_a_drift() -> None:
     """An isotropic cost's drift check turns the terms to stage 0's frame: a plan turned
     as a whole by any angle gives the same turned terms (hand-built ``B_k``: the body

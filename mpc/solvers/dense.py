@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 
+import casadi as ca
 import daqp
 import numpy as np
 from scipy import sparse
@@ -105,6 +106,11 @@ class DenseSolver:
                               if self.limits.constant else None)
         self._reuse = HessianReuse(self._p_data, model.dt)
         self._scattered = np.full_like(self._p_data, np.nan)
+        # A cost Hessian that no parameter moves (time mode's) is scattered once, not
+        # compared with the last one every tick.
+        p = ca.SX.sym("p", structure.cost_terms.size1_in(0))
+        self._p_moves = bool(ca.depends_on(structure.cost_terms(p)[0], p))
+        self._p_settled = False
         self._isotropic = False  # whether the cost weighs positions alike in every direction
         self._settings = {"iter_limit": int(max_iter), "time_limit": float(time_limit)}
         self._solver: daqp.Model | None = None
@@ -193,7 +199,9 @@ class DenseSolver:
         tolerances, :meth:`HessianReuse.drift`)."""
         self._bind(tick)()
         sensitivity = self._sensitivities()
-        p_changed = not (self._p_data == self._scattered).all()  # (np.array_equal: slower)
+        p_changed = (not self._p_settled
+                     and not (self._p_data == self._scattered).all())  # (array_equal: slower)
+        self._p_settled = not self._p_moves
         if p_changed:
             self.condenser.scatter(self._p_data)
             self._scattered[:] = self._p_data
