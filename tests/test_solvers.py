@@ -389,7 +389,7 @@ def test_state_sensitivities_are_the_rollouts_jacobian(horizon: int) -> None:
         return np.array(poses).T  # (N+1, 3)
 
     # the terms at the guess, as the tick's own CasADi call gives them
-    _, poses, vec_b, _ = solver._terms(parameters, twists.T)
+    _, poses, vec_b, _, _ = solver._terms(parameters, twists.T)
     poses = np.array(poses).T
     sensitivity = np.array(vec_b).T.reshape(-1, 3, 3).transpose(0, 2, 1)
     steps = poses[1:, :2] - poses[:-1, :2]
@@ -401,6 +401,31 @@ def test_state_sensitivities_are_the_rollouts_jacobian(horizon: int) -> None:
         numeric = (rollout(twists + bump.reshape(-1, 3))
                    - rollout(twists - bump.reshape(-1, 3))) / (2 * h)
         np.testing.assert_allclose(states[:, :, column], numeric, rtol=0.0, atol=1e-7)
+
+
+def test_plan_poses_are_the_rollout_moved_by_the_state_sensitivities() -> None:
+    """The plan's poses after a step (one CasADi call, lever arms summed stage by stage)
+    against the rollout plus ``S d`` with ``S`` the state sensitivities (themselves checked
+    against central differences of the exact rollout above), on a turning guess."""
+    from mpc import Controller
+    from mpc.solvers.condensed import plan_poses
+    from mpc.solvers.dense import DenseSolver
+
+    robot, horizon = preset("mecanum"), 8
+    controller = Controller(robot, FigureEight(1.0, 6.0, heading="tangent"), horizon=horizon)
+    solver, tick = controller.solver, controller._tick
+    assert isinstance(solver, DenseSolver)
+    controller.step(controller.trajectory.sample(0.0).pose, 0.0)
+    rng = np.random.default_rng(5)
+    twists = rng.normal(scale=[0.8, 0.5, 1.5], size=(horizon, 3))
+    _, poses, vec_b, _, steps = solver._terms(np.array(tick.parameters), twists.T)
+    poses, steps = np.array(poses).T, np.array(steps).T
+    np.testing.assert_allclose(steps, poses[1:, :2] - poses[:-1, :2], rtol=0, atol=1e-15)
+    sensitivity = np.array(vec_b).T.reshape(-1, 3, 3).transpose(0, 2, 1)
+    states = solver.condenser.state_sensitivities(sensitivity, steps)
+    step = rng.normal(scale=0.1, size=(horizon, 3))
+    planned = np.array(plan_poses(horizon)(poses.T, vec_b, step.T, steps.T)).T
+    np.testing.assert_allclose(planned, poses + states @ step.ravel(), rtol=0, atol=1e-14)
 
 
 @pytest.mark.parametrize("mode", ["time", "path"])

@@ -35,7 +35,7 @@ from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
 from mpc.robots.motor_limits import stage_limits, update_stage_limits
 from mpc.solvers.base import SolveResult
-from mpc.solvers.condensed import Condenser, tick_terms
+from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
 from mpc.solvers.hessian_reuse import COST_TOLERANCE, SENSITIVITY_TOLERANCE, HessianReuse
 from mpc.solvers.qp_structure import QpStructure, assemble_qp, fill_inequality_bounds
 
@@ -93,7 +93,7 @@ class DenseSolver:
         self.structure = structure
         self.condenser = Condenser(model, structure)
         self._p_data = structure.hessian.data.copy()
-        terms = tick_terms(model, structure.cost_terms)
+        terms, plan = tick_terms(model, structure.cost_terms), plan_poses(n)
         self._terms = jitted(terms) if jit else terms
         self._terms_for: TickInput | None = None
         self._evaluate: BufferedFunction | None = None
@@ -101,6 +101,12 @@ class DenseSolver:
         self._displacement = np.zeros((n, 2))  # the rollout's planar steps
         self._sensitivity_vec = np.zeros((n, 9))
         self._gradient = np.zeros(self.condenser.size)  # the cost's, in y, at the guess
+        self._step = np.zeros(self.condenser.size)  # the QP's step in y from the guess
+        self._poses = np.zeros((n + 1, 3))  # the plan's
+        self._plan = BufferedFunction(
+            jitted(plan) if jit else plan,
+            [self._rollout, self._sensitivity_vec, self._step[:3 * n], self._displacement],
+            [self._poses])
         self._lower, self._upper = structure.lower.copy(), structure.upper.copy()
         self._fixed_bounds = (_FixedBounds(structure, self.condenser)
                               if self.limits.constant else None)
@@ -143,7 +149,8 @@ class DenseSolver:
                 inputs.append(tick.path.guess_progress)
             self._evaluate = BufferedFunction(
                 self._terms, inputs,
-                [self._p_data, self._rollout, self._sensitivity_vec, self._gradient])
+                [self._p_data, self._rollout, self._sensitivity_vec, self._gradient,
+                 self._displacement])
             self._terms_for = tick
         return self._evaluate
 
@@ -182,11 +189,11 @@ class DenseSolver:
             return SolveResult(success=False, status="daqp set-up failed",
                                poses=np.full((n + 1, 3), np.nan),
                                twists=np.full((n, 3), np.nan), solve_time=0.0, iterations=0)
-        step, _, flag, info = solver.solve()
-        step = self._unwhiten @ np.asarray(step, dtype=float)
+        whitened_step, _, flag, info = solver.solve()
+        step = np.matmul(self._unwhiten, whitened_step, out=self._step)
         if profile is not None:
             profile.mark("solve: daqp")
-        result = self._result(tick, step, int(flag), info, sensitivity, displacement)
+        result = self._result(tick, step, int(flag), info)
         if profile is not None:
             profile.mark("solve: result")
         return result
@@ -206,8 +213,7 @@ class DenseSolver:
             self.condenser.scatter(self._p_data)
             self._scattered[:] = self._p_data
             self._isotropic = self.condenser.isotropic()
-        displacement = np.subtract(self._rollout[1:, :2], self._rollout[:-1, :2],
-                                   out=self._displacement)
+        displacement = self._displacement
         drift = self._reuse.drift(self._p_data, sensitivity, displacement, p_changed,
                                   self._isotropic, REBUILD_EARLY)
         return sensitivity, displacement, drift
@@ -333,21 +339,20 @@ class DenseSolver:
             self._extra.times(unwhiten, out=whitened[n * m:])
         return whitened
 
-    def _result(self, tick: TickInput, step: FloatArray, flag: int, info: dict[str, float],
-                sensitivity: FloatArray, displacement: FloatArray) -> SolveResult:
-        """The plan the step gives (poses to first order through the sensitivities)."""
-        condenser = self.condenser
-        n3 = condenser.n_inputs
-        input_step = step[:n3].reshape(-1, 3)
+    def _result(self, tick: TickInput, step: FloatArray, flag: int,
+                info: dict[str, float]) -> SolveResult:
+        """The plan the step (in ``_step``) gives (poses to first order through the
+        sensitivities, :func:`~mpc.solvers.condensed.plan_poses`)."""
+        n3 = self.condenser.n_inputs
+        self._plan()
         progress = None
         if tick.path is not None:
             progress = tick.path.guess_progress + step[n3:]
         return SolveResult(
             success=flag > 0 and math.isfinite(float(step.sum())),
             status=_STATUS.get(flag, f"daqp exit flag {flag}"),
-            poses=condenser.poses(self._rollout, sensitivity, input_step, displacement),
-            twists=tick.guess_twists + input_step, progress=progress,
-            solve_time=float(info["solve_time"]) + float(info["setup_time"]),
+            poses=self._poses.copy(), twists=tick.guess_twists + step[:n3].reshape(-1, 3),
+            progress=progress, solve_time=float(info["solve_time"]) + float(info["setup_time"]),
             iterations=int(info["iterations"]))
 
 
