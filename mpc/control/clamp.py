@@ -81,7 +81,9 @@ def _limit_step(robot: Robot, safe: FloatArray, last: FloatArray, dt: float,
         # Wheels' acceleration per tick as a fraction of their limit; the largest decides.
         # A command sent a little off W u (a stopped swerve module) may use up to
         # command_snap of the limit at each end.
-        bound = np.maximum(accel * dt - 2.0 * robot.command_snap, 0.5 * accel * dt)
+        snap = robot.command_snap
+        bound = (accel * dt if snap == 0.0
+                 else np.maximum(accel * dt - 2.0 * snap, 0.5 * accel * dt))
         ratio = float((robot.wheel_magnitudes(step) / bound).max())
         if ratio > 1.0:
             safe = last + (1.0 - _SPEED_SLACK) / ratio * step

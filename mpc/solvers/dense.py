@@ -98,8 +98,11 @@ class DenseSolver:
         self._terms_for: TickInput | None = None
         self._evaluate: BufferedFunction | None = None
         self._rollout = np.zeros((n + 1, 3))
-        self._displacement = np.zeros((n, 2))  # the rollout's planar steps
-        self._sensitivity_vec = np.zeros((n, 9))
+        # the terms that move the Hessian, in one vector (one drift check): vec B_k (N, 9)
+        # column-major as CasADi writes them, then the rollout's planar steps (N, 2)
+        self._moving = np.zeros(11 * n)
+        self._sensitivity_vec = self._moving[:9 * n].reshape(n, 9)
+        self._displacement = self._moving[9 * n:].reshape(n, 2)
         self._gradient = np.zeros(self.condenser.size)  # the cost's, in y, at the guess
         self._step = np.zeros(self.condenser.size)  # the QP's step in y from the guess
         self._poses = np.zeros((n + 1, 3))  # the plan's
@@ -110,7 +113,7 @@ class DenseSolver:
         self._lower, self._upper = structure.lower.copy(), structure.upper.copy()
         self._fixed_bounds = (_FixedBounds(structure, self.condenser)
                               if self.limits.constant else None)
-        self._reuse = HessianReuse(self._p_data, model.dt)
+        self._reuse = HessianReuse(self._p_data, model.dt, n)
         self._scattered = np.full_like(self._p_data, np.nan)
         # A cost Hessian that no parameter moves (time mode's) is scattered once, not
         # compared with the last one every tick.
@@ -214,8 +217,8 @@ class DenseSolver:
             self._scattered[:] = self._p_data
             self._isotropic = self.condenser.isotropic()
         displacement = self._displacement
-        drift = self._reuse.drift(self._p_data, sensitivity, displacement, p_changed,
-                                  self._isotropic, REBUILD_EARLY)
+        drift = self._reuse.drift(self._p_data, self._moving, sensitivity, displacement,
+                                  p_changed, self._isotropic, REBUILD_EARLY)
         return sensitivity, displacement, drift
 
     def _start_rebuild(self, sensitivity: FloatArray,
@@ -223,7 +226,7 @@ class DenseSolver:
         """Begin a new Hessian from this tick's terms: its first stage runs now; the rest
         are returned (and kept in ``_rebuild``)."""
         self.factorisations += 1
-        self._reuse.remember(self._p_data, sensitivity, displacement)
+        self._reuse.remember(self._p_data, self._moving, sensitivity, displacement)
         rebuild = self._rebuild_stages(sensitivity, displacement)
         next(rebuild)
         self._rebuild = rebuild

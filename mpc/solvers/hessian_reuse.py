@@ -31,26 +31,33 @@ class HessianReuse:
         p_data: the cost Hessian's entries at set-up (their largest scales
             :data:`COST_TOLERANCE`).
         dt: the model's stage duration [s] (scales :data:`SENSITIVITY_TOLERANCE`).
+        horizon: stages; a tick's moving terms are one vector of ``11 N``: ``vec B_k`` (9
+            a stage), then the rollout's planar steps (2 a stage).
     """
 
-    def __init__(self, p_data: FloatArray, dt: float) -> None:
+    def __init__(self, p_data: FloatArray, dt: float, horizon: int) -> None:
         self.dt = dt
         self._cache: _HessianCache | None = None  # what the Hessian was built from
         self._p_stale = False  # the scattered cost terms differ from the cached Hessian's
         self._tolerance = SENSITIVITY_TOLERANCE * dt
         self._p_tolerance = COST_TOLERANCE * float(np.abs(p_data).max() or 1.0)
+        # how each moving term enters S: a sensitivity as it is, a step times dt
+        self._scale = np.concatenate((np.ones(9 * horizon), np.full(2 * horizon, dt)))
+        self._work = np.empty(11 * horizon)
 
     def forget(self) -> None:
         """Drop the cache: the next tick rebuilds."""
         self._cache = None
 
-    def drift(self, p_data: FloatArray, sensitivity: FloatArray, displacement: FloatArray,
-              p_changed: bool, isotropic: bool, enough: float) -> tuple[float, float]:
-        """How far the cost terms, and the sensitivities and the rollout's steps (times
-        ``dt``, as they enter ``S``), moved since the remembered build, each as a multiple
-        of its tolerance (``inf`` with nothing remembered). Where the cost weighs positions
-        alike in every direction (``isotropic``), a rotation of the whole plan does not
-        count (looked at only when the second is above ``enough``)."""
+    def drift(self, p_data: FloatArray, terms: FloatArray, sensitivity: FloatArray,
+              displacement: FloatArray, p_changed: bool, isotropic: bool,
+              enough: float) -> tuple[float, float]:
+        """How far the cost terms, and the moving ``terms`` (the sensitivities
+        ``sensitivity`` and the rollout's steps ``displacement`` times ``dt``, as they enter
+        ``S``), moved since the remembered build, each as a multiple of its tolerance
+        (``inf`` with nothing remembered). Where the cost weighs positions alike in every
+        direction (``isotropic``), a rotation of the whole plan does not count (looked at
+        only when the second is above ``enough``)."""
         cache = self._cache
         if cache is None:
             return math.inf, math.inf
@@ -58,45 +65,43 @@ class HessianReuse:
         if p_changed or self._p_stale:
             p_moved = float(np.abs(p_data - cache.p_data).max()) / self._p_tolerance
         self._p_stale = self._p_stale or p_changed
-        moved = cache.moved(sensitivity, displacement, self.dt) / self._tolerance
+        work = np.subtract(terms, cache.terms, out=self._work)
+        np.abs(work, out=work)
+        work *= self._scale
+        moved = float(work.max()) / self._tolerance
         if isotropic and moved > enough:
-            moved = min(moved, cache.moved(*_unrotated(sensitivity, displacement), self.dt,
-                                           turned=True) / self._tolerance)
+            moved = min(moved, cache.moved_turned(*_unrotated(sensitivity, displacement),
+                                                  self.dt) / self._tolerance)
         return p_moved, moved
 
-    def remember(self, p_data: FloatArray, sensitivity: FloatArray,
+    def remember(self, p_data: FloatArray, terms: FloatArray, sensitivity: FloatArray,
                  displacement: FloatArray) -> None:
         """The terms a new build starts from."""
-        self._cache = _HessianCache.of(p_data, sensitivity, displacement)
+        self._cache = _HessianCache(p_data.copy(), terms.copy(), sensitivity.copy(),
+                                    displacement.copy())
         self._p_stale = False
 
 
 class _HessianCache:
-    """The cost terms, sensitivities and rollout steps a Hessian was built from (as they
-    are and, when first asked, turned to stage 0's body frame: only an isotropic cost
-    looks at those, and turning costs as much as the rest of the check)."""
+    """The cost terms and the moving terms a Hessian was built from (also as sensitivities
+    and steps; those turned to stage 0's body frame when first asked: only an isotropic
+    cost looks at them, and turning costs as much as the rest of the check)."""
 
-    def __init__(self, p_data: FloatArray, sensitivity: FloatArray,
+    def __init__(self, p_data: FloatArray, terms: FloatArray, sensitivity: FloatArray,
                  displacement: FloatArray) -> None:
         self.p_data = p_data
+        self.terms = terms
         self.sensitivity = sensitivity
         self.displacement = displacement
         self._turned: tuple[FloatArray, FloatArray] | None = None
 
-    @classmethod
-    def of(cls, p_data: FloatArray, sensitivity: FloatArray,
-           displacement: FloatArray) -> _HessianCache:
-        return cls(p_data.copy(), sensitivity.copy(), displacement.copy())
-
-    def moved(self, sensitivity: FloatArray, displacement: FloatArray, dt: float,
-              turned: bool = False) -> float:
-        """The largest change of a sensitivity or of a step times ``dt`` from the cached."""
-        if turned:
-            if self._turned is None:
-                self._turned = _unrotated(self.sensitivity, self.displacement)
-            b, d = self._turned
-        else:
-            b, d = self.sensitivity, self.displacement
+    def moved_turned(self, sensitivity: FloatArray, displacement: FloatArray,
+                     dt: float) -> float:
+        """The largest change of a turned sensitivity or of a turned step times ``dt`` from
+        the cached ones turned."""
+        if self._turned is None:
+            self._turned = _unrotated(self.sensitivity, self.displacement)
+        b, d = self._turned
         return max(float(np.abs(sensitivity - b).max()),
                    float(np.abs(displacement - d).max()) * dt)
 
