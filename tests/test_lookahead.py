@@ -10,9 +10,18 @@ import pytest
 
 from mpc import Controller
 from mpc.control.lookahead import Lookahead
+from mpc.control.timing import ReferenceWindow
+from mpc.model import TickInput, TrackingModel, Weights
 from mpc.robots import preset
 from mpc.sim import simulate
-from trajectories import Circle, FigureEight, FunctionHeading, Trajectory, TrajectoryError
+from trajectories import (
+    Circle,
+    FigureEight,
+    FunctionHeading,
+    SpinHeading,
+    Trajectory,
+    TrajectoryError,
+)
 
 DT = 0.05
 HORIZON = 10
@@ -33,9 +42,10 @@ def test_regular_clock_reads_the_grid() -> None:
     ticks = 200
     for k in range(ticks):
         assert_window(trajectory, ahead, k * DT, OFFSETS)
-    # The first tick's window, then a grid of two windows (22 points) every 12 ticks.
-    assert ahead.gridded
-    assert ahead.samples == 1 + int(np.ceil((ticks - 1) / (HORIZON + 2)))
+    # The first tick's window, then a grid of two windows sharing a point (21 points)
+    # every 11 ticks.
+    assert ahead.gridded and ahead.contiguous
+    assert ahead.samples == 1 + int(np.ceil((ticks - 1) / (HORIZON + 1)))
 
 
 def test_clock_with_jitter_is_sampled_as_asked() -> None:
@@ -81,6 +91,28 @@ def test_reference_failing_beyond_the_window() -> None:
         assert_window(trajectory, ahead, k * DT, OFFSETS)
     with pytest.raises(TrajectoryError, match="non-finite"):
         ahead.window(1.0 - OFFSETS[-1] + DT)
+
+
+@pytest.mark.parametrize("heading", ["tangent", "spin"])
+def test_window_terms_read_from_the_grid_are_the_windows_own(heading: str) -> None:
+    """On the grid the tick's feedforward and directions are copied from terms evaluated
+    over the whole grid: the same, to rounding, as the terms evaluated on the tick's own
+    window (its headings moved by whole turns to the robot's: a spinning reference)."""
+    model = TrackingModel(preset("omni4"), HORIZON, DT, Weights())
+    spec = SpinHeading(3.0) if heading == "spin" else heading
+    trajectory = FigureEight(1.5, 9.0, heading=spec)
+    grid_tick, own_tick = TickInput(model.layouts), TickInput(model.layouts)
+    grid = ReferenceWindow(trajectory, model, grid_tick)
+    own = ReferenceWindow(trajectory, model, own_tick)
+    for k in range(60):
+        time = k * DT
+        heading_now = float(trajectory.sample(time).pose[2]) + 2.0 * np.pi * (k % 3 - 1)
+        grid.fill(time, heading_now)
+        own.fill_at(time + model.offsets, heading_now)
+        for name in ("poses_ref", "twists_ref", "directions"):
+            np.testing.assert_allclose(getattr(grid_tick, name), getattr(own_tick, name),
+                                       rtol=0, atol=1e-12, err_msg=name)
+    assert grid.lookahead.samples < 10
 
 
 def test_controller_commands_match_sampling_every_window() -> None:

@@ -58,9 +58,12 @@ class ReferenceWindow:
         self.offsets = model.offsets
         self.lookahead = Lookahead(trajectory, model.offsets, float(model.durations[0]))
         self._velocities = np.zeros((model.horizon + 1, 3))
-        self._evaluate = BufferedFunction(model.reference_terms if terms is None else terms,
-                                          [tick.poses_ref, self._velocities],
+        function = model.reference_terms if terms is None else terms
+        self._evaluate = BufferedFunction(function, [tick.poses_ref, self._velocities],
                                           [tick.twists_ref, tick.directions])
+        self._grid: _GridTerms | None = None
+        if self.lookahead.gridded and self.lookahead.contiguous:
+            self._grid = _GridTerms(function, model.horizon)
 
     def fill(self, time: float, heading: float, rate: float = 1.0) -> None:
         """The window at ``time + rate * offsets`` [s] (see :meth:`fill_at`; at rate 1 read
@@ -68,8 +71,18 @@ class ReferenceWindow:
         if rate != 1.0:
             self.fill_at(np.asarray(time + rate * self.offsets, dtype=float), heading)
             return
-        pose, velocity = self.lookahead.window(time)
-        self._write(pose, velocity, heading)
+        ahead = self.lookahead
+        pose, velocity = ahead.window(time)
+        grid, first = self._grid, ahead.first
+        if grid is None or first is None:
+            self._write(pose, velocity, heading)
+            return
+        # On the grid: the stages' terms were evaluated with the grid's (see _GridTerms).
+        feedforward, directions = grid.at(ahead)
+        tick, n = self.tick, self._velocities.shape[0] - 1
+        self._place(pose, heading)
+        tick.twists_ref[:] = feedforward[first:first + n]
+        tick.directions[:] = directions[first:first + n + 1]
 
     def fill_at(self, times: FloatArray, heading: float) -> TrajectorySample:
         """Write the reference at the stage ``times`` (N+1,) [s] into the tick's views.
@@ -84,13 +97,50 @@ class ReferenceWindow:
 
     def _write(self, pose: FloatArray, velocity: FloatArray, heading: float) -> None:
         """The reference's poses and velocities (N+1, 3) into the tick, and its terms."""
+        self._place(pose, heading)
+        self._velocities[:] = velocity
+        self._evaluate()
+
+    def _place(self, pose: FloatArray, heading: float) -> None:
+        """The reference's poses (N+1, 3) into the tick, the heading within pi of
+        ``heading``."""
         poses = self.tick.poses_ref
         poses[:] = pose
         turns = math.floor((poses[0, 2] - heading) / (2.0 * math.pi) + 0.5)
         if turns:
             poses[:, 2] -= 2.0 * math.pi * turns
-        self._velocities[:] = velocity
-        self._evaluate()
+
+
+class _GridTerms:
+    """The reference terms (feedforward and directions) of a lookahead's whole grid of
+    ``2N + 1`` points, evaluated once a fill as two windows of ``N + 1`` points that share
+    one (the grid's consecutive pairs are then every stage's pair; the heading's multiple
+    of 2 pi does not change them): a tick then copies its stretch rather than calling the
+    terms (one CasADi call fewer a tick)."""
+
+    def __init__(self, function: ca.Function, horizon: int) -> None:
+        n = horizon
+        self._pose = np.zeros((2 * n + 1, 3))
+        self._velocity = np.zeros((2 * n + 1, 3))
+        self.feedforward = np.zeros((2 * n, 3))
+        self.directions = np.zeros((2 * n + 1, 2))
+        self._halves = [BufferedFunction(function, [self._pose[k:k + n + 1],
+                                                    self._velocity[k:k + n + 1]],
+                                         [self.feedforward[k:k + n],
+                                          self.directions[k:k + n + 1]])
+                        for k in (0, n)]
+        self._fill = -1  # the lookahead fill they are of
+
+    def at(self, ahead: Lookahead) -> tuple[FloatArray, FloatArray]:
+        """The grid's feedforward (2N, 3) and directions (2N + 1, 2), evaluated anew after
+        a fill."""
+        if self._fill != ahead.fills:
+            self._pose[:] = ahead.pose
+            self._velocity[:] = ahead.velocity
+            for half in self._halves:
+                half()
+            self._fill = ahead.fills
+        return self.feedforward, self.directions
 
 
 class TimeIndexed:
