@@ -44,7 +44,7 @@ def test_regular_clock_reads_the_grid() -> None:
         assert_window(trajectory, ahead, k * DT, OFFSETS)
     # The first tick's window, then a grid of two windows sharing a point (21 points)
     # every 11 ticks.
-    assert ahead.gridded and ahead.contiguous
+    assert ahead.gridded
     assert ahead.samples == 1 + int(np.ceil((ticks - 1) / (HORIZON + 1)))
 
 
@@ -93,19 +93,22 @@ def test_reference_failing_beyond_the_window() -> None:
         ahead.window(1.0 - OFFSETS[-1] + DT)
 
 
-@pytest.mark.parametrize("heading", ["tangent", "spin"])
-def test_window_terms_read_from_the_grid_are_the_windows_own(heading: str) -> None:
-    """On the grid the tick's feedforward and directions are copied from terms evaluated
+@pytest.mark.parametrize(("heading", "tick"), [("tangent", DT), ("spin", DT),
+                                                ("tangent", DT / 2), ("spin", DT / 4)])
+def test_window_terms_read_from_the_grid_are_the_windows_own(heading: str,
+                                                              tick: float) -> None:
+    """On the grid the tick's feedforward and directions are gathered from terms evaluated
     over the whole grid: the same, to rounding, as the terms evaluated on the tick's own
-    window (its headings moved by whole turns to the robot's: a spinning reference)."""
-    model = TrackingModel(preset("omni4"), HORIZON, DT, Weights())
+    window (its headings moved by whole turns to the robot's: a spinning reference), with
+    stages of one tick and with a first stage shorter than the rest."""
+    model = TrackingModel(preset("omni4"), HORIZON, DT, Weights(), tick=tick)
     spec = SpinHeading(3.0) if heading == "spin" else heading
     trajectory = FigureEight(1.5, 9.0, heading=spec)
     grid_tick, own_tick = TickInput(model.layouts), TickInput(model.layouts)
     grid = ReferenceWindow(trajectory, model, grid_tick)
     own = ReferenceWindow(trajectory, model, own_tick)
     for k in range(60):
-        time = k * DT
+        time = k * tick
         heading_now = float(trajectory.sample(time).pose[2]) + 2.0 * np.pi * (k % 3 - 1)
         grid.fill(time, heading_now)
         own.fill_at(time + model.offsets, heading_now)
@@ -113,6 +116,18 @@ def test_window_terms_read_from_the_grid_are_the_windows_own(heading: str) -> No
             np.testing.assert_allclose(getattr(grid_tick, name), getattr(own_tick, name),
                                        rtol=0, atol=1e-12, err_msg=name)
     assert grid.lookahead.samples < 10
+
+
+@pytest.mark.parametrize("index", [[0], [0, 1, 2, 3], [0, 1, 3, 5, 7], [0, 2, 3, 4, 7, 10, 11]])
+def test_strided_rows_are_the_index_gathered(index: list[int]) -> None:
+    from mpc.control.lookahead import Strided
+
+    rows = np.array(index)
+    grid = np.random.default_rng(2).normal(size=(30, 3))
+    out = np.empty((rows.size, 3))
+    for first in (0, 5, 30 - rows[-1] - 1):
+        Strided(rows).gather(grid, first, out)
+        np.testing.assert_array_equal(out, grid[first + rows])
 
 
 def test_controller_commands_match_sampling_every_window() -> None:

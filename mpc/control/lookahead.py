@@ -4,11 +4,12 @@ Time mode samples the reference at ``t + offsets`` every tick. When ``t``
 advances by whole ticks (a simulation, a fixed-rate loop that counts its
 ticks) and the stage starts are whole ticks too, one tick's window is the
 last one moved by one grid point: :class:`Lookahead` samples two windows'
-worth of grid points at once (the second sharing the first's last point) and
-hands out views of them, so that most ticks sample nothing (a sample of the
-N = 20 window costs ~20-35 us, about a fifth of a tick; two windows' worth
-costs little more than one). A clock off the grid (a measured time with
-jitter) gets exactly the window it asks for, as before, at the same cost.
+worth of grid points at once (the second sharing the first's last point), and
+a tick reads its rows from them (:class:`Strided`), so that most ticks sample
+nothing (a sample of the N = 20 window costs ~20-35 us, about a fifth of a
+tick; two windows' worth costs little more than one). A clock off the grid (a
+measured time with jitter) gets exactly the window it asks for, as before, at
+the same cost.
 """
 
 from __future__ import annotations
@@ -42,52 +43,54 @@ class Lookahead:
         index = np.rint(steps)
         #: Whether the stage starts lie on the grid (else every window is sampled as asked).
         self.gridded = bool(np.abs(steps - index).max() * self.tick <= ON_GRID)
-        self._index: IntArray = index.astype(np.intp)
-        self._span = int(self._index[-1]) + 1  # grid points one window covers
-        #: Whether the stages are consecutive grid points (then the grid's consecutive
-        #: pairs are the stages' too: their terms can be evaluated on the grid at once).
-        self.contiguous = bool((self._index == np.arange(self._index.size)).all())
+        #: Each stage start's grid point from the window's first (N+1,).
+        self.index: IntArray = index.astype(np.intp)
+        self._span = int(self.index[-1]) + 1  # grid points one window covers
+        #: Grid points a fill samples: two windows' worth, sharing one point.
+        self.points = 2 * self._span - 1
+        #: How a window's rows are read from the grid.
+        self.stages = Strided(self.index)
         self._start = math.nan  # time of the grid's first point [s]
         self._points = 0  # grid points sampled
         #: The grid's reference pose and velocity (points, 3), replaced at each fill.
         self.pose = self.velocity = np.zeros((0, 3))
-        #: Where the last window starts on the grid (None: it was sampled on its own).
-        self.first: int | None = None
         self.fills = 0  # grid fills so far (each replaces ``pose`` and ``velocity``)
         self.samples = 0  # trajectory samples taken (for tests and benchmarks)
 
-    def window(self, time: float) -> tuple[FloatArray, FloatArray]:
-        """The reference pose and velocity (N+1, 3) at ``time + offsets``: views of the
-        grid (valid until the next call) or a sample of just this window."""
-        if self.gridded:
-            shift = (time - self._start) / self.tick
-            first = round(shift) if math.isfinite(shift) else -1
-            on_grid = first >= 0 and abs(time - (self._start + first * self.tick)) <= ON_GRID
-            if on_grid and first + self._span <= self._points:
-                return self._view(first)
-            # Past the grid's end on a regular clock: sample two windows' worth (the next
-            # window's points included); off the grid (or the first time), this window.
-            self._start, self._points = time, 0
-            if on_grid and self._fill(time):
-                return self._view(0)
-        self.first = None
-        self.samples += 1
-        sample = self.trajectory.sample(time + self._offsets)
-        return sample.pose, sample.velocity
+    def seek(self, time: float) -> int | None:
+        """Move to the window at ``time + offsets``: the grid point it starts at (the grid
+        sampled anew when ``time`` is past its end), or None off the grid (nothing
+        sampled: :meth:`window` samples it on its own)."""
+        if not self.gridded:
+            return None
+        shift = (time - self._start) / self.tick
+        first = round(shift) if math.isfinite(shift) else -1
+        on_grid = first >= 0 and abs(time - (self._start + first * self.tick)) <= ON_GRID
+        if on_grid and first + self._span <= self._points:
+            return first
+        # Past the grid's end on a regular clock: sample two windows' worth (the next
+        # window's points included); off the grid (or the first time), nothing.
+        self._start, self._points = time, 0
+        return 0 if on_grid and self._fill(time) else None
 
-    def _view(self, first: int) -> tuple[FloatArray, FloatArray]:
-        self.first = first
-        if self.contiguous:
-            stop = first + self._span
-            return self.pose[first:stop], self.velocity[first:stop]
-        rows = first + self._index
-        return self.pose[rows], self.velocity[rows]
+    def window(self, time: float) -> tuple[FloatArray, FloatArray]:
+        """The reference pose and velocity (N+1, 3) at ``time + offsets``: read from the
+        grid or sampled on their own."""
+        first = self.seek(time)
+        if first is None:
+            self.samples += 1
+            sample = self.trajectory.sample(time + self._offsets)
+            return sample.pose, sample.velocity
+        pose, velocity = np.empty((self.index.size, 3)), np.empty((self.index.size, 3))
+        self.stages.gather(self.pose, first, pose)
+        self.stages.gather(self.velocity, first, velocity)
+        return pose, velocity
 
     def _fill(self, start: float) -> bool:
         """Sample the grid from ``start``; False (nothing kept) if the reference fails
         somewhere on it (its numbers overflow further on: the window alone is sampled
         then, which raises only if the window itself fails)."""
-        points = 2 * self._span - 1
+        points = self.points
         self.samples += 1
         try:
             sample = self.trajectory.sample(start + self.tick * np.arange(float(points)))
@@ -97,3 +100,30 @@ class Lookahead:
         self.pose, self.velocity = sample.pose, sample.velocity
         self.fills += 1
         return True
+
+
+class Strided:
+    """Rows ``first + index`` of a grid, read as a few strided slices (``index`` split into
+    runs of one step: the first stage's one tick, then the rest's ``dt``), which NumPy
+    copies several times faster than it gathers an index array.
+
+    Args:
+        index: the grid rows from ``first`` (K,), increasing.
+    """
+
+    def __init__(self, index: IntArray) -> None:
+        self.runs: list[tuple[slice, int, int]] = []  # (rows out, first row in, step)
+        start = 0
+        while start < index.size:
+            step = int(index[start + 1] - index[start]) if start + 1 < index.size else 1
+            stop = start + 1
+            while stop < index.size and index[stop] - index[stop - 1] == step:
+                stop += 1
+            self.runs.append((slice(start, stop), int(index[start]), step))
+            start = stop
+
+    def gather(self, grid: FloatArray, first: int, out: FloatArray) -> None:
+        """``out[:] = grid[first + index]``."""
+        for rows, offset, step in self.runs:
+            begin = first + offset
+            out[rows] = grid[begin:begin + step * (rows.stop - rows.start):step]

@@ -30,10 +30,10 @@ import casadi as ca
 import numpy as np
 
 from mpc.arrays import FloatArray
-from mpc.control.lookahead import Lookahead
+from mpc.control.lookahead import Lookahead, Strided
 from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import PathInput, TickInput
-from mpc.model.tracking import TrackingModel
+from mpc.model.tracking import TrackingModel, feedforward_twists, reference_directions
 from trajectories import Trajectory, TrajectorySample
 
 #: Path mode: half-width of the trust region on the progress around where the reference
@@ -58,12 +58,11 @@ class ReferenceWindow:
         self.offsets = model.offsets
         self.lookahead = Lookahead(trajectory, model.offsets, float(model.durations[0]))
         self._velocities = np.zeros((model.horizon + 1, 3))
-        function = model.reference_terms if terms is None else terms
-        self._evaluate = BufferedFunction(function, [tick.poses_ref, self._velocities],
+        self._evaluate = BufferedFunction(model.reference_terms if terms is None else terms,
+                                          [tick.poses_ref, self._velocities],
                                           [tick.twists_ref, tick.directions])
-        self._grid: _GridTerms | None = None
-        if self.lookahead.gridded and self.lookahead.contiguous:
-            self._grid = _GridTerms(function, model.horizon)
+        self._grid = (_GridTerms(self.lookahead, model.durations) if self.lookahead.gridded
+                      else None)
 
     def fill(self, time: float, heading: float, rate: float = 1.0) -> None:
         """The window at ``time + rate * offsets`` [s] (see :meth:`fill_at`; at rate 1 read
@@ -71,18 +70,17 @@ class ReferenceWindow:
         if rate != 1.0:
             self.fill_at(np.asarray(time + rate * self.offsets, dtype=float), heading)
             return
-        ahead = self.lookahead
-        pose, velocity = ahead.window(time)
-        grid, first = self._grid, ahead.first
+        ahead, grid = self.lookahead, self._grid
+        first = ahead.seek(time)
         if grid is None or first is None:
+            pose, velocity = ahead.window(time)
             self._write(pose, velocity, heading)
             return
         # On the grid: the stages' terms were evaluated with the grid's (see _GridTerms).
-        feedforward, directions = grid.at(ahead)
-        tick, n = self.tick, self._velocities.shape[0] - 1
-        self._place(pose, heading)
-        tick.twists_ref[:] = feedforward[first:first + n]
-        tick.directions[:] = directions[first:first + n + 1]
+        tick = self.tick
+        ahead.stages.gather(ahead.pose, first, tick.poses_ref)
+        self._unwrap(heading)
+        grid.write(ahead, first, tick.twists_ref, tick.directions)
 
     def fill_at(self, times: FloatArray, heading: float) -> TrajectorySample:
         """Write the reference at the stage ``times`` (N+1,) [s] into the tick's views.
@@ -97,50 +95,65 @@ class ReferenceWindow:
 
     def _write(self, pose: FloatArray, velocity: FloatArray, heading: float) -> None:
         """The reference's poses and velocities (N+1, 3) into the tick, and its terms."""
-        self._place(pose, heading)
+        self.tick.poses_ref[:] = pose
+        self._unwrap(heading)
         self._velocities[:] = velocity
         self._evaluate()
 
-    def _place(self, pose: FloatArray, heading: float) -> None:
-        """The reference's poses (N+1, 3) into the tick, the heading within pi of
-        ``heading``."""
+    def _unwrap(self, heading: float) -> None:
+        """The tick's reference heading moved by whole turns to within pi of ``heading``."""
         poses = self.tick.poses_ref
-        poses[:] = pose
         turns = math.floor((poses[0, 2] - heading) / (2.0 * math.pi) + 0.5)
         if turns:
             poses[:, 2] -= 2.0 * math.pi * turns
 
 
 class _GridTerms:
-    """The reference terms (feedforward and directions) of a lookahead's whole grid of
-    ``2N + 1`` points, evaluated once a fill as two windows of ``N + 1`` points that share
-    one (the grid's consecutive pairs are then every stage's pair; the heading's multiple
-    of 2 pi does not change them): a tick then copies its stretch rather than calling the
-    terms (one CasADi call fewer a tick)."""
+    """The reference terms (feedforward and directions) of a lookahead's whole grid,
+    evaluated once a fill: every pair of grid points as far apart as a stage's start and
+    end (one tick for the first stage, ``dt`` for the rest), so that a tick on the grid
+    gathers its stages' terms rather than calling the terms (one CasADi call fewer a
+    tick; the heading's multiple of 2 pi does not change them)."""
 
-    def __init__(self, function: ca.Function, horizon: int) -> None:
-        n = horizon
-        self._pose = np.zeros((2 * n + 1, 3))
-        self._velocity = np.zeros((2 * n + 1, 3))
-        self.feedforward = np.zeros((2 * n, 3))
-        self.directions = np.zeros((2 * n + 1, 2))
-        self._halves = [BufferedFunction(function, [self._pose[k:k + n + 1],
-                                                    self._velocity[k:k + n + 1]],
-                                         [self.feedforward[k:k + n],
-                                          self.directions[k:k + n + 1]])
-                        for k in (0, n)]
+    def __init__(self, ahead: Lookahead, durations: FloatArray) -> None:
+        points, index = ahead.points, ahead.index
+        self._starts, spans = index[:-1], np.diff(index)
+        # the stages in groups of one pair spacing and duration (the first, the rest)
+        kinds = sorted(set(zip(spans.tolist(), np.asarray(durations).tolist(), strict=True)))
+        # each kind's stages, and where their starts are on the grid from the window's
+        self._groups = [Strided(self._starts[(spans == span) & (durations == duration)])
+                        for span, duration in kinds]
+        self._rows = [np.flatnonzero((spans == span) & (durations == duration))
+                      for span, duration in kinds]
+        if any((np.diff(rows) != 1).any() for rows in self._rows):  # (tick, dt, ..., dt)
+            raise RuntimeError("grid terms need each kind of stage in one run")
+        poses, velocities = ca.SX.sym("poses", 3, points), ca.SX.sym("velocities", 3, points)
+        self._pose, self._velocity = np.zeros((points, 3)), np.zeros((points, 3))
+        self._feedforward = [np.zeros((points - span, 3)) for span, _ in kinds]
+        self._directions = np.zeros((points, 2))
+        terms = ca.Function("grid_terms", [poses, velocities], [
+            *(feedforward_twists(poses[:, :points - span], poses[:, span:],
+                                 ca.DM.ones(1, points - span) * duration)
+              for span, duration in kinds),
+            reference_directions(velocities)])
+        self._evaluate = BufferedFunction(terms, [self._pose, self._velocity],
+                                          [*self._feedforward, self._directions])
+        self._stages = ahead.stages
         self._fill = -1  # the lookahead fill they are of
 
-    def at(self, ahead: Lookahead) -> tuple[FloatArray, FloatArray]:
-        """The grid's feedforward (2N, 3) and directions (2N + 1, 2), evaluated anew after
-        a fill."""
+    def write(self, ahead: Lookahead, first: int, feedforward: FloatArray,
+              directions: FloatArray) -> None:
+        """The stages' feedforward (N, 3) and directions (N+1, 2) of the window starting at
+        grid point ``first`` (the grid's terms evaluated anew after a fill)."""
         if self._fill != ahead.fills:
             self._pose[:] = ahead.pose
             self._velocity[:] = ahead.velocity
-            for half in self._halves:
-                half()
+            self._evaluate()
             self._fill = ahead.fills
-        return self.feedforward, self.directions
+        for rows, starts, terms in zip(self._rows, self._groups, self._feedforward,
+                                       strict=True):
+            starts.gather(terms, first, feedforward[rows[0]:rows[-1] + 1])
+        self._stages.gather(self._directions, first, directions)
 
 
 class TimeIndexed:

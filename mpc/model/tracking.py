@@ -127,12 +127,10 @@ class TrackingModel:
                                    [poses, sensitivity(poses[:, :-1], inputs, hs)],
                                    ["x0", "u"], ["x", "B"])
         poses, velocities = ca.SX.sym("poses", 3, n + 1), ca.SX.sym("velocities", 3, n + 1)
-        planar = velocities[:2, :]
-        scale = ca.sqrt(ca.sum1(planar**2) + DIRECTION_SPEED**2)
         self.reference_terms = ca.Function(
             "reference_terms", [poses, velocities],
-            [ca.densify(twist_logarithm(poses[:, :-1], poses[:, 1:], 1.0) / ca.repmat(hs, 3, 1)),
-             ca.densify(planar / ca.repmat(scale, 2, 1))],
+            [feedforward_twists(poses[:, :-1], poses[:, 1:], hs),
+             reference_directions(velocities)],
             ["poses", "velocities"], ["feedforward", "directions"])
         gram = self.robot.module_velocity_gram()
         self.rate_matrix = np.diag(self.weights.rate) + self.weights.module_rate * gram
@@ -234,3 +232,18 @@ class TrackingModel:
                                                 ca.DM(self.durations).T)
         return ca.vertcat(poses[:, 0] - parameters.symbol(p, "x0"),
                           ca.vec(poses[:, 1:] - following))
+
+
+def feedforward_twists(starts: ca.SX, ends: ca.SX, durations: ca.DM) -> ca.SX:
+    """Each stage's feedforward (3 x K): the constant body twist that drives its start pose
+    exactly to its end pose in its duration (``durations``, 1 x K [s]), the SE(2)
+    logarithm per second."""
+    return ca.densify(twist_logarithm(starts, ends, 1.0) / ca.repmat(durations, 3, 1))
+
+
+def reference_directions(velocities: ca.SX) -> ca.SX:
+    """The reference's planar direction at each point (2 x K) of its world velocities
+    (3 x K): unit where it moves, shrinking to 0 below :data:`DIRECTION_SPEED`."""
+    planar = velocities[:2, :]
+    scale = ca.sqrt(ca.sum1(planar**2) + DIRECTION_SPEED**2)
+    return ca.densify(planar / ca.repmat(scale, 2, 1))
