@@ -117,27 +117,29 @@ class _GridTerms:
 
     def __init__(self, ahead: Lookahead, durations: FloatArray) -> None:
         points, index = ahead.points, ahead.index
-        self._starts, spans = index[:-1], np.diff(index)
-        # the stages in groups of one pair spacing and duration (the first, the rest)
-        kinds = sorted(set(zip(spans.tolist(), np.asarray(durations).tolist(), strict=True)))
-        # each kind's stages, and where their starts are on the grid from the window's
-        self._groups = [Strided(self._starts[(spans == span) & (durations == duration)])
-                        for span, duration in kinds]
-        self._rows = [np.flatnonzero((spans == span) & (durations == duration))
-                      for span, duration in kinds]
-        if any((np.diff(rows) != 1).any() for rows in self._rows):  # (tick, dt, ..., dt)
-            raise RuntimeError("grid terms need each kind of stage in one run")
+        starts, spans = index[:-1], np.diff(index)
+        # The stages in kinds of one grid spacing and duration (the first; the rest): each
+        # kind's stages (one run of them), where their starts are on the grid from the
+        # window's first point, and the terms of every grid pair that far apart.
+        self._kinds: list[tuple[slice, Strided, FloatArray]] = []
+        pairs = sorted(set(zip(spans.tolist(), np.asarray(durations).tolist(), strict=True)))
+        for span, duration in pairs:
+            stages = np.flatnonzero((spans == span) & (durations == duration))
+            if (np.diff(stages) != 1).any():  # durations are (tick, dt, ..., dt)
+                raise RuntimeError("grid terms need each kind of stage in one run")
+            self._kinds.append((slice(int(stages[0]), int(stages[-1]) + 1),
+                                Strided(starts[stages]), np.zeros((points - span, 3))))
         poses, velocities = ca.SX.sym("poses", 3, points), ca.SX.sym("velocities", 3, points)
         self._pose, self._velocity = np.zeros((points, 3)), np.zeros((points, 3))
-        self._feedforward = [np.zeros((points - span, 3)) for span, _ in kinds]
         self._directions = np.zeros((points, 2))
         terms = ca.Function("grid_terms", [poses, velocities], [
             *(feedforward_twists(poses[:, :points - span], poses[:, span:],
                                  ca.DM.ones(1, points - span) * duration)
-              for span, duration in kinds),
+              for span, duration in pairs),
             reference_directions(velocities)])
-        self._evaluate = BufferedFunction(terms, [self._pose, self._velocity],
-                                          [*self._feedforward, self._directions])
+        self._evaluate = BufferedFunction(
+            terms, [self._pose, self._velocity],
+            [*(feedforward for _, _, feedforward in self._kinds), self._directions])
         self._stages = ahead.stages
         self._fill = -1  # the lookahead fill they are of
 
@@ -150,9 +152,8 @@ class _GridTerms:
             self._velocity[:] = ahead.velocity
             self._evaluate()
             self._fill = ahead.fills
-        for rows, starts, terms in zip(self._rows, self._groups, self._feedforward,
-                                       strict=True):
-            starts.gather(terms, first, feedforward[rows[0]:rows[-1] + 1])
+        for stages, starts, terms in self._kinds:
+            starts.gather(terms, first, feedforward[stages])
         self._stages.gather(self._directions, first, directions)
 
 
