@@ -25,6 +25,9 @@ from trajectories import Trajectory, TrajectoryError
 #: the reference moves by its speed times this at most: nanometres).
 ON_GRID = 1e-9
 
+#: Windows a grid fill covers (consecutive windows share a point).
+WINDOWS = 2
+
 
 class Lookahead:
     """Windows of ``trajectory`` at ``time + offsets`` [s], read from a grid of step ``tick``.
@@ -47,7 +50,7 @@ class Lookahead:
         self.index: IntArray = index.astype(np.intp)
         self._span = int(self.index[-1]) + 1  # grid points one window covers
         #: Grid points a fill samples: two windows' worth, sharing one point.
-        self.points = 2 * self._span - 1
+        self.points = WINDOWS * (self._span - 1) + 1
         #: How a window's rows are read from the grid.
         self.stages = Strided(self.index)
         self._start = math.nan  # time of the grid's first point [s]
