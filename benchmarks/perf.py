@@ -72,6 +72,7 @@ FAST = "daqp"
 #: The fast path with its CasADi terms compiled to C (``Controller(jit=True)``), at N = 20,
 #: run alternately with the default this many times.
 JIT = "daqp_jit"
+JIT_PEER = "mpc-daqp-jit"  # the peers section's row of the fast path with jit=True
 JIT_REPEATS = 3
 #: A scenario's tick p99 above this is flagged [s].
 P99_LIMIT = 1e-3
@@ -384,10 +385,11 @@ def scenarios_section(layouts: list[str], modes: list[str], speeds: dict[str, fl
 
 # ------------------------------------------------------------------------------- 4. peers
 def peers_section(ticks: int, say: Printer) -> dict[str, Any]:
-    """daqp, the IPOPT path and (when installed) do-mpc on the reference scenario, inside
-    and beyond the limits, over the same ticks on the same plant."""
+    """daqp (the default and ``jit=True``, when it compiles), the IPOPT path and (when
+    installed) do-mpc on the reference scenario, inside and beyond the limits, over the same
+    ticks on the same plant."""
     robot = preset(REFERENCE_LAYOUT)
-    names = [f"mpc-{FAST}", "mpc-ipopt"]
+    names = [f"mpc-{FAST}", JIT_PEER, "mpc-ipopt"]
     if peers.available():
         names.append("do-mpc")
         say(f"do-mpc {peers.version()}: IPOPT inside do-mpc, exact SE(2) integral (no "
@@ -412,6 +414,13 @@ def peers_section(ticks: int, say: Printer) -> dict[str, Any]:
                                              dt=DT, stage_dt=ours.stage_dt,
                                              weights=ours.weights)
                 control = peer
+            elif name == JIT_PEER:
+                try:
+                    control = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT,
+                                         solver=FAST, jit=True)
+                except ControllerError as error:  # no compiler: the row is left out
+                    say(f"{speed:7s} {name:10s} skipped: {error}")
+                    continue
             else:
                 control = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT,
                                      solver=name.removeprefix("mpc-"))
@@ -486,6 +495,11 @@ def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, 
                     "do_mpc_over_ipopt_tick": other["tick_p50"] / ipopt["tick_p50"],
                     "do_mpc_rms_over_ipopt_rms":
                         other["rms_position_error"] / ipopt["rms_position_error"]})
+            compiled = by.get((speed, JIT_PEER))
+            if compiled is not None:  # beside the targets (those are the default's)
+                item["ipopt_over_jit_tick"] = ipopt["tick_p50"] / compiled["tick_p50"]
+                if other is not None:
+                    item["do_mpc_over_jit_tick"] = other["tick_p50"] / compiled["tick_p50"]
             summary[f"same_ticks_{speed}"] = item
     if drift is not None:
         summary["drift"] = drift
@@ -572,6 +586,10 @@ def _print_summary(summary: dict[str, Any], say: Printer) -> None:
             line += (f"; do-mpc / {FAST} {item[f'do_mpc_over_{FAST}_tick']:.1f}, do-mpc / IPOPT"
                      f" path {item['do_mpc_over_ipopt_tick']:.2f}; RMS error do-mpc / IPOPT "
                      f"path {item['do_mpc_rms_over_ipopt_rms']:.4f}")
+        if "ipopt_over_jit_tick" in item:
+            line += f"; with jit=True: IPOPT path / it {item['ipopt_over_jit_tick']:.1f}"
+            if "do_mpc_over_jit_tick" in item:
+                line += f", do-mpc / it {item['do_mpc_over_jit_tick']:.1f}"
         say(line)
     if "drift" in summary:
         drift = summary["drift"]

@@ -72,7 +72,8 @@ def test_quick_run_writes_every_section_and_skips_an_absent_peer(
         _sane(row)
     horizons = {(row["solver"], row["horizon"]) for row in rows if row["section"] == "horizons"}
     assert horizons == {(s, n) for s in ("daqp", "osqp", "ipopt") for n in (10, 20)}
-    if shutil.which(os.environ.get("CC") or "gcc"):  # daqp with jit=True against the default
+    compiler = shutil.which(os.environ.get("CC") or "gcc")
+    if compiler:  # daqp with jit=True against the default
         jit = document["jit"]
         assert jit["same_commands"] is True and jit["repeats"] == 3 and jit["build_s"] > 0
         assert 0 < jit["jit_p50"] <= jit["jit_p99"] and 0 < jit["default_p50"]
@@ -86,7 +87,8 @@ def test_quick_run_writes_every_section_and_skips_an_absent_peer(
     assert all(isinstance(row["over_p99_limit"], bool) for row in rows
                if row["section"] == "scenarios")
     same_ticks = {(row["solver"], row["speed"]) for row in rows if row["section"] == "peers"}
-    assert same_ticks == {(s, v) for s in ("mpc-daqp", "mpc-ipopt") for v in ("inside", "beyond")}
+    peered = ("mpc-daqp", "mpc-ipopt") + (("mpc-daqp-jit",) if compiler else ())
+    assert same_ticks == {(s, v) for s in peered for v in ("inside", "beyond")}
     assert document["peers"]["status"] == "do-mpc not installed"
 
     summary = document["summary"]
@@ -98,6 +100,7 @@ def test_quick_run_writes_every_section_and_skips_an_absent_peer(
     assert summary["daqp_tick_over_solve_N20"] >= 1
     assert "do_mpc_over_daqp_tick" not in summary["same_ticks_inside"]
     assert summary["same_ticks_inside"]["ipopt_over_daqp_tick"] > 0
+    assert ("ipopt_over_jit_tick" in summary["same_ticks_inside"]) == bool(compiler)
     assert summary["drift"]["end_over_start"] > 0
     assert summary["targets"] and all(isinstance(item["met"], bool)
                                       for item in summary["targets"].values())
