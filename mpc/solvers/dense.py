@@ -79,7 +79,8 @@ class DenseSolver:
             disk (even, >= 4); robots with exact linear rows ignore it.
         max_iter: daqp iterations per tick at most.
         time_limit: daqp time per tick at most [s]; 0 for none.
-        jit: compile the tick's CasADi terms to C (:func:`~mpc.model.jit.jitted`).
+        jit: compile the tick's CasADi terms and the plan's poses to C
+            (:func:`~mpc.model.jit.jitted`).
     """
 
     name = "daqp"
