@@ -130,6 +130,64 @@ def test_strided_rows_are_the_index_gathered(index: list[int]) -> None:
         np.testing.assert_array_equal(out, grid[first + rows])
 
 
+class CountingTrajectory:
+    """A trajectory that counts the points it is sampled at."""
+
+    def __init__(self, trajectory: Trajectory) -> None:
+        self.trajectory, self.points = trajectory, 0
+
+    def sample(self, times: np.ndarray) -> object:
+        self.points += np.size(times)
+        return self.trajectory.sample(times)
+
+
+def test_window_on_a_clock_with_jitter_samples_only_its_points() -> None:
+    """Through the window the controller fills (time mode, stages twice the tick): a clock
+    with jitter samples N+1 points a tick, no grid; a regular clock far fewer."""
+    model = TrackingModel(preset("omni4"), HORIZON, 2 * DT, Weights(), tick=DT)
+    counting = CountingTrajectory(FigureEight(1.5, 9.0, heading="tangent"))
+    window = ReferenceWindow(counting, model, TickInput(model.layouts))  # type: ignore[arg-type]
+    ticks = 50
+    jitter = np.random.default_rng(8).uniform(-1e-3, 1e-3, ticks)
+    for k in range(ticks):
+        window.fill(k * DT + float(jitter[k]), 0.0)
+    assert counting.points == ticks * (HORIZON + 1)
+    counting.points = 0
+    for k in range(ticks):
+        window.fill(k * DT, 0.0)
+    assert counting.points < ticks * (HORIZON + 1) / 4
+
+
+def test_a_tick_much_shorter_than_the_stages_samples_each_window() -> None:
+    """A grid fill would need more than MAX_POINTS points (1 ms ticks, 0.1 s stages): each
+    window is sampled on its own, so no tick carries a fill of thousands of points."""
+    from mpc.control.lookahead import MAX_POINTS
+
+    offsets = np.concatenate(([0.0], 0.001 + 0.1 * np.arange(20.0)))
+    ahead = Lookahead(FigureEight(1.5, 9.0), offsets, 0.001)
+    assert 2 * 1901 + 1 > MAX_POINTS and not ahead.gridded
+    assert Lookahead(FigureEight(1.5, 9.0), OFFSETS, DT).gridded
+
+
+def test_a_user_callable_failing_beyond_the_window_does_not_fail_it() -> None:
+    """A heading callable that raises its own error from t = 1 s on: windows before it are
+    served (the grid reaching past it is dropped), the first window that reaches it raises
+    the callable's error as it did without the grid."""
+    def angle(t: np.ndarray) -> np.ndarray:
+        if np.max(t) >= 1.0:
+            raise ValueError("no heading after 1 s")
+        return 0.1 * t
+
+    trajectory = Circle(1.0, 6.0, heading=FunctionHeading(angle, rate=lambda t: 0.1 + 0 * t,
+                                                          accel=lambda t: 0 * t))
+    ahead = Lookahead(trajectory, OFFSETS, DT)
+    last = 1.0 - OFFSETS[-1] - DT  # the last window that ends before 1 s
+    for k in range(int(round(last / DT)) + 1):
+        assert_window(trajectory, ahead, k * DT, OFFSETS)
+    with pytest.raises(Exception, match="no heading after 1 s"):
+        ahead.window(1.0 - OFFSETS[-1] + DT)
+
+
 def test_controller_commands_match_sampling_every_window() -> None:
     """The same commands, to rounding, as a controller that samples each window afresh
     (its lookahead made to see every clock as off the grid)."""

@@ -476,6 +476,28 @@ def test_tick_gradient_is_the_cost_along_the_rollout_differentiated(mode: str) -
     np.testing.assert_allclose(gradient, numeric, rtol=1e-6, atol=1e-5)
 
 
+def test_drift_is_the_largest_move_of_a_sensitivity_or_a_step_times_dt() -> None:
+    """The drift check on one vector of the moving terms weighs the sensitivities as they
+    are and the rollout's steps times dt (as they enter S), against its tolerance."""
+    from mpc.solvers.hessian_reuse import SENSITIVITY_TOLERANCE, HessianReuse
+
+    rng = np.random.default_rng(12)
+    n, dt = 5, 0.1
+    p_data = np.ones(4)
+    reuse = HessianReuse(p_data, dt, n)
+    terms = rng.normal(size=11 * n)
+    b, d = terms[:9 * n].reshape(n, 3, 3), terms[9 * n:].reshape(n, 2)
+    reuse.remember(p_data, terms, b, d)
+    for moved_b, moved_d in ((1e-3, 0.0), (0.0, 1e-3), (2e-3, 5e-3)):
+        new = terms.copy()
+        new[3] += moved_b
+        new[9 * n + 4] -= moved_d
+        _, drift = reuse.drift(p_data, new, new[:9 * n].reshape(n, 3, 3),
+                               new[9 * n:].reshape(n, 2), False, False, 1.0)
+        expected = max(moved_b, dt * moved_d) / (SENSITIVITY_TOLERANCE * dt)
+        assert drift == pytest.approx(expected, rel=1e-9)
+
+
 def test_a_rotation_of_the_whole_plan_is_not_a_drift() -> None:
     """An isotropic cost's drift check turns the terms to stage 0's frame: a plan turned
     as a whole by any angle gives the same turned terms (hand-built ``B_k``: the body

@@ -180,7 +180,7 @@ class Controller:
 
     def _set_reference(self, trajectory: Trajectory) -> None:
         self._window = ReferenceWindow(trajectory, self.model, self._tick,
-                                       self._reference_terms)
+                                       self._reference_terms, grid=self.mode == "time")
         self._timing: TimeIndexed | PathProgress = (
             PathProgress(self._window, self.model) if self.mode == "path"
             else TimeIndexed(self._window))

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from mpc.arrays import FloatArray, IntArray
-from trajectories import Trajectory, TrajectoryError
+from trajectories import Trajectory
 
 #: How far a time may be from the grid and still read it [s] (rounding of ``k * dt``;
 #: the reference moves by its speed times this at most: nanometres).
@@ -27,6 +27,12 @@ ON_GRID = 1e-9
 
 #: Windows a grid fill covers (consecutive windows share a point).
 WINDOWS = 2
+
+#: The most grid points a fill samples: the tick that fills carries it (with the grid's
+#: terms 77 us for 79 points, 205 us for 383, measured at N = 20). A tick much shorter
+#: than the stages needs more (1 ms ticks, 0.1 s stages: 3803 points, 1.6 ms a fill); such
+#: windows are sampled as asked instead.
+MAX_POINTS = 400
 
 
 class Lookahead:
@@ -44,8 +50,10 @@ class Lookahead:
         self._offsets = np.asarray(offsets, dtype=float)
         steps = self._offsets / self.tick
         index = np.rint(steps)
-        #: Whether the stage starts lie on the grid (else every window is sampled as asked).
-        self.gridded = bool(np.abs(steps - index).max() * self.tick <= ON_GRID)
+        #: Whether the stage starts lie on the grid and a fill stays small (else every
+        #: window is sampled as asked).
+        self.gridded = bool(np.abs(steps - index).max() * self.tick <= ON_GRID
+                            and WINDOWS * index[-1] + 1 <= MAX_POINTS)
         #: Each stage start's grid point from the window's first (N+1,).
         self.index: IntArray = index.astype(np.intp)
         self._span = int(self.index[-1]) + 1  # grid points one window covers
@@ -62,8 +70,9 @@ class Lookahead:
 
     def seek(self, time: float) -> int | None:
         """Move to the window at ``time + offsets``: the grid point it starts at (the grid
-        sampled anew when ``time`` is past its end), or None off the grid (nothing
-        sampled: :meth:`window` samples it on its own)."""
+        sampled anew when ``time`` is past its end), or None off the grid (then sample the
+        window on its own with :meth:`sample`, not :meth:`window`, which would seek again
+        and take the time for a grid's start)."""
         if not self.gridded:
             return None
         shift = (time - self._start) / self.tick
@@ -81,23 +90,29 @@ class Lookahead:
         grid or sampled on their own."""
         first = self.seek(time)
         if first is None:
-            self.samples += 1
-            sample = self.trajectory.sample(time + self._offsets)
-            return sample.pose, sample.velocity
+            return self.sample(time)
         pose, velocity = np.empty((self.index.size, 3)), np.empty((self.index.size, 3))
         self.stages.gather(self.pose, first, pose)
         self.stages.gather(self.velocity, first, velocity)
         return pose, velocity
 
+    def sample(self, time: float) -> tuple[FloatArray, FloatArray]:
+        """The window at ``time + offsets`` sampled on its own (pose, velocity), after a
+        :meth:`seek` that gave None."""
+        self.samples += 1
+        sample = self.trajectory.sample(time + self._offsets)
+        return sample.pose, sample.velocity
+
     def _fill(self, start: float) -> bool:
         """Sample the grid from ``start``; False (nothing kept) if the reference fails
-        somewhere on it (its numbers overflow further on: the window alone is sampled
-        then, which raises only if the window itself fails)."""
+        somewhere on it (its numbers overflow further on, or a user's callable raises
+        there: the window alone is sampled then, which raises only if the window itself
+        fails; each tick within two windows of such a failure samples twice)."""
         points = self.points
         self.samples += 1
         try:
             sample = self.trajectory.sample(start + self.tick * np.arange(float(points)))
-        except TrajectoryError:
+        except Exception:  # anything past the window (a user callable's own error too)
             return False
         self._points = points
         self.pose, self.velocity = sample.pose, sample.velocity

@@ -24,6 +24,7 @@ Two timing laws use it (both with one ``reset``):
 
 from __future__ import annotations
 
+import functools
 import math
 
 import casadi as ca
@@ -49,10 +50,13 @@ PROGRESS_SETTLED = 1e-3
 
 class ReferenceWindow:
     """Samples a trajectory over the horizon into a :class:`~mpc.model.layout.TickInput`
-    (``terms``: the model's ``reference_terms`` or a compiled copy of them)."""
+    (``terms``: the model's ``reference_terms`` or a compiled copy of them, for windows
+    sampled on their own; windows read from the lookahead's grid take the same
+    expressions evaluated over the whole grid, see :class:`_GridTerms`; ``grid=False``:
+    every window sampled on its own, as path mode's are)."""
 
     def __init__(self, trajectory: Trajectory, model: TrackingModel, tick: TickInput,
-                 terms: ca.Function | None = None) -> None:
+                 terms: ca.Function | None = None, grid: bool = True) -> None:
         self.trajectory = trajectory
         self.tick = tick
         self.offsets = model.offsets
@@ -61,8 +65,10 @@ class ReferenceWindow:
         self._evaluate = BufferedFunction(model.reference_terms if terms is None else terms,
                                           [tick.poses_ref, self._velocities],
                                           [tick.twists_ref, tick.directions])
-        self._grid = (_GridTerms(self.lookahead, model.durations) if self.lookahead.gridded
-                      else None)
+        # the grid's terms, built now (not on the first tick: building their function for a
+        # new grid shape takes milliseconds); path mode (grid=False) never reads the grid
+        self._grid = (_GridTerms(self.lookahead, model.durations)
+                      if grid and self.lookahead.gridded else None)
 
     def fill(self, time: float, heading: float, rate: float = 1.0) -> None:
         """The window at ``time + rate * offsets`` [s] (see :meth:`fill_at`; at rate 1 read
@@ -71,10 +77,9 @@ class ReferenceWindow:
             self.fill_at(np.asarray(time + rate * self.offsets, dtype=float), heading)
             return
         ahead, grid = self.lookahead, self._grid
-        first = ahead.seek(time)
+        first = None if grid is None else ahead.seek(time)
         if grid is None or first is None:
-            pose, velocity = ahead.window(time)
-            self._write(pose, velocity, heading)
+            self._write(*ahead.sample(time), heading)
             return
         # On the grid: the stages' terms were evaluated with the grid's (see _GridTerms).
         tick = self.tick
@@ -129,16 +134,10 @@ class _GridTerms:
                 raise RuntimeError("grid terms need each kind of stage in one run")
             self._kinds.append((slice(int(stages[0]), int(stages[-1]) + 1),
                                 Strided(starts[stages]), np.zeros((points - span, 3))))
-        poses, velocities = ca.SX.sym("poses", 3, points), ca.SX.sym("velocities", 3, points)
         self._pose, self._velocity = np.zeros((points, 3)), np.zeros((points, 3))
         self._directions = np.zeros((points, 2))
-        terms = ca.Function("grid_terms", [poses, velocities], [
-            *(feedforward_twists(poses[:, :points - span], poses[:, span:],
-                                 ca.DM.ones(1, points - span) * duration)
-              for span, duration in pairs),
-            reference_directions(velocities)])
         self._evaluate = BufferedFunction(
-            terms, [self._pose, self._velocity],
+            _grid_function(points, tuple(pairs)), [self._pose, self._velocity],
             [*(feedforward for _, _, feedforward in self._kinds), self._directions])
         self._stages = ahead.stages
         self._fill = -1  # the lookahead fill they are of
@@ -155,6 +154,20 @@ class _GridTerms:
         for stages, starts, terms in self._kinds:
             starts.gather(terms, first, feedforward[stages])
         self._stages.gather(self._directions, first, directions)
+
+
+@functools.lru_cache(maxsize=32)
+def _grid_function(points: int, pairs: tuple[tuple[int, float], ...]) -> ca.Function:
+    """The reference terms over a grid of ``points``: the feedforward of every pair of
+    points ``span`` apart held ``duration`` seconds, for each ``(span, duration)`` of
+    ``pairs``, then the directions at every point (built once per grid shape: a controller
+    given a new trajectory, as ROS's set_plan does, reuses it)."""
+    poses, velocities = ca.SX.sym("poses", 3, points), ca.SX.sym("velocities", 3, points)
+    return ca.Function("grid_terms", [poses, velocities], [
+        *(feedforward_twists(poses[:, :points - span], poses[:, span:],
+                             ca.DM.ones(1, points - span) * duration)
+          for span, duration in pairs),
+        reference_directions(velocities)])
 
 
 class TimeIndexed:

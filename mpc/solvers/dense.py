@@ -361,12 +361,13 @@ class DenseSolver:
 
 
 class _FixedBounds:
-    """The step's bounds for limit rows that never move (every robot's but swerve's and
-    motor limits'): the rows' bounds are fixed, so a tick is the rows' values at the guess
-    (one product), stage 0's part on the last command, and path mode's progress bounds.
-    The product is dense for small row sets and sparse for large ones (the N = 20
-    Mecanum's 160 x 60 rows 1.9 us dense against 3.4 sparse; the MPO-700's 1280 x 60,
-    9.5 against 5.1); 10.4 -> 5 us on the Mecanum tick against filling every bound anew."""
+    """The step's bounds for limit rows that never move (``limits.constant``: not swerve's
+    linearised disks, casters', or motor limits'): the rows' bounds are fixed, so a tick
+    is the rows' values at the guess (one product), stage 0's part on the last command,
+    and path mode's progress bounds. The product is dense for small row sets and sparse
+    for large ones (the N = 20 Mecanum's 160 x 60 rows 1.9 us dense against 3.4 sparse;
+    the MPO-700's 1280 x 60, 9.5 against 5.1); 10.4 -> 5 us on the Mecanum tick against
+    filling every bound anew."""
 
     def __init__(self, structure: QpStructure, condenser: Condenser) -> None:
         rows = condenser.constraints
