@@ -62,7 +62,7 @@ class Lookahead:
         #: How a window's rows are read from the grid.
         self.stages = Strided(self.index)
         self._start = math.nan  # time of the grid's first point [s]
-        self._points = 0  # grid points sampled
+        self._filled = 0  # grid points sampled now (0 or points)
         #: The grid's reference pose and velocity (points, 3), replaced at each fill.
         self.pose = self.velocity = np.zeros((0, 3))
         self.fills = 0  # grid fills so far (each replaces ``pose`` and ``velocity``)
@@ -78,11 +78,11 @@ class Lookahead:
         shift = (time - self._start) / self.tick
         first = round(shift) if math.isfinite(shift) else -1
         on_grid = first >= 0 and abs(time - (self._start + first * self.tick)) <= ON_GRID
-        if on_grid and first + self._span <= self._points:
+        if on_grid and first + self._span <= self._filled:
             return first
         # Past the grid's end on a regular clock: sample two windows' worth (the next
         # window's points included); off the grid (or the first time), nothing.
-        self._start, self._points = time, 0
+        self._start, self._filled = time, 0
         return 0 if on_grid and self._fill(time) else None
 
     def window(self, time: float) -> tuple[FloatArray, FloatArray]:
@@ -114,7 +114,7 @@ class Lookahead:
             sample = self.trajectory.sample(start + self.tick * np.arange(float(points)))
         except Exception:  # anything past the window (a user callable's own error too)
             return False
-        self._points = points
+        self._filled = points
         self.pose, self.velocity = sample.pose, sample.velocity
         self.fills += 1
         return True
