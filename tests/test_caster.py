@@ -316,3 +316,22 @@ def test_the_angle_predictions_are_built_at_set_up_not_on_the_first_tick() -> No
     durations = tuple(float(h) for h in control.model.durations)
     limits = tuple(float(h) for h in control.model.change_times[1:])
     assert {(0.025, 0.025), durations, limits} <= grids
+
+
+def test_command_predicts_the_steer_angles_along_its_plan() -> None:
+    """A caster Command's predicted steer angles start at the measured ones and follow its
+    own plan's twists over the model's stages (the prediction itself is checked against
+    the rigid motion above); a solved tick's first stage is the twist it commands."""
+    robot = preset("caster4")
+    reference = Circle(1.0, 12.0)
+    control = Controller(robot, reference, horizon=8, dt=0.05)
+    measured = np.array([0.3, -0.2, 0.1, 0.4])
+    command = control.step(reference.sample(0.0).pose, 0.0, steer_angles=measured)
+    predicted = command.predicted_steer_angles
+    assert predicted is not None and predicted.shape == (9, 4)
+    np.testing.assert_array_equal(predicted[0], measured)
+    plan = control._warm._plan
+    assert plan is not None and command.status.value == "solved"
+    expected = robot.predict_steer_angles(measured, plan[1], control.model.durations)
+    np.testing.assert_allclose(predicted, expected, rtol=0, atol=1e-12)
+    assert not np.allclose(predicted[-1], measured)  # the casters turn along the plan
