@@ -5,6 +5,8 @@ jitter sampled as asked; a reference that fails beyond the window does not fail 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pytest
 
@@ -77,19 +79,31 @@ def test_short_first_stage(tick: float, gridded: bool) -> None:
     assert ahead.samples < 20 if gridded else ahead.samples == 80
 
 
-def test_reference_failing_beyond_the_window() -> None:
-    """A heading that is not finite from t = 1 s on: windows before it are served (the
-    grid reaching past it is dropped), the first window that reaches it fails, named."""
-    def angle(t: np.ndarray) -> np.ndarray:
-        return np.where(t < 1.0, 0.1 * t, np.inf)
+def _not_finite_after_one_second(t: np.ndarray) -> np.ndarray:
+    return np.where(t < 1.0, 0.1 * t, np.inf)
 
+
+def _raising_after_one_second(t: np.ndarray) -> np.ndarray:
+    if np.max(t) >= 1.0:
+        raise ValueError("no heading after 1 s")
+    return 0.1 * t
+
+
+@pytest.mark.parametrize(("angle", "error", "message"), [
+    (_not_finite_after_one_second, TrajectoryError, "non-finite"),
+    (_raising_after_one_second, ValueError, "no heading after 1 s")])
+def test_reference_failing_beyond_the_window(angle: Callable[[np.ndarray], np.ndarray],
+                                             error: type[Exception], message: str) -> None:
+    """A heading that is not finite from t = 1 s on, or whose callable raises its own
+    error there: windows before it are served (the grid reaching past it is dropped), the
+    first window that reaches it fails as it did without the grid."""
     trajectory = Circle(1.0, 6.0, heading=FunctionHeading(angle, rate=lambda t: 0.1 + 0 * t,
                                                           accel=lambda t: 0 * t))
     ahead = Lookahead(trajectory, OFFSETS, DT)
     last = 1.0 - OFFSETS[-1] - DT  # the last window that ends before 1 s
     for k in range(int(round(last / DT)) + 1):
         assert_window(trajectory, ahead, k * DT, OFFSETS)
-    with pytest.raises(TrajectoryError, match="non-finite"):
+    with pytest.raises(error, match=message):
         ahead.window(1.0 - OFFSETS[-1] + DT)
 
 
@@ -167,25 +181,6 @@ def test_a_tick_much_shorter_than_the_stages_samples_each_window() -> None:
     ahead = Lookahead(FigureEight(1.5, 9.0), offsets, 0.001)
     assert 2 * 1901 + 1 > MAX_POINTS and not ahead.gridded
     assert Lookahead(FigureEight(1.5, 9.0), OFFSETS, DT).gridded
-
-
-def test_a_user_callable_failing_beyond_the_window_does_not_fail_it() -> None:
-    """A heading callable that raises its own error from t = 1 s on: windows before it are
-    served (the grid reaching past it is dropped), the first window that reaches it raises
-    the callable's error as it did without the grid."""
-    def angle(t: np.ndarray) -> np.ndarray:
-        if np.max(t) >= 1.0:
-            raise ValueError("no heading after 1 s")
-        return 0.1 * t
-
-    trajectory = Circle(1.0, 6.0, heading=FunctionHeading(angle, rate=lambda t: 0.1 + 0 * t,
-                                                          accel=lambda t: 0 * t))
-    ahead = Lookahead(trajectory, OFFSETS, DT)
-    last = 1.0 - OFFSETS[-1] - DT  # the last window that ends before 1 s
-    for k in range(int(round(last / DT)) + 1):
-        assert_window(trajectory, ahead, k * DT, OFFSETS)
-    with pytest.raises(Exception, match="no heading after 1 s"):
-        ahead.window(1.0 - OFFSETS[-1] + DT)
 
 
 def test_controller_commands_match_sampling_every_window() -> None:

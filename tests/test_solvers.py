@@ -28,6 +28,7 @@ from mpc.control.timing import ReferenceWindow
 from mpc.model import TickInput, TrackingModel, Weights
 from mpc.robots import PRESETS, Robot, preset
 from mpc.solvers import USABLE_PRIMAL_RESIDUAL, NlpSolver, QpSolver, SolveResult
+from mpc.solvers.dense import DenseSolver
 from mpc.solvers.qp import _DirectOsqp
 from trajectories import FigureEight
 
@@ -335,7 +336,6 @@ def test_fixed_limit_bounds_are_the_bounds_filled_anew(robot_name: str, mode: st
     whose guesses and last commands vary."""
     from mpc import Controller
     from mpc.sim import simulate
-    from mpc.solvers.dense import DenseSolver
     from mpc.solvers.qp_structure import fill_inequality_bounds
 
     robot = preset(robot_name)
@@ -368,21 +368,26 @@ def test_fixed_limit_bounds_are_the_bounds_filled_anew(robot_name: str, mode: st
     assert compared >= 30
 
 
+def _turning_guess(horizon: int, period: float, seed: int
+                   ) -> tuple[DenseSolver, np.ndarray, np.ndarray]:
+    """A Mecanum fast path after one tick on a tangent-heading figure-eight of ``period``
+    [s]: its solver, the tick's parameters and a turning, strafing guess (N, 3)."""
+    from mpc import Controller
+
+    controller = Controller(preset("mecanum"), FigureEight(1.0, period, heading="tangent"),
+                            horizon=horizon)
+    solver = controller.solver
+    assert isinstance(solver, DenseSolver)
+    controller.step(controller.trajectory.sample(0.0).pose, 0.0)
+    twists = np.random.default_rng(seed).normal(scale=[0.8, 0.5, 1.5], size=(horizon, 3))
+    return solver, np.array(controller._tick.parameters), twists
+
+
 @pytest.mark.parametrize("horizon", [1, 2, 20])
 def test_state_sensitivities_are_the_rollouts_jacobian(horizon: int) -> None:
     """``S`` (gathered block by block, lever arms from the rollout's steps) against central
     differences of the exact SE(2) rollout CasADi computes, on a turning, strafing guess."""
-    from mpc import Controller
-    from mpc.solvers.dense import DenseSolver
-
-    robot = preset("mecanum")
-    controller = Controller(robot, FigureEight(1.0, 12.0, heading="tangent"), horizon=horizon)
-    solver, tick = controller.solver, controller._tick
-    assert isinstance(solver, DenseSolver)
-    controller.step(controller.trajectory.sample(0.0).pose, 0.0)
-    rng = np.random.default_rng(7)
-    twists = rng.normal(scale=[0.8, 0.5, 1.5], size=(horizon, 3))
-    parameters = np.array(tick.parameters)
+    solver, parameters, twists = _turning_guess(horizon, 12.0, seed=7)
 
     def rollout(u: np.ndarray) -> np.ndarray:
         poses = solver._terms(parameters, u.T)[1]
@@ -407,18 +412,12 @@ def test_plan_poses_are_the_rollout_moved_by_the_state_sensitivities() -> None:
     """The plan's poses after a step (one CasADi call, lever arms summed stage by stage)
     against the rollout plus ``S d`` with ``S`` the state sensitivities (themselves checked
     against central differences of the exact rollout above), on a turning guess."""
-    from mpc import Controller
     from mpc.solvers.condensed import plan_poses
-    from mpc.solvers.dense import DenseSolver
 
-    robot, horizon = preset("mecanum"), 8
-    controller = Controller(robot, FigureEight(1.0, 6.0, heading="tangent"), horizon=horizon)
-    solver, tick = controller.solver, controller._tick
-    assert isinstance(solver, DenseSolver)
-    controller.step(controller.trajectory.sample(0.0).pose, 0.0)
+    horizon = 8
+    solver, parameters, twists = _turning_guess(horizon, 6.0, seed=5)
     rng = np.random.default_rng(5)
-    twists = rng.normal(scale=[0.8, 0.5, 1.5], size=(horizon, 3))
-    _, poses, vec_b, _, steps = solver._terms(np.array(tick.parameters), twists.T)
+    _, poses, vec_b, _, steps = solver._terms(parameters, twists.T)
     poses, steps = np.array(poses).T, np.array(steps).T
     np.testing.assert_allclose(steps, poses[1:, :2] - poses[:-1, :2], rtol=0, atol=1e-15)
     sensitivity = np.array(vec_b).T.reshape(-1, 3, 3).transpose(0, 2, 1)
@@ -437,7 +436,6 @@ def test_tick_gradient_is_the_cost_along_the_rollout_differentiated(mode: str) -
     import casadi as ca
 
     from mpc import Controller
-    from mpc.solvers.dense import DenseSolver
 
     robot, horizon = preset("mecanum"), 6
     controller = Controller(robot, FigureEight(1.0, 6.0, heading="tangent"), horizon=horizon,
