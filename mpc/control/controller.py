@@ -108,7 +108,7 @@ class Controller:
         time_scaling: deprecated; ``True`` is ``mode="path"``.
         jit: ``solver="daqp"`` only: compile the tick's CasADi functions to C with the
             system's C compiler (CasADi's JIT: gcc, or ``$CC``), about 1.5 s when the
-            controller is built, for a tick about a sixth quicker at N = 20 (README,
+            controller is built, for a quicker tick at N = 20 (README,
             "Performance"); the same commands. :class:`~mpc.errors.ControllerError` if it
             cannot compile.
     """
