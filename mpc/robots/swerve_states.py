@@ -33,19 +33,23 @@ def module_states(velocities: FloatArray, steer_angles: FloatArray | None,
     """Signed speeds [rad/s] and steer angles in (-pi, pi] [rad] for wheel velocities (n, 2)
     [rad/s] (module ground velocity / ``wheel_radius``), with the flip rule against the
     present ``steer_angles`` (None: no flip, stopped modules point at 0)."""
-    speed = np.hypot(velocities[:, 0], velocities[:, 1])
-    angle = np.arctan2(velocities[:, 1], velocities[:, 0])
-    if steer_angles is None:
-        current = np.zeros(velocities.shape[0])
-    else:
-        current = steer_angles
-        flip = np.abs(wrap_angle(angle - current)) > math.pi / 2
-        angle = np.where(flip, angle + math.pi, angle)
-        speed = np.where(flip, -speed, speed)
-    stopped = np.abs(speed) * wheel_radius < STOPPED_MODULE_SPEED
-    angle = np.where(stopped, current, angle)
-    speed = np.where(stopped, 0.0, speed)
-    return speed, wrap_angle(angle)
+    x, y = velocities[:, 0], velocities[:, 1]
+    speeds, angles = np.hypot(x, y).tolist(), np.arctan2(y, x).tolist()
+    # the rest a module at a time (a dozen NumPy calls on arrays of four cost 5x this loop)
+    current = [0.0] * len(speeds) if steer_angles is None else steer_angles.tolist()
+    for i, (speed, angle, present) in enumerate(zip(speeds, angles, current, strict=True)):
+        if steer_angles is not None and abs(_wrapped(angle - present)) > 0.5 * math.pi:
+            angle, speed = angle + math.pi, -speed
+        if abs(speed) * wheel_radius < STOPPED_MODULE_SPEED:
+            angle, speed = present, 0.0
+        speeds[i], angles[i] = speed, _wrapped(angle)
+    return np.array(speeds), np.array(angles)
+
+
+def _wrapped(angle: float) -> float:
+    """:func:`wrap_angle` of one angle (the same operations on a Python float)."""
+    wrapped = (angle + math.pi) % (2.0 * math.pi) - math.pi
+    return math.pi if wrapped == -math.pi else wrapped
 
 
 def aimed_angles(robot: SwerveRobot, speeds: FloatArray, angles: FloatArray,
