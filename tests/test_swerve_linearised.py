@@ -16,6 +16,8 @@ from mpc.robots.swerve_limits import (
     ACCEL_SIDES,
     FACE_ANGLES,
     FACES,
+    GUARD_FACES,
+    face_rows,
     linearised_stage_limits,
     qp_speed_rows,
 )
@@ -31,8 +33,13 @@ def test_the_middle_face_is_the_disk_tangent_at_the_guess_and_the_rows_are_two_s
     n = robot.n_wheels
     change_times = np.full(3, DT)
     limits = linearised_stage_limits(robot, change_times)
-    accel = FACES * n  # the first acceleration row
-    assert limits.rows == accel + ACCEL_SIDES // 2 * n and not limits.constant
+    faces = face_rows(n, limits.rows)  # (n, FACES): each face's row
+    assert limits.rows == FACES * n + ACCEL_SIDES // 2 * n and not limits.constant
+    kept = limits.moving
+    assert kept is not None
+    assert sorted(faces.ravel()) == [*range(kept), *range(limits.rows - limits.guards,
+                                                           limits.rows)]
+    accel = slice(kept, limits.rows - limits.guards)  # the acceleration rows
     guess = np.array([[0.6, 0.2, 0.5], [0.5, -0.3, 0.0], [0.0, 0.0, 0.0]])
     last = np.array([0.4, 0.0, 0.1])
     robot.update_stage_limits(limits, guess, last, None)
@@ -43,24 +50,25 @@ def test_the_middle_face_is_the_disk_tangent_at_the_guess_and_the_rows_are_two_s
             for j in range(FACES):
                 angle = math.atan2(v[1], v[0]) + FACE_ANGLES[j]
                 normal = np.array([math.cos(angle), math.sin(angle)])
-                np.testing.assert_allclose(limits.now[k, i * FACES + j],
+                np.testing.assert_allclose(limits.now[k, faces[i, j]],
                                            normal @ robot.wheel_blocks[i], atol=1e-12)
             # The middle face's value at the guess is the module's speed: the tangent.
-            assert limits.now[k, i * FACES + middle] @ guess[k] == pytest.approx(
+            assert limits.now[k, faces[i, middle]] @ guess[k] == pytest.approx(
                 np.linalg.norm(v), rel=1e-12)
     # Stage 2's guess is at rest: its speed faces keep the last direction (stage 2 started
     # along the body x axis).
-    np.testing.assert_allclose(limits.now[2, middle], robot.wheel_blocks[0][0], atol=1e-12)
+    np.testing.assert_allclose(limits.now[2, faces[0, middle]], robot.wheel_blocks[0][0],
+                               atol=1e-12)
     # The acceleration rows: the constant polygon on u_k - u_{k-1}, every stage, every tick.
     polygon = qp_speed_rows(robot, ACCEL_SIDES)
-    np.testing.assert_allclose(limits.now[:, accel:], np.tile(polygon.rows, (3, 1, 1)))
-    np.testing.assert_allclose(limits.before[:, accel:], -limits.now[:, accel:])
-    np.testing.assert_allclose(limits.before[:, :accel], 0.0)
+    np.testing.assert_allclose(limits.now[:, accel], np.tile(polygon.rows, (3, 1, 1)))
+    np.testing.assert_allclose(limits.before[:, accel], -limits.now[:, accel])
+    np.testing.assert_allclose(limits.before[:, faces.ravel()], 0.0)
     speed = np.repeat(robot.max_wheel_speed, FACES)
-    np.testing.assert_allclose(limits.upper[:, :accel], np.tile(speed, (3, 1)))
+    np.testing.assert_allclose(limits.upper[:, faces.ravel()], np.tile(speed, (3, 1)))
     np.testing.assert_allclose(limits.lower, -limits.upper)
     accel_bound = polygon.scale * robot.max_wheel_accel[polygon.wheel] * DT
-    np.testing.assert_allclose(limits.upper[:, accel:], np.tile(accel_bound, (3, 1)))
+    np.testing.assert_allclose(limits.upper[:, accel], np.tile(accel_bound, (3, 1)))
 
 
 def test_a_module_with_an_axle_offset_or_explicit_sides_keeps_the_constant_polygon() -> None:
@@ -102,8 +110,8 @@ def test_daqp_whitens_again_only_the_moving_faces_and_gets_the_whole_product() -
                             horizon=8, dt=DT, solver="daqp")
     solver = controller.solver
     assert isinstance(solver, DenseSolver)
-    limits = solver.limits
-    assert limits.moving == FACES * robot.n_wheels
+    limits = solver.limits  # the rows daqp solves with: the guard faces left out
+    assert limits.moving == (FACES - len(GUARD_FACES)) * robot.n_wheels
     assert not limits.before[:, :limits.moving].any()
     simulate(controller, 1.5)
     assert solver.factorisations >= 1
@@ -113,3 +121,23 @@ def test_daqp_whitens_again_only_the_moving_faces_and_gets_the_whole_product() -
     assert not solver._rows_stale
     whole = solver._whitened(solver._unwhiten)
     np.testing.assert_allclose(solver._whitened_rows, whole, rtol=0.0, atol=1e-12)
+
+
+def test_the_guard_faces_stay_out_of_daqp_and_the_plans_are_those_of_every_face(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """daqp solves without the faces at 45 and 90 deg, checks the plan against them and
+    solves again with them when one breaks (the circle's first tick beyond the limits,
+    whose faces still point along the body x axis): the commands equal those of daqp
+    given every face, to its tolerance."""
+    robot = preset("swerve")
+    trajectory = reference("circle", "fixed", robot, SPEEDS["beyond"])
+    guarded = Controller(robot, trajectory, horizon=8, dt=DT, solver="daqp")
+    monkeypatch.setattr("mpc.robots.swerve_limits.GUARD_FACES", ())
+    every = Controller(robot, trajectory, horizon=8, dt=DT, solver="daqp")
+    solvers = guarded.solver, every.solver
+    assert isinstance(solvers[0], DenseSolver) and isinstance(solvers[1], DenseSolver)
+    n = robot.n_wheels
+    assert solvers[0].limits.rows == solvers[1].limits.rows - len(GUARD_FACES) * n
+    first, second = simulate(guarded, 3.0), simulate(every, 3.0)
+    assert solvers[0].guarded_solves >= 1 and solvers[1].guarded_solves == 0
+    np.testing.assert_allclose(first.twist_command, second.twist_command, rtol=0.0, atol=1e-9)

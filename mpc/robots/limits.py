@@ -57,6 +57,13 @@ class StageLimits:
         moving: if not None, a refill changes only each stage's first ``moving`` rows, and
             those are on ``u_k`` alone (``before`` zero there): a solver that transforms
             the rows (daqp's whitening) redoes only them.
+        guards: each stage's last ``guards`` rows hold by themselves in the plans met so
+            far and are kept only to catch a plan that moves far from the guess: a solver
+            may leave them out of its problem, check its plan against them, and solve
+            again with every row when the plan breaks one (the same answer: a plan optimal
+            without some rows and within them is optimal with them). They are on ``u_k``
+            alone (``before`` zero there), and a refill may change them as well as the
+            first ``moving`` rows.
         memory: whatever the robot keeps between refills.
     """
 
@@ -68,6 +75,7 @@ class StageLimits:
     change_times: FloatArray
     changed: bool = True
     moving: int | None = None
+    guards: int = 0
     memory: dict[str, FloatArray] = field(default_factory=dict)
 
     @property
@@ -102,3 +110,22 @@ def linear_stage_limits(speed: SpeedRows, max_speed: FloatArray, max_accel: Floa
         before=np.broadcast_to(stage_before, (horizon, *stage_before.shape)).copy(),
         lower=-bound, upper=bound, constant=True,
         change_times=np.array(change_times, dtype=float))
+
+
+def leading_rows(limits: StageLimits, rows: int) -> StageLimits:
+    """The first ``rows`` rows of every stage of ``limits`` as limits of their own: views
+    of the same arrays, so a refill of ``limits`` refills them (``changed`` is the caller's
+    to carry over)."""
+    return StageLimits(now=limits.now[:, :rows], before=limits.before[:, :rows],
+                       lower=limits.lower[:, :rows], upper=limits.upper[:, :rows],
+                       constant=limits.constant, change_times=limits.change_times,
+                       changed=limits.changed, moving=limits.moving)
+
+
+def trailing_rows(limits: StageLimits, rows: int) -> StageLimits:
+    """The last ``rows`` rows of every stage of ``limits`` (views, as :func:`leading_rows`)."""
+    m = limits.rows
+    return StageLimits(now=limits.now[:, m - rows:], before=limits.before[:, m - rows:],
+                       lower=limits.lower[:, m - rows:], upper=limits.upper[:, m - rows:],
+                       constant=limits.constant, change_times=limits.change_times,
+                       changed=limits.changed)

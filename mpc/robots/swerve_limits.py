@@ -29,7 +29,7 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-from mpc.arrays import FloatArray
+from mpc.arrays import FloatArray, IntArray
 from mpc.errors import RobotError
 from mpc.robots.limits import SpeedRows, StageLimits
 from mpc.validation import integer_at_least
@@ -308,6 +308,16 @@ _DIRECTION_FLOOR = 1e-3
 FACE_ANGLES = tuple(math.radians(angle) for angle in (-45.0, -5.0, 0.0, 5.0, 45.0, 90.0))
 FACES = len(FACE_ANGLES)
 
+#: The faces at 45 and 90 deg are guards (:attr:`StageLimits.guards`, each stage's last
+#: rows): a plan reaches them only when it turns a module far from the guess's direction
+#: (the first tick, whose faces still point along the body x axis, or a sudden turn). In
+#: 6 s runs of the benchmark's swerve circle and figure-eight, time and path mode, fixed
+#: and tangent heading, inside and 1.3x beyond the limits, the plans solved without them
+#: broke them on one tick in three of the 16 runs, so daqp solves with 44 rows a stage
+#: rather than 56, checks the plan against these and solves again with them when one
+#: breaks: the same commands (to 1e-11).
+GUARD_FACES = tuple(j for j, angle in enumerate(FACE_ANGLES) if abs(angle) > math.radians(30))
+
 #: The acceleration disk: a constant regular polygon of this many sides (half as many
 #: two-sided rows a module), midway between the inscribed and the circumscribed one (within
 #: 1 % of the disk). The same six faces turned to each stage's planned change of velocity
@@ -336,36 +346,61 @@ def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> Sta
     The face along the planned direction is the speed disk's linearisation at the guess (a
     sequential linear programme of the exact disk: at a fixed point of the real-time
     iteration the planned module speed meets the disk exactly, not a polygon); the others
-    keep a step that turns the module close to the disk. Rows a stage: ``FACES n`` speed,
-    then ``ACCEL_SIDES / 2 n`` acceleration with an acceleration limit; the speed faces
-    along the body x axis until the first tick turns them.
+    keep a step that turns the module close to the disk. Rows a stage
+    (:func:`face_rows` numbers the faces'): the faces within 30 deg of the direction,
+    module by module (``moving``); with an acceleration limit, ``ACCEL_SIDES / 2 n``
+    acceleration rows; last the guard faces (:data:`GUARD_FACES`). The faces point along
+    the body x axis until the first tick turns them.
     """
     n = robot.n_wheels
     horizon = len(change_times)
-    speed_rows = FACES * n
+    kept_faces = _kept_faces()
+    kept, guards = n * len(kept_faces), n * len(GUARD_FACES)
     accel = robot.max_wheel_accel
     polygon = None if accel is None else qp_speed_rows(robot, ACCEL_SIDES)
-    m = speed_rows + (0 if polygon is None else len(polygon.rows))
-    bound = np.zeros((horizon, m))
-    bound[:, :speed_rows] = np.repeat(robot.max_wheel_speed, FACES)
+    m = kept + guards + (0 if polygon is None else len(polygon.rows))
+    bound = np.repeat(robot.max_wheel_speed[None, :], horizon, axis=0)  # (N, n)
+    bounds = [np.repeat(bound, len(kept_faces), axis=1)]
     now, before = np.zeros((horizon, m, 3)), np.zeros((horizon, m, 3))
     if polygon is not None and accel is not None:
-        bound[:, speed_rows:] = (polygon.scale * accel[polygon.wheel][None, :]
-                                 * np.asarray(change_times, dtype=float)[:, None])
-        now[:, speed_rows:] = polygon.rows
-        before[:, speed_rows:] = -polygon.rows
-    limits = StageLimits(now=now, before=before, lower=-bound, upper=bound, constant=False,
-                         change_times=np.array(change_times, dtype=float), moving=speed_rows)
+        bounds.append(polygon.scale * accel[polygon.wheel][None, :]
+                      * np.asarray(change_times, dtype=float)[:, None])
+        now[:, kept:m - guards] = polygon.rows
+        before[:, kept:m - guards] = -polygon.rows
+    bounds.append(np.repeat(bound, len(GUARD_FACES), axis=1))
+    upper = np.concatenate(bounds, axis=1)
+    limits = StageLimits(now=now, before=before, lower=-upper, upper=upper, constant=False,
+                         change_times=np.array(change_times, dtype=float), moving=kept,
+                         guards=guards)
     directions = np.zeros((horizon, n, 2))
     directions[..., 0] = 1.0
     limits.memory["directions"] = directions  # each module's planned unit direction
-    limits.memory["faces"] = _face_bases(robot)
-    face_rows = limits.now[:, :speed_rows].view()
-    face_rows.shape = (horizon, n, 1, 3 * FACES)  # the rows' own memory (raises if it cannot)
-    limits.memory["face_rows"] = face_rows
+    for name, faces, rows in (("kept", kept_faces, limits.now[:, :kept]),
+                              ("guards", GUARD_FACES, limits.now[:, m - guards:])):
+        limits.memory[f"{name}_bases"] = _face_bases(robot, faces)
+        view = rows.view()
+        view.shape = (horizon, n, 1, 3 * len(faces))  # the rows' own memory (else raises)
+        limits.memory[f"{name}_rows"] = view
     limits.memory["floor"] = _DIRECTION_FLOOR * robot.nominal_max_wheel_speed
     _fill_faces(limits)
     return limits
+
+
+def _kept_faces() -> tuple[int, ...]:
+    """The faces solved with always (not :data:`GUARD_FACES`), in angle order."""
+    return tuple(j for j in range(FACES) if j not in GUARD_FACES)
+
+
+def face_rows(n_wheels: int, rows: int) -> IntArray:
+    """(n, F): the row of a stage (of ``rows``) holding module ``i``'s face ``j`` (the
+    face at ``FACE_ANGLES[j]``) in :func:`linearised_stage_limits`."""
+    index = np.empty((n_wheels, FACES), dtype=np.intp)
+    modules = np.arange(n_wheels)[:, None]
+    kept = _kept_faces()
+    index[:, list(kept)] = len(kept) * modules + np.arange(len(kept))
+    index[:, list(GUARD_FACES)] = (rows - len(GUARD_FACES) * n_wheels
+                                   + len(GUARD_FACES) * modules + np.arange(len(GUARD_FACES)))
+    return index
 
 
 def update_linearised(robot: SwerveRobot, limits: StageLimits, guess: FloatArray,
@@ -386,22 +421,23 @@ def _turn(directions: FloatArray, vectors: FloatArray, floor: FloatArray) -> Non
     np.divide(vectors, lengths[..., None], out=directions, where=(lengths > floor)[..., None])
 
 
-def _face_bases(robot: SwerveRobot) -> FloatArray:
-    """(n, 2, 3 F): module ``i``'s face rows (``F`` of them, three numbers each, side by
-    side) for a direction (1, 0), then for (0, 1), so that the rows for a unit direction
-    ``(c, s)`` are ``(c, s) @ bases[i]`` (the face normal turned by the face's angle from
-    the direction, times ``W_i``)."""
+def _face_bases(robot: SwerveRobot, faces: tuple[int, ...]) -> FloatArray:
+    """(n, 2, 3 F): module ``i``'s rows of the faces ``faces`` (indices into
+    :data:`FACE_ANGLES`; three numbers each, side by side) for a direction (1, 0), then
+    for (0, 1), so that the rows for a unit direction ``(c, s)`` are ``(c, s) @ bases[i]``
+    (the face normal turned by the face's angle from the direction, times ``W_i``)."""
     blocks = robot.wheel_blocks  # (n, 2, 3): module i's velocity is blocks[i] @ u
-    offsets = np.asarray(FACE_ANGLES)
+    offsets = np.asarray(FACE_ANGLES)[list(faces)]
     c, s = np.cos(offsets)[None, :, None], np.sin(offsets)[None, :, None]  # (1, F, 1)
     along, across = blocks[:, None, 0, :], blocks[:, None, 1, :]  # (n, 1, 3)
     bases = np.stack([c * along + s * across, c * across - s * along], axis=1)  # (n, 2, F, 3)
-    return bases.reshape(robot.n_wheels, 2, 3 * FACES)
+    return bases.reshape(robot.n_wheels, 2, 3 * len(faces))
 
 
 def _fill_faces(limits: StageLimits) -> None:
     """The speed faces' rows ``n_j . W_i u`` from the directions (one batch of (1, 2) x
     (2, 3 F) products, written into the rows in place)."""
-    directions = limits.memory["directions"]  # (N, n, 2)
-    np.matmul(directions[:, :, None, :], limits.memory["faces"], out=limits.memory["face_rows"])
+    directions = limits.memory["directions"][:, :, None, :]  # (N, n, 1, 2)
+    np.matmul(directions, limits.memory["kept_bases"], out=limits.memory["kept_rows"])
+    np.matmul(directions, limits.memory["guards_bases"], out=limits.memory["guards_rows"])
     limits.changed = True

@@ -33,6 +33,7 @@ from mpc.model.jit import jitted
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
+from mpc.robots.limits import StageLimits, leading_rows, trailing_rows
 from mpc.robots.motor_limits import stage_limits, update_stage_limits
 from mpc.solvers.base import SolveResult
 from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
@@ -65,9 +66,16 @@ _DENSE_ROWS = 20_000
 #: daqp's constraint flag for an equality row (active and immutable).
 _EQUALITY = 5
 
+#: How far a plan may pass a guard row (relative to the guards' largest bound at set-up, at
+#: least 1 rad/s) and still count as within it: rounding, not a second solve.
+_GUARD_SLACK = 1e-9
+
+#: The exit flag of a tick whose daqp model could not be set up.
+_SET_UP_FAILED = -100
+
 _STATUS = {1: "solved", 2: "solved (soft)", -1: "infeasible", -2: "cycling", -3: "unbounded",
            -4: "maximum iterations reached", -5: "nonconvex", -6: "initial point infeasible",
-           -7: "time limit reached"}
+           -7: "time limit reached", _SET_UP_FAILED: "daqp set-up failed"}
 
 
 class DenseSolver:
@@ -89,7 +97,20 @@ class DenseSolver:
                  time_limit: float = 0.0, jit: bool = False) -> None:
         self.model = model
         n = model.horizon
-        self.limits = stage_limits(model.robot, model.change_times, polygon_sides)
+        every = stage_limits(model.robot, model.change_times, polygon_sides)
+        self._every_limit = every
+        # Guard rows (StageLimits.guards, each stage's last) stay out of daqp's problem:
+        # the plan is checked against them, and solved again with them when it breaks one
+        # (_solve_guarded). Both sets are views of the robot's rows, refilled with them.
+        self.limits = every  # the rows daqp solves with
+        self._guards: StageLimits | None = None
+        self._guard_slack = 0.0  # how far past a guard row rounding may take a plan
+        if every.guards:
+            self.limits = leading_rows(every, every.rows - every.guards)
+            self._guards = trailing_rows(every, every.guards)
+            bounds = np.abs(np.concatenate([self._guards.lower, self._guards.upper]))
+            self._guard_slack = _GUARD_SLACK * max(1.0, float(bounds[np.isfinite(bounds)]
+                                                                .max(initial=0.0)))
         structure = assemble_qp(model, self.limits)
         self.structure = structure
         self.condenser = Condenser(model, structure)
@@ -135,7 +156,9 @@ class DenseSolver:
         self._rebuild: Iterator[bool] | None = None  # a Hessian being built, stage by stage
         self._rows_stale = True  # the whitened rows are not yet of the present L^{-T}
         self._rows_new = False  # new whitened rows for daqp (a finished rebuild's)
+        self._whitened_gradient = np.zeros(self.condenser.size)  # the last one daqp got
         self.factorisations = 0  # Hessian rebuilds so far (for benchmarks)
+        self.guarded_solves = 0  # ticks solved again with the guard rows (for benchmarks)
         self.profile: TickProfile | None = None  # phase stopwatch, set by the controller
 
     def reset(self) -> None:
@@ -195,9 +218,13 @@ class DenseSolver:
                                twists=np.full((n, 3), np.nan), solve_time=0.0, iterations=0)
         whitened_step, _, flag, info = solver.solve()
         step = np.matmul(self._unwhiten, whitened_step, out=self._step)
+        twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)  # the plan's
+        if flag > 0 and not self._guards_hold(twists):
+            flag, info = self._solve_guarded(tick, lower, upper)
+            twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)
         if profile is not None:
             profile.mark("solve: daqp")
-        result = self._result(tick, step, int(flag), info)
+        result = self._result(tick, step, twists, int(flag), info)
         if profile is not None:
             profile.mark("solve: result")
         return result
@@ -257,9 +284,11 @@ class DenseSolver:
         """Refill the limit rows of robots whose limits move (swerve); whether they did."""
         if self.limits.constant:
             return False
-        update_stage_limits(self.model.robot, self.limits, tick.guess_twists,
-                            tick.last_twist, tick.steer_angles)
-        return self.limits.changed
+        every = self._every_limit
+        update_stage_limits(self.model.robot, every, tick.guess_twists, tick.last_twist,
+                            tick.steer_angles)
+        self.limits.changed = every.changed  # (the same rows, seen as daqp's)
+        return every.changed
 
     def _step_bounds(self, tick: TickInput) -> tuple[FloatArray, FloatArray]:
         """The condensed rows' bounds on the step from the guess."""
@@ -275,13 +304,10 @@ class DenseSolver:
     def _rows_at_guess(self, tick: TickInput) -> FloatArray:
         """The inequality rows' values at the guess, the limit rows stage by stage (stage
         0's part on the last command is in its bounds)."""
-        limits, condenser, twists = self.limits, self.condenser, tick.guess_twists
+        limits, condenser = self.limits, self.condenser
         n, m = limits.horizon, limits.rows
         values = np.empty(condenser.constraints.shape[0])
-        rows = values[:n * m].reshape(n, m)
-        np.matmul(limits.now, twists[:, :, None], out=rows[:, :, None])
-        if n > 1:
-            rows[1:] += np.matmul(limits.before[1:], twists[:-1, :, None])[:, :, 0]
+        _stage_values(limits, tick.guess_twists, values[:n * m].reshape(n, m))
         if values.size > n * m:
             values[n * m:] = condenser.constraints[n * m:] @ tick.guess[condenser.columns]
         return values
@@ -297,26 +323,62 @@ class DenseSolver:
                                                  moving_only=not self._rows_stale)
         self._rows_stale = self._rows_new = False
         whitened_gradient = self._unwhiten.T @ gradient
+        self._whitened_gradient = whitened_gradient
         if self._solver is None:
-            identity = np.eye(self.condenser.size)
-            sense = np.zeros(upper.size, dtype=np.intc)
-            sense[lower == upper] = _EQUALITY
-            solver = daqp.Model()
-            flag, _ = solver.setup(identity, whitened_gradient, self._whitened_rows, upper,
-                                   lower, sense)
-            if flag < 0:  # the next tick sets up again
-                return None
-            settings = solver.settings
-            settings.update(self._settings)
-            solver.settings = settings
-            self._solver = solver
-            return solver
+            self._solver = self._set_up(whitened_gradient, self._whitened_rows, lower, upper)
+            return self._solver  # None if daqp refused it: the next tick sets up again
         update: dict[str, FloatArray] = {"f": whitened_gradient, "bupper": upper,
                                          "blower": lower}
         if new_rows:
             update["A"] = self._whitened_rows
         self._solver.update(**update)
         return self._solver
+
+    def _set_up(self, gradient: FloatArray, rows: FloatArray, lower: FloatArray,
+                upper: FloatArray) -> daqp.Model | None:
+        """A daqp model of the whitened problem (None if daqp refuses it)."""
+        sense = np.zeros(upper.size, dtype=np.intc)
+        sense[lower == upper] = _EQUALITY
+        solver = daqp.Model()
+        flag, _ = solver.setup(np.eye(self.condenser.size), gradient, rows, upper, lower, sense)
+        if flag < 0:
+            return None
+        settings = solver.settings
+        settings.update(self._settings)
+        solver.settings = settings
+        return solver
+
+    def _guards_hold(self, twists: FloatArray) -> bool:
+        """Whether the plan's ``twists`` (N, 3) keep within the guard rows (True without
+        any; the rows are on ``u_k`` alone, see :attr:`StageLimits.guards`)."""
+        guards = self._guards
+        if guards is None:
+            return True
+        values = np.matmul(guards.now, twists[:, :, None])[:, :, 0]
+        excess = np.maximum(values - guards.upper, guards.lower - values)
+        return bool(excess.max() <= self._guard_slack)
+
+    def _solve_guarded(self, tick: TickInput, lower: FloatArray,
+                       upper: FloatArray) -> tuple[int, dict[str, float]]:
+        """Solve the tick again with the guard rows too (a model of its own, set up for
+        it; into ``_step``): daqp's exit flag and info."""
+        guards = self._guards
+        assert guards is not None  # only called with guards
+        self.guarded_solves += 1
+        n, m = guards.horizon, guards.rows
+        at_guess = np.matmul(guards.now, tick.guess_twists[:, :, None])[:, :, 0]  # u_k alone
+        whitened = np.empty((n * m, self.condenser.size))
+        _whiten_stages(guards, self._unwhiten, whitened.reshape(n, m, -1))
+        solver = self._set_up(self._whitened_gradient,
+                              np.concatenate([self._whitened_rows, whitened]),
+                              np.concatenate([lower, (guards.lower - at_guess).ravel()]),
+                              np.concatenate([upper, (guards.upper - at_guess).ravel()]))
+        if solver is None:
+            self._step[:] = np.nan
+            return _SET_UP_FAILED, {"solve_time": 0.0, "setup_time": 0.0, "iterations": 0}
+        whitened_step, _, flag, info = solver.solve()
+        np.matmul(self._unwhiten, whitened_step, out=self._step)
+        return int(flag), info
 
     def _whitened(self, unwhiten: FloatArray, out: FloatArray | None = None,
                   moving_only: bool = False) -> FloatArray:
@@ -330,23 +392,21 @@ class DenseSolver:
         limits = self.limits
         n, m = limits.horizon, limits.rows
         whitened = np.empty_like(self._whitened_rows) if out is None else out
-        blocks = unwhiten[:3 * n].reshape(n, 3, -1)
         rows = whitened[:n * m].reshape(n, m, -1)
         if moving_only and out is not None and limits.moving is not None:
             k = limits.moving
-            np.matmul(limits.now[:, :k], blocks, out=rows[:, :k])
+            np.matmul(limits.now[:, :k], unwhiten[:3 * n].reshape(n, 3, -1), out=rows[:, :k])
             return whitened
-        np.matmul(limits.now, blocks, out=rows)
-        if n > 1:
-            rows[1:] += np.matmul(limits.before[1:], blocks[:-1])
+        _whiten_stages(limits, unwhiten, rows)
         if whitened.shape[0] > n * m:  # path mode's progress rows
             self._extra.times(unwhiten, out=whitened[n * m:])
         return whitened
 
-    def _result(self, tick: TickInput, step: FloatArray, flag: int,
+    def _result(self, tick: TickInput, step: FloatArray, twists: FloatArray, flag: int,
                 info: dict[str, float]) -> SolveResult:
-        """The plan the step (in ``_step``) gives (poses to first order through the
-        sensitivities, :func:`~mpc.solvers.condensed.plan_poses`)."""
+        """The plan the step (in ``_step``) gives: its ``twists`` (the guess's plus the
+        step's), its poses to first order through the sensitivities
+        (:func:`~mpc.solvers.condensed.plan_poses`)."""
         n3 = self.condenser.n_inputs
         self._plan()
         progress = None
@@ -355,7 +415,7 @@ class DenseSolver:
         return SolveResult(
             success=flag > 0 and math.isfinite(float(step.sum())),
             status=_STATUS.get(flag, f"daqp exit flag {flag}"),
-            poses=self._poses.copy(), twists=tick.guess_twists + step[:n3].reshape(-1, 3),
+            poses=self._poses.copy(), twists=twists,
             progress=progress, solve_time=float(info["solve_time"]) + float(info["setup_time"]),
             iterations=int(info["iterations"]))
 
@@ -421,6 +481,25 @@ class _SparseRows:
         np.multiply(self.values[:, 0, None], matrix[self.columns[:, 0]], out=out)
         for j in range(1, self.values.shape[1]):
             out += self.values[:, j, None] * matrix[self.columns[:, j]]
+
+
+def _stage_values(limits: StageLimits, twists: FloatArray, out: FloatArray) -> FloatArray:
+    """The limit rows' values (N, m) at ``twists`` (N, 3) into ``out``, but for stage 0's
+    part on the command before it (the caller's)."""
+    np.matmul(limits.now, twists[:, :, None], out=out[:, :, None])
+    if limits.horizon > 1:
+        out[1:] += np.matmul(limits.before[1:], twists[:-1, :, None])[:, :, 0]
+    return out
+
+
+def _whiten_stages(limits: StageLimits, unwhiten: FloatArray, out: FloatArray) -> None:
+    """The limit rows times ``L^{-T}`` into ``out`` (N, m, columns), stage by stage:
+    stage ``k``'s rows touch ``u_k`` and ``u_{k-1}`` only."""
+    n = limits.horizon
+    blocks = unwhiten[:3 * n].reshape(n, 3, -1)
+    np.matmul(limits.now, blocks, out=out)
+    if n > 1:
+        out[1:] += np.matmul(limits.before[1:], blocks[:-1])
 
 
 def _factor(hessian: FloatArray) -> FloatArray:
