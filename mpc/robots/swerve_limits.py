@@ -315,7 +315,8 @@ FACES = len(FACE_ANGLES)
 #: and tangent heading, inside and 1.3x beyond the limits, the plans solved without them
 #: broke them on one tick in three of the 16 runs, so daqp solves with 44 rows a stage
 #: rather than 56, checks the plan against these and solves again with them when one
-#: breaks: the same commands (to 1e-11).
+#: breaks: the same commands (to 1e-11), ticks 0.91-0.94x at the median (interleaved A/B
+#: on the figure-eight, fixed heading inside and beyond, tangent beyond, path mode beyond).
 GUARD_FACES = tuple(j for j, angle in enumerate(FACE_ANGLES) if abs(angle) > math.radians(30))
 
 #: The acceleration disk: a constant regular polygon of this many sides (half as many

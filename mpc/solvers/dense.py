@@ -387,8 +387,8 @@ class DenseSolver:
         (small enough that BLAS stays on one thread; one dense product of the whole matrix
         went to 5-15 ms with threads on a loaded 2-core machine). ``moving_only``: ``out``
         holds the rest already, and only the rows a refill moves are done again
-        (``limits.moving`` a stage, on ``u_k`` alone: a swerve module's speed faces, 24 of
-        56 rows a stage, a fifth of the whole product's time)."""
+        (``limits.moving`` a stage, on ``u_k`` alone: a swerve module's speed faces, 12 of
+        the 44 rows a stage daqp solves with)."""
         limits = self.limits
         n, m = limits.horizon, limits.rows
         whitened = np.empty_like(self._whitened_rows) if out is None else out
