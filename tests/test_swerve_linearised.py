@@ -123,21 +123,28 @@ def test_daqp_whitens_again_only_the_moving_faces_and_gets_the_whole_product() -
     np.testing.assert_allclose(solver._whitened_rows, whole, rtol=0.0, atol=1e-12)
 
 
+@pytest.mark.parametrize("mode", ["time", "path"])
 def test_the_guard_faces_stay_out_of_daqp_and_the_plans_are_those_of_every_face(
-        monkeypatch: pytest.MonkeyPatch) -> None:
-    """daqp solves without the faces at 45 and 90 deg, checks the plan against them and
-    solves again with them when one breaks (the circle's first tick beyond the limits,
-    whose faces still point along the body x axis): the commands equal those of daqp
-    given every face, to its tolerance."""
+        mode: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """daqp solves without the faces at +-45 and 90 deg, checks the plan against them and
+    solves again with them when one breaks (the circle's first tick beyond the limits):
+    the commands are those of daqp given every face, to its tolerance (after the second
+    solve the kept model starts from another active set, so the closed loops part at
+    that level: below 1e-9 here, against 0.04 m/s with the check left out). Inside the limits
+    no plan reaches a guard face: no second solve."""
     robot = preset("swerve")
     trajectory = reference("circle", "fixed", robot, SPEEDS["beyond"])
-    guarded = Controller(robot, trajectory, horizon=8, dt=DT, solver="daqp")
+    guarded = Controller(robot, trajectory, horizon=20, dt=DT, solver="daqp", mode=mode)
+    inside = Controller(robot, reference("figure8", "fixed", robot, SPEEDS["inside"]),
+                        horizon=20, dt=DT, solver="daqp", mode=mode)
     monkeypatch.setattr("mpc.robots.swerve_limits.GUARD_FACES", ())
-    every = Controller(robot, trajectory, horizon=8, dt=DT, solver="daqp")
-    solvers = guarded.solver, every.solver
-    assert isinstance(solvers[0], DenseSolver) and isinstance(solvers[1], DenseSolver)
-    n = robot.n_wheels
-    assert solvers[0].limits.rows == solvers[1].limits.rows - len(GUARD_FACES) * n
+    every = Controller(robot, trajectory, horizon=20, dt=DT, solver="daqp", mode=mode)
+    solver, every_face, solver_inside = guarded.solver, every.solver, inside.solver
+    assert isinstance(solver, DenseSolver) and isinstance(every_face, DenseSolver)
+    assert isinstance(solver_inside, DenseSolver)
+    assert solver.limits.rows == every_face.limits.rows - len(GUARD_FACES) * robot.n_wheels
     first, second = simulate(guarded, 3.0), simulate(every, 3.0)
-    assert solvers[0].guarded_solves >= 1 and solvers[1].guarded_solves == 0
-    np.testing.assert_allclose(first.twist_command, second.twist_command, rtol=0.0, atol=1e-9)
+    simulate(inside, 3.0)
+    assert solver.guarded_solves >= 1 and every_face.guarded_solves == 0
+    assert solver_inside.guarded_solves == 0
+    np.testing.assert_allclose(first.twist_command, second.twist_command, rtol=0.0, atol=1e-7)

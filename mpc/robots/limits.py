@@ -54,9 +54,9 @@ class StageLimits:
         change_times: time from ``u_{k-1}`` to ``u_k`` (N,) [s].
         changed: whether the last refill changed any row (the solvers skip the update
             when not).
-        moving: if not None, a refill changes only each stage's first ``moving`` rows, and
-            those are on ``u_k`` alone (``before`` zero there): a solver that transforms
-            the rows (daqp's whitening) redoes only them.
+        moving: if not None, a refill changes only each stage's first ``moving`` rows (and
+            its ``guards`` last ones), and those are on ``u_k`` alone (``before`` zero
+            there): a solver that transforms the rows (daqp's whitening) redoes only them.
         guards: each stage's last ``guards`` rows hold by themselves in the plans met so
             far and are kept only to catch a plan that moves far from the guess: a solver
             may leave them out of its problem, check its plan against them, and solve

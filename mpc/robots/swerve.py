@@ -180,8 +180,17 @@ class SwerveRobot(Robot):
     ) -> tuple[FloatArray, FloatArray]:
         """Signed speeds [rad/s] and steer angles [rad] for module ground velocities
         (n, 2) [m/s]; the rules of :meth:`module_states`."""
-        current = None if current_angles is None else np.asarray(current_angles, dtype=float)
-        return self._states(np.asarray(velocities, dtype=float) / self.wheel_radius, current)
+        speeds = np.asarray(velocities, dtype=float)
+        if speeds.shape != (self.n_wheels, 2):
+            raise RobotError(f"velocities must have shape ({self.n_wheels}, 2), got "
+                             f"{speeds.shape}")
+        current = None
+        if current_angles is not None:
+            current = np.asarray(current_angles, dtype=float)
+            if current.shape != (self.n_wheels,) or not np.all(np.isfinite(current)):
+                raise RobotError(f"current_angles must be {self.n_wheels} finite angles, "
+                                 f"got {shown(current_angles)}")
+        return self._states(speeds / self.wheel_radius, current)
 
     def twist(self, wheel_speeds: ArrayLike, steer_angles: ArrayLike) -> FloatArray:
         """Forward kinematics: least-squares twist from signed speeds and angles.

@@ -186,6 +186,10 @@ def _drives_within(robot: SwerveRobot, twists: FloatArray, steer_angles: FloatAr
     return np.all(within, axis=1)
 
 
+#: The fractions of a step :func:`turn_fraction` checks first: all of it, none of it.
+_WHOLE_STEP, _NO_STEP = np.array([1.0]), np.array([0.0])
+
+
 def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
                   steer_angles: FloatArray, dt: float) -> float:
     """1 if ``target`` turns no module by more than ``max_steer_rate dt`` from its present
@@ -224,9 +228,6 @@ def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
     return float(order[first_bad - 1])
 
 
-_WHOLE_STEP, _NO_STEP = np.array([1.0]), np.array([0.0])
-
-
 def _turns_fit(velocities: FloatArray, steer_angles: FloatArray, reach: float,
                wheel_radius: float) -> npt.NDArray[np.bool_]:
     """For each of K sets of module velocities (K, n, 2) [rad/s]: whether every moving
@@ -239,7 +240,7 @@ def _turns_fit(velocities: FloatArray, steer_angles: FloatArray, reach: float,
     angles = steer_angles.tolist()
     half = 0.5 * math.pi
     return np.array([
-        all(speed * wheel_radius <= _MOVING or abs((bearing - angle + half) % math.pi - half)
+        all(not speed * wheel_radius > _MOVING or abs((bearing - angle + half) % math.pi - half)
             <= reach for bearing, speed, angle in zip(row_bearings, row_speeds, angles,
                                                          strict=True))
         for row_bearings, row_speeds in zip(bearings, speeds, strict=True)])
@@ -308,15 +309,18 @@ _DIRECTION_FLOOR = 1e-3
 FACE_ANGLES = tuple(math.radians(angle) for angle in (-45.0, -5.0, 0.0, 5.0, 45.0, 90.0))
 FACES = len(FACE_ANGLES)
 
-#: The faces at 45 and 90 deg are guards (:attr:`StageLimits.guards`, each stage's last
+#: The faces at +-45 and 90 deg are guards (:attr:`StageLimits.guards`, each stage's last
 #: rows): a plan reaches them only when it turns a module far from the guess's direction
 #: (the first tick, whose faces still point along the body x axis, or a sudden turn). In
 #: 6 s runs of the benchmark's swerve circle and figure-eight, time and path mode, fixed
 #: and tangent heading, inside and 1.3x beyond the limits, the plans solved without them
 #: broke them on one tick in three of the 16 runs, so daqp solves with 44 rows a stage
 #: rather than 56, checks the plan against these and solves again with them when one
-#: breaks: the same commands (to 1e-11), ticks 0.91-0.94x at the median (interleaved A/B
-#: on the figure-eight, fixed heading inside and beyond, tangent beyond, path mode beyond).
+#: breaks: the same plans to daqp's tolerance (commands within 6e-12 of daqp given every
+#: face over those runs; after a second solve the kept model starts the next tick from the
+#: active set of the plan it gave, so later ticks may part at that tolerance), ticks
+#: 0.91-0.94x at the median (interleaved A/B on the figure-eight, fixed heading inside
+#: and beyond, tangent beyond, path mode beyond).
 GUARD_FACES = tuple(j for j, angle in enumerate(FACE_ANGLES) if abs(angle) > math.radians(30))
 
 #: The acceleration disk: a constant regular polygon of this many sides (half as many
@@ -379,8 +383,9 @@ def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> Sta
     for name, faces, rows in (("kept", kept_faces, limits.now[:, :kept]),
                               ("guards", GUARD_FACES, limits.now[:, m - guards:])):
         limits.memory[f"{name}_bases"] = _face_bases(robot, faces)
-        view = rows.view()
-        view.shape = (horizon, n, 1, 3 * len(faces))  # the rows' own memory (else raises)
+        view = rows.reshape(horizon, n, 1, 3 * len(faces))
+        if view.size and not np.shares_memory(view, limits.now):  # refills write the rows
+            raise RuntimeError("the speed faces' rows are not a view of the stage rows")
         limits.memory[f"{name}_rows"] = view
     limits.memory["floor"] = _DIRECTION_FLOOR * robot.nominal_max_wheel_speed
     _fill_faces(limits)

@@ -70,12 +70,13 @@ _EQUALITY = 5
 #: least 1 rad/s) and still count as within it: rounding, not a second solve.
 _GUARD_SLACK = 1e-9
 
-#: The exit flag of a tick whose daqp model could not be set up.
-_SET_UP_FAILED = -100
+#: The exit flag of a tick whose second daqp model, with the guard rows, could not be set up.
+_GUARDED_SET_UP_FAILED = -100
 
 _STATUS = {1: "solved", 2: "solved (soft)", -1: "infeasible", -2: "cycling", -3: "unbounded",
            -4: "maximum iterations reached", -5: "nonconvex", -6: "initial point infeasible",
-           -7: "time limit reached", _SET_UP_FAILED: "daqp set-up failed"}
+           -7: "time limit reached",
+           _GUARDED_SET_UP_FAILED: "daqp set-up failed (with the guard rows)"}
 
 
 class DenseSolver:
@@ -108,6 +109,8 @@ class DenseSolver:
         if every.guards:
             self.limits = leading_rows(every, every.rows - every.guards)
             self._guards = trailing_rows(every, every.guards)
+            if self._guards.before.any():
+                raise RuntimeError("guard rows must be on u_k alone (StageLimits.guards)")
             bounds = np.abs(np.concatenate([self._guards.lower, self._guards.upper]))
             self._guard_slack = _GUARD_SLACK * max(1.0, float(bounds[np.isfinite(bounds)]
                                                                 .max(initial=0.0)))
@@ -220,7 +223,7 @@ class DenseSolver:
         step = np.matmul(self._unwhiten, whitened_step, out=self._step)
         twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)  # the plan's
         if flag > 0 and not self._guards_hold(twists):
-            flag, info = self._solve_guarded(tick, lower, upper)
+            flag, info = self._solve_guarded(tick, lower, upper, info)
             twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)
         if profile is not None:
             profile.mark("solve: daqp")
@@ -358,10 +361,11 @@ class DenseSolver:
         excess = np.maximum(values - guards.upper, guards.lower - values)
         return bool(excess.max() <= self._guard_slack)
 
-    def _solve_guarded(self, tick: TickInput, lower: FloatArray,
-                       upper: FloatArray) -> tuple[int, dict[str, float]]:
+    def _solve_guarded(self, tick: TickInput, lower: FloatArray, upper: FloatArray,
+                       first: dict[str, float]) -> tuple[int, dict[str, float]]:
         """Solve the tick again with the guard rows too (a model of its own, set up for
-        it; into ``_step``): daqp's exit flag and info."""
+        it, within what is left of the time limit; into ``_step``): daqp's exit flag, and
+        its info with the first solve's (``first``) time and iterations added."""
         guards = self._guards
         assert guards is not None  # only called with guards
         self.guarded_solves += 1
@@ -375,9 +379,16 @@ class DenseSolver:
                               np.concatenate([upper, (guards.upper - at_guess).ravel()]))
         if solver is None:
             self._step[:] = np.nan
-            return _SET_UP_FAILED, {"solve_time": 0.0, "setup_time": 0.0, "iterations": 0}
+            return _GUARDED_SET_UP_FAILED, first
+        limit = self._settings["time_limit"]
+        if limit > 0.0:
+            settings = solver.settings
+            settings["time_limit"] = max(limit - float(first["solve_time"]), 1e-6)
+            solver.settings = settings
         whitened_step, _, flag, info = solver.solve()
         np.matmul(self._unwhiten, whitened_step, out=self._step)
+        for key in ("solve_time", "setup_time", "iterations"):
+            info[key] += first[key]
         return int(flag), info
 
     def _whitened(self, unwhiten: FloatArray, out: FloatArray | None = None,
