@@ -148,3 +148,26 @@ def test_the_guard_faces_stay_out_of_daqp_and_the_plans_are_those_of_every_face(
     assert solver.guarded_solves >= 1 and every_face.guarded_solves == 0
     assert solver_inside.guarded_solves == 0
     np.testing.assert_allclose(first.twist_command, second.twist_command, rtol=0.0, atol=1e-7)
+
+
+@pytest.mark.parametrize(("ratio", "late"), [(0.8, False), (1.3, True)])
+def test_rows_kept_while_the_plan_keeps_inside_the_disks_give_the_same_commands(
+        ratio: float, late: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A tick after a plan well inside every speed disk, with no speed face active, keeps
+    the faces of the last refill (no new rows for daqp); its plan is checked, and turns the
+    faces after all and solves again when it reaches a disk's edge (the figure-eight 1.3x
+    beyond the limits). Commands equal those of refilling every tick, to daqp's tolerance
+    (the closed loops part at 2e-7 m/s after a second solve)."""
+    robot = preset("swerve")
+    trajectory = reference("figure8", "fixed", robot, ratio)
+    keeping = Controller(robot, trajectory, horizon=20, dt=DT, solver="daqp")
+    first = simulate(keeping, 6.0)
+    monkeypatch.setattr("mpc.solvers.dense.KEEP_ROWS_BELOW", 0.0)  # never keep
+    refilling = Controller(robot, trajectory, horizon=20, dt=DT, solver="daqp")
+    second = simulate(refilling, 6.0)
+    solver, other = keeping.solver, refilling.solver
+    assert isinstance(solver, DenseSolver) and isinstance(other, DenseSolver)
+    assert solver.kept_rows >= 3 and other.kept_rows == 0
+    assert (solver.late_refills >= 1) == late
+    np.testing.assert_allclose(first.twist_command, second.twist_command, rtol=0.0,
+                               atol=1e-6 if late else 1e-12)

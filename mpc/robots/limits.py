@@ -17,6 +17,7 @@ the solvers take them as they are.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -64,6 +65,12 @@ class StageLimits:
             without some rows and within them is optimal with them). They are on ``u_k``
             alone (``before`` zero there), and a refill may change them as well as the
             first ``moving`` rows.
+        inside: if not None, the moving rows (guards too) are re-aimed supporting lines of
+            convex sets that they all contain (swerve's speed disks), and ``inside(twists,
+            ratio)`` says whether a plan's twists (N, 3) keep within those sets shrunk by
+            ``ratio``: a solver may then keep the rows of an earlier refill, for a plan
+            that keeps within the sets with none of those rows active is the answer with
+            the rows of any refill (it satisfies them all, and is optimal without them).
         memory: whatever the robot keeps between refills.
     """
 
@@ -76,6 +83,7 @@ class StageLimits:
     changed: bool = True
     moving: int | None = None
     guards: int = 0
+    inside: Callable[[FloatArray, float], bool] | None = None
     memory: dict[str, FloatArray] = field(default_factory=dict)
 
     @property
@@ -119,7 +127,7 @@ def leading_rows(limits: StageLimits, rows: int) -> StageLimits:
     return StageLimits(now=limits.now[:, :rows], before=limits.before[:, :rows],
                        lower=limits.lower[:, :rows], upper=limits.upper[:, :rows],
                        constant=limits.constant, change_times=limits.change_times,
-                       changed=limits.changed, moving=limits.moving)
+                       changed=limits.changed, moving=limits.moving, inside=limits.inside)
 
 
 def trailing_rows(limits: StageLimits, rows: int) -> StageLimits:

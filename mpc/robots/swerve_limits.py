@@ -22,6 +22,7 @@ paths.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import TYPE_CHECKING
 
@@ -355,7 +356,9 @@ def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> Sta
     (:func:`face_rows` numbers the faces'): the faces within 30 deg of the direction,
     module by module (``moving``); with an acceleration limit, ``ACCEL_SIDES / 2 n``
     acceleration rows; last the guard faces (:data:`GUARD_FACES`). The faces point along
-    the body x axis until the first tick turns them.
+    the body x axis until the first tick turns them. Every face is a supporting line of the
+    disk, so the disk satisfies the faces of any refill (``StageLimits.inside``): a plan
+    within the disks with no face active is the answer whichever way they point.
     """
     n = robot.n_wheels
     horizon = len(change_times)
@@ -376,7 +379,7 @@ def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> Sta
     upper = np.concatenate(bounds, axis=1)
     limits = StageLimits(now=now, before=before, lower=-upper, upper=upper, constant=False,
                          change_times=np.array(change_times, dtype=float), moving=kept,
-                         guards=guards)
+                         guards=guards, inside=functools.partial(_within_disks, robot))
     directions = np.zeros((horizon, n, 2))
     directions[..., 0] = 1.0
     limits.memory["directions"] = directions  # each module's planned unit direction
@@ -395,6 +398,15 @@ def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> Sta
 def _kept_faces() -> tuple[int, ...]:
     """The faces solved with always (not :data:`GUARD_FACES`), in angle order."""
     return tuple(j for j in range(FACES) if j not in GUARD_FACES)
+
+
+def _within_disks(robot: SwerveRobot, twists: FloatArray, ratio: float) -> bool:
+    """Whether every module's velocity in ``twists`` (N, 3) keeps within ``ratio`` of its
+    speed limit (the disks every face of :func:`linearised_stage_limits` contains)."""
+    velocities = twists @ robot.flat_wheel_blocks.T  # (N, 2n)
+    squares = velocities[:, 0::2] ** 2 + velocities[:, 1::2] ** 2
+    limit = ratio * robot.max_wheel_speed
+    return bool((squares <= limit * limit).all())
 
 
 def face_rows(n_wheels: int, rows: int) -> IntArray:

@@ -66,6 +66,12 @@ _DENSE_ROWS = 20_000
 #: daqp's constraint flag for an equality row (active and immutable).
 _EQUALITY = 5
 
+#: A plan whose moving rows are all inactive and that keeps within this fraction of the
+#: sets they support (``StageLimits.inside``: swerve's speed disks) lets the next tick keep
+#: those rows rather than refill them (checked after its solve all the same; the margin
+#: keeps plans near the edge from solving twice).
+KEEP_ROWS_BELOW = 0.98
+
 #: How far a plan may pass a guard row (relative to the guards' largest bound at set-up, at
 #: least 1 rad/s) and still count as within it: rounding, not a second solve.
 _GUARD_SLACK = 1e-9
@@ -105,6 +111,9 @@ class DenseSolver:
         # (_solve_guarded). Both sets are views of the robot's rows, refilled with them.
         self.limits = every  # the rows daqp solves with
         self._guards: StageLimits | None = None
+        # Rows whose refill may be skipped (StageLimits.inside): kept this tick, and whether
+        # the last plan allows keeping them the next; daqp's moving rows, to check both.
+        self._kept_rows = self._keep_rows_next = False
         self._guard_slack = 0.0  # how far past a guard row rounding may take a plan
         if every.guards:
             self.limits = leading_rows(every, every.rows - every.guards)
@@ -116,6 +125,9 @@ class DenseSolver:
                                                                 .max(initial=0.0)))
         structure = assemble_qp(model, self.limits)
         self.structure = structure
+        moving = self.limits.rows if self.limits.moving is None else self.limits.moving
+        self._moving_rows = (self.limits.rows * np.arange(n)[:, None]  # daqp's, stage-major
+                             + np.arange(moving)).ravel()
         self.condenser = Condenser(model, structure)
         self._p_data = structure.hessian.data.copy()
         terms, plan = tick_terms(model, structure.cost_terms), plan_poses(n)
@@ -162,10 +174,13 @@ class DenseSolver:
         self._whitened_gradient = np.zeros(self.condenser.size)  # the last one daqp got
         self.factorisations = 0  # Hessian rebuilds so far (for benchmarks)
         self.guarded_solves = 0  # ticks solved again with the guard rows (for benchmarks)
+        self.kept_rows = 0  # ticks that kept the last refill's rows (for benchmarks)
+        self.late_refills = 0  # of those, ticks whose plan made them refill after all
         self.profile: TickProfile | None = None  # phase stopwatch, set by the controller
 
     def reset(self) -> None:
         """Forget the active set and the cached factorisation."""
+        self._keep_rows_next = False
         self._solver = None
         self._rebuild = None
         self._reuse.forget()
@@ -222,6 +237,23 @@ class DenseSolver:
         whitened_step, _, flag, info = solver.solve()
         step = np.matmul(self._unwhiten, whitened_step, out=self._step)
         twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)  # the plan's
+        if self._kept_rows and flag > 0 and not self._rows_may_stay(info, twists, 1.0):
+            # the plan reached the edge of the sets the kept rows support: turn the rows to
+            # this tick's guess after all and solve again (daqp keeps its active set)
+            self._kept_rows, self._keep_rows_next = False, False
+            self.late_refills += 1
+            rows_changed = self._refill_rows(tick)
+            lower, upper = self._step_bounds(tick)
+            solver = self._update(gradient, lower, upper, rows_changed)
+            if solver is None:  # pragma: no cover - the same problem's shape set up before
+                raise RuntimeError("daqp refused a problem it had set up")
+            first = info
+            whitened_step, _, flag, info = solver.solve()
+            for key in ("solve_time", "setup_time", "iterations"):
+                info[key] += first[key]
+            step = np.matmul(self._unwhiten, whitened_step, out=self._step)
+            twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)
+        self._keep_rows_next = flag > 0 and self._rows_may_stay(info, twists, KEEP_ROWS_BELOW)
         if flag > 0 and not self._guards_hold(twists):
             flag, info = self._solve_guarded(tick, lower, upper, info)
             twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)
@@ -284,7 +316,14 @@ class DenseSolver:
             self._whitened_rows, self._rows_new = whitened, True
 
     def _refill_rows(self, tick: TickInput) -> bool:
-        """Refill the limit rows of robots whose limits move (swerve); whether they did."""
+        """Refill the limit rows of robots whose limits move (swerve); whether they did.
+        Rows that may stay (``StageLimits.inside``) are kept as they are when the last
+        plan kept well inside their sets with none of them active (``_kept_rows``: the
+        plan is checked after the solve)."""
+        self._kept_rows = self._keep_rows_next and self.limits.inside is not None
+        if self._kept_rows:
+            self.kept_rows += 1
+            return False
         if self.limits.constant:
             return False
         every = self._every_limit
@@ -350,6 +389,16 @@ class DenseSolver:
         settings.update(self._settings)
         solver.settings = settings
         return solver
+
+    def _rows_may_stay(self, info: dict[str, FloatArray], twists: FloatArray,
+                       ratio: float) -> bool:
+        """Whether no moving row is active in the plan of ``twists`` (N, 3) (daqp's
+        multipliers in ``info``) and it keeps within ``ratio`` of the sets the moving rows
+        support (``StageLimits.inside``)."""
+        inside = self.limits.inside
+        if inside is None or info["lam"][self._moving_rows].any():
+            return False
+        return inside(twists, ratio)
 
     def _guards_hold(self, twists: FloatArray) -> bool:
         """Whether the plan's ``twists`` (N, 3) keep within the guard rows (True without
