@@ -103,6 +103,26 @@ def test_swerve_stopped_module_keeps_angle() -> None:
     np.testing.assert_allclose(angles, current)
 
 
+def test_states_from_module_velocities_are_those_of_the_twist_and_check_their_shapes() -> None:
+    """``states_from_velocities`` takes ground velocities [m/s] (n, 2): those of a twist
+    give that twist's module states; a wrong shape or angle count is a RobotError."""
+    twist = np.array([0.4, -0.2, 0.7])
+    current = np.array([0.1, 2.5, -1.0, 0.3])
+    velocities = SWERVE.module_velocities(twist)
+    for given, expected in ((SWERVE.states_from_velocities(velocities, current),
+                             SWERVE.module_states(twist, current)),
+                            (SWERVE.states_from_velocities(velocities),
+                             SWERVE.module_states(twist))):
+        np.testing.assert_allclose(given[0], expected[0], rtol=1e-12)
+        np.testing.assert_allclose(given[1], expected[1], rtol=1e-12)
+    with pytest.raises(RobotError, match="velocities must have shape"):
+        SWERVE.states_from_velocities(velocities[:3])
+    with pytest.raises(RobotError, match="current_angles must be 4 finite angles"):
+        SWERVE.states_from_velocities(velocities, 0.3)
+    with pytest.raises(RobotError, match="current_angles must be 4 finite angles"):
+        SWERVE.states_from_velocities(velocities, [0.0, math.nan, 0.0, 0.0])
+
+
 @settings(max_examples=60, deadline=None)
 @given(twists)
 def test_round_trips(twist: np.ndarray) -> None:

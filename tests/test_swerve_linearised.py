@@ -171,3 +171,30 @@ def test_rows_kept_while_the_plan_keeps_inside_the_disks_give_the_same_commands(
     assert (solver.late_refills >= 1) == late
     np.testing.assert_allclose(first.twist_command, second.twist_command, rtol=0.0,
                                atol=1e-6 if late else 1e-12)
+
+
+def test_a_guarded_solve_daqp_cannot_set_up_is_a_failed_tick_with_a_safe_command(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The second solve's own model refused (its set-up failing): the tick fails with its
+    own status, and the controller's fallback sends a command within the limits."""
+    robot = preset("swerve")
+    controller = Controller(robot, reference("circle", "fixed", robot, SPEEDS["beyond"]),
+                            horizon=20, dt=DT, solver="daqp")
+    solver = controller.solver
+    assert isinstance(solver, DenseSolver)
+    set_up = DenseSolver._set_up
+
+    def refuse_guarded(self: DenseSolver, gradient: np.ndarray, rows: np.ndarray,
+                       lower: np.ndarray, upper: np.ndarray) -> object:
+        if rows.shape[0] > self._whitened_rows.shape[0]:  # the rows with the guards
+            return None
+        return set_up(self, gradient, rows, lower, upper)
+
+    monkeypatch.setattr(DenseSolver, "_set_up", refuse_guarded)
+    pose = np.array(controller.trajectory.sample(0.0).pose)
+    command = controller.step(pose, 0.0)  # the first tick breaks a guard (see above)
+    assert solver.guarded_solves == 1
+    assert command.solver_status == "daqp set-up failed (with the guard rows)"
+    assert command.status.value != "solved"
+    assert np.all(np.isfinite(command.wheel_speeds))
+    assert np.all(np.abs(command.wheel_speeds) <= robot.max_wheel_speed * (1 + 1e-9))
