@@ -109,12 +109,12 @@ def test_states_from_module_velocities_are_those_of_the_twist_and_check_their_sh
     twist = np.array([0.4, -0.2, 0.7])
     current = np.array([0.1, 2.5, -1.0, 0.3])
     velocities = SWERVE.module_velocities(twist)
-    for given, expected in ((SWERVE.states_from_velocities(velocities, current),
+    for states, expected in ((SWERVE.states_from_velocities(velocities, current),
                              SWERVE.module_states(twist, current)),
                             (SWERVE.states_from_velocities(velocities),
                              SWERVE.module_states(twist))):
-        np.testing.assert_allclose(given[0], expected[0], rtol=1e-12)
-        np.testing.assert_allclose(given[1], expected[1], rtol=1e-12)
+        np.testing.assert_allclose(states[0], expected[0], rtol=1e-12)
+        np.testing.assert_allclose(states[1], expected[1], rtol=1e-12)
     with pytest.raises(RobotError, match="velocities must have shape"):
         SWERVE.states_from_velocities(velocities[:3])
     with pytest.raises(RobotError, match="current_angles must be 4 finite angles"):
