@@ -157,13 +157,7 @@ class SwerveRobot(Robot):
         xi = as_twists(twist)
         if xi.shape != (3,):
             raise RobotError(f"module_states takes one twist of shape (3,), got {xi.shape}")
-        current = None
-        if current_angles is not None:
-            current = np.asarray(current_angles, dtype=float)
-            if current.shape != (self.n_wheels,) or not np.all(np.isfinite(current)):
-                raise RobotError(f"current_angles must be {self.n_wheels} finite angles, "
-                                 f"got {shown(current_angles)}")
-        return self._states(self.wheel_blocks @ xi, current)
+        return self._states(self.wheel_blocks @ xi, self._current_angles(current_angles))
 
     def commands_from_velocities(self, velocities: FloatArray,
                                  steer_angles: FloatArray | None) -> WheelCommands:
@@ -184,13 +178,17 @@ class SwerveRobot(Robot):
         if speeds.shape != (self.n_wheels, 2):
             raise RobotError(f"velocities must have shape ({self.n_wheels}, 2), got "
                              f"{speeds.shape}")
-        current = None
-        if current_angles is not None:
-            current = np.asarray(current_angles, dtype=float)
-            if current.shape != (self.n_wheels,) or not np.all(np.isfinite(current)):
-                raise RobotError(f"current_angles must be {self.n_wheels} finite angles, "
-                                 f"got {shown(current_angles)}")
-        return self._states(speeds / self.wheel_radius, current)
+        return self._states(speeds / self.wheel_radius, self._current_angles(current_angles))
+
+    def _current_angles(self, current_angles: ArrayLike | None) -> FloatArray | None:
+        """The modules' present steer angles, checked: n finite angles [rad], or None."""
+        if current_angles is None:
+            return None
+        current = np.asarray(current_angles, dtype=float)
+        if current.shape != (self.n_wheels,) or not np.all(np.isfinite(current)):
+            raise RobotError(f"current_angles must be {self.n_wheels} finite angles, "
+                             f"got {shown(current_angles)}")
+        return current
 
     def twist(self, wheel_speeds: ArrayLike, steer_angles: ArrayLike) -> FloatArray:
         """Forward kinematics: least-squares twist from signed speeds and angles.
