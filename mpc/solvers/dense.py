@@ -14,12 +14,20 @@ built over four ticks so that no tick carries a whole rebuild; it is rebuilt at
 once when they moved beyond :data:`REBUILD_NOW` times, or the cost terms beyond
 :data:`COST_TOLERANCE`. daqp sees the QP in whitened steps (Hessian the
 identity), so a new Hessian costs it new rows, not a refactorisation.
+
+Rows a robot marks as guards (``StageLimits.guards``: swerve's speed faces at +-45 and 90
+deg) stay out of daqp's problem: the plan is checked against them and the tick solved again
+with them when it breaks one. Rows whose refill may be skipped (``StageLimits.inside``:
+swerve's faces, supporting lines of its speed disks) are kept from the last tick while the
+last plan kept well inside the disks with none of them active: no new rows for daqp; the
+plan is checked, and the rows turned and the tick solved again when it reaches an edge.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from typing import Any
 
 import casadi as ca
 import daqp
@@ -40,8 +48,8 @@ from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
 from mpc.solvers.hessian_reuse import COST_TOLERANCE, SENSITIVITY_TOLERANCE, HessianReuse
 from mpc.solvers.qp_structure import QpStructure, assemble_qp, fill_inequality_bounds
 
-__all__ = ["COST_TOLERANCE", "REBUILD_EARLY", "REBUILD_NOW", "SENSITIVITY_TOLERANCE",
-           "DenseSolver"]
+__all__ = ["COST_TOLERANCE", "KEEP_ROWS_BELOW", "REBUILD_EARLY", "REBUILD_NOW",
+           "SENSITIVITY_TOLERANCE", "DenseSolver"]
 
 #: A new Hessian is begun once the sensitivities or the rollout's steps moved this
 #: multiple of their tolerance from the one in use; it is built over four ticks of about
@@ -238,20 +246,7 @@ class DenseSolver:
         step = np.matmul(self._unwhiten, whitened_step, out=self._step)
         twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)  # the plan's
         if self._kept_rows and flag > 0 and not self._rows_may_stay(info, twists, 1.0):
-            # the plan reached the edge of the sets the kept rows support: turn the rows to
-            # this tick's guess after all and solve again (daqp keeps its active set)
-            self._kept_rows, self._keep_rows_next = False, False
-            self.late_refills += 1
-            rows_changed = self._refill_rows(tick)
-            lower, upper = self._step_bounds(tick)
-            solver = self._update(gradient, lower, upper, rows_changed)
-            if solver is None:  # pragma: no cover - the same problem's shape set up before
-                raise RuntimeError("daqp refused a problem it had set up")
-            first = info
-            whitened_step, _, flag, info = solver.solve()
-            for key in ("solve_time", "setup_time", "iterations"):
-                info[key] += first[key]
-            step = np.matmul(self._unwhiten, whitened_step, out=self._step)
+            flag, info, lower, upper = self._solve_refilled(tick, solver, info)
             twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)
         self._keep_rows_next = flag > 0 and self._rows_may_stay(info, twists, KEEP_ROWS_BELOW)
         if flag > 0 and not self._guards_hold(twists):
@@ -389,6 +384,23 @@ class DenseSolver:
         settings.update(self._settings)
         solver.settings = settings
         return solver
+
+    def _solve_refilled(self, tick: TickInput, solver: daqp.Model, first: dict[str, Any]
+                        ) -> tuple[int, dict[str, Any], FloatArray, FloatArray]:
+        """A tick that kept the last rows and whose plan reached the edge of their sets:
+        the rows turned to this tick's guess after all and the tick solved again (daqp keeps
+        its active set; into ``_step``). daqp's exit flag, its info with the first solve's
+        (``first``) time and iterations added, and the new step bounds."""
+        self._kept_rows = self._keep_rows_next = False
+        self.late_refills += 1
+        rows_changed = self._refill_rows(tick)
+        lower, upper = self._step_bounds(tick)
+        self._update(self._gradient, lower, upper, rows_changed)  # the model set up before
+        whitened_step, _, flag, info = solver.solve()
+        np.matmul(self._unwhiten, whitened_step, out=self._step)
+        for key in ("solve_time", "setup_time", "iterations"):
+            info[key] += first[key]
+        return int(flag), info, lower, upper
 
     def _rows_may_stay(self, info: dict[str, FloatArray], twists: FloatArray,
                        ratio: float) -> bool:
