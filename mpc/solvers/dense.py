@@ -71,8 +71,9 @@ REBUILD_NOW = 2.0
 #: (:class:`_FixedBounds`).
 _DENSE_ROWS = 20_000
 
-#: daqp's constraint flag for an equality row (active and immutable).
-_EQUALITY = 5
+#: daqp's constraint flags: an equality row (active and immutable); a row active at its
+#: upper, at its lower bound (a warm start).
+_EQUALITY, _ACTIVE, _ACTIVE_LOWER = 5, 1, 3
 
 #: A plan whose moving rows are all inactive and that keeps within this fraction of the
 #: sets they support (``StageLimits.inside``: swerve's speed disks) lets the next tick keep
@@ -372,9 +373,15 @@ class DenseSolver:
         return self._solver
 
     def _set_up(self, gradient: FloatArray, rows: FloatArray, lower: FloatArray,
-                upper: FloatArray) -> daqp.Model | None:
-        """A daqp model of the whitened problem (None if daqp refuses it)."""
+                upper: FloatArray, multipliers: FloatArray | None = None
+                ) -> daqp.Model | None:
+        """A daqp model of the whitened problem (None if daqp refuses it), its first rows
+        marked active where ``multipliers`` (of those rows) are not 0: a warm start."""
         sense = np.zeros(upper.size, dtype=np.intc)
+        if multipliers is not None:
+            head = sense[:multipliers.size]
+            head[multipliers > 0.0] = _ACTIVE
+            head[multipliers < 0.0] = _ACTIVE_LOWER
         sense[lower == upper] = _EQUALITY
         solver = daqp.Model()
         flag, _ = solver.setup(np.eye(self.condenser.size), gradient, rows, upper, lower, sense)
@@ -423,7 +430,7 @@ class DenseSolver:
         return bool(excess.max() <= self._guard_slack)
 
     def _solve_guarded(self, tick: TickInput, lower: FloatArray, upper: FloatArray,
-                       first: dict[str, float]) -> tuple[int, dict[str, float]]:
+                       first: dict[str, Any]) -> tuple[int, dict[str, Any]]:
         """Solve the tick again with the guard rows too (a model of its own, set up for
         it, within what is left of the time limit; into ``_step``): daqp's exit flag, and
         its info with the first solve's (``first``) time and iterations added."""
@@ -434,19 +441,27 @@ class DenseSolver:
         at_guess = np.matmul(guards.now, tick.guess_twists[:, :, None])[:, :, 0]  # u_k alone
         whitened = np.empty((n * m, self.condenser.size))
         _whiten_stages(guards, self._unwhiten, whitened.reshape(n, m, -1))
-        solver = self._set_up(self._whitened_gradient,
-                              np.concatenate([self._whitened_rows, whitened]),
-                              np.concatenate([lower, (guards.lower - at_guess).ravel()]),
-                              np.concatenate([upper, (guards.upper - at_guess).ravel()]))
-        if solver is None:
+        problem = (self._whitened_gradient, np.concatenate([self._whitened_rows, whitened]),
+                   np.concatenate([lower, (guards.lower - at_guess).ravel()]),
+                   np.concatenate([upper, (guards.upper - at_guess).ravel()]))
+        # Warm: the first solve's active rows (most of the answer's) marked active; cold
+        # if daqp refuses that start.
+        flag, info = _GUARDED_SET_UP_FAILED, first
+        for multipliers in (first.get("lam"), None):
+            solver = self._set_up(*problem, multipliers=multipliers)
+            if solver is None:
+                continue
+            limit = self._settings["time_limit"]
+            if limit > 0.0:
+                settings = solver.settings
+                settings["time_limit"] = max(limit - float(first["solve_time"]), 1e-6)
+                solver.settings = settings
+            whitened_step, _, flag, info = solver.solve()
+            if flag > 0:
+                break
+        if flag == _GUARDED_SET_UP_FAILED:
             self._step[:] = np.nan
-            return _GUARDED_SET_UP_FAILED, first
-        limit = self._settings["time_limit"]
-        if limit > 0.0:
-            settings = solver.settings
-            settings["time_limit"] = max(limit - float(first["solve_time"]), 1e-6)
-            solver.settings = settings
-        whitened_step, _, flag, info = solver.solve()
+            return flag, first
         np.matmul(self._unwhiten, whitened_step, out=self._step)
         for key in ("solve_time", "setup_time", "iterations"):
             info[key] += first[key]
