@@ -234,8 +234,8 @@ def _turns_fit(velocities: FloatArray, steer_angles: FloatArray, reach: float,
     """For each of K sets of module velocities (K, n, 2) [rad/s]: whether every moving
     module turns by at most ``reach`` [rad] from ``steer_angles`` (the flip rule). The
     bearings and speeds are NumPy's; the rest is a loop over the few modules, the same
-    operations in the same order as :func:`_flip_turn` (5x quicker than a dozen NumPy
-    calls on arrays of four)."""
+    operations in the same order as :func:`_flip_turn` (a dozen NumPy calls on arrays of
+    four took :func:`turn_fraction` 17 us a call, this 9.5)."""
     x, y = velocities[..., 0], velocities[..., 1]
     bearings, speeds = np.arctan2(y, x).tolist(), np.hypot(x, y).tolist()
     angles = steer_angles.tolist()
