@@ -245,14 +245,14 @@ class DenseSolver:
                                twists=np.full((n, 3), np.nan), solve_time=0.0, iterations=0)
         whitened_step, _, flag, info = solver.solve()
         step = np.matmul(self._unwhiten, whitened_step, out=self._step)
-        twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)  # the plan's
+        twists = self._plan_twists(tick)
         if self._kept_rows and flag > 0 and not self._rows_may_stay(info, twists, 1.0):
             flag, info, lower, upper = self._solve_refilled(tick, solver, info)
-            twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)
+            twists = self._plan_twists(tick)
         self._keep_rows_next = flag > 0 and self._rows_may_stay(info, twists, KEEP_ROWS_BELOW)
         if flag > 0 and not self._guards_hold(twists):
             flag, info = self._solve_guarded(tick, lower, upper, info)
-            twists = tick.guess_twists + step[:self.condenser.n_inputs].reshape(-1, 3)
+            twists = self._plan_twists(tick)
         if profile is not None:
             profile.mark("solve: daqp")
         result = self._result(tick, step, twists, int(flag), info)
@@ -405,9 +405,11 @@ class DenseSolver:
         self._update(self._gradient, lower, upper, rows_changed)  # the model set up before
         whitened_step, _, flag, info = solver.solve()
         np.matmul(self._unwhiten, whitened_step, out=self._step)
-        for key in ("solve_time", "setup_time", "iterations"):
-            info[key] += first[key]
-        return int(flag), info, lower, upper
+        return int(flag), _with_first(info, first), lower, upper
+
+    def _plan_twists(self, tick: TickInput) -> FloatArray:
+        """The plan's twists (N, 3): the guess's plus the step's (in ``_step``)."""
+        return tick.guess_twists + self._step[:self.condenser.n_inputs].reshape(-1, 3)
 
     def _rows_may_stay(self, info: dict[str, FloatArray], twists: FloatArray,
                        ratio: float) -> bool:
@@ -463,9 +465,7 @@ class DenseSolver:
             self._step[:] = np.nan
             return flag, first
         np.matmul(self._unwhiten, whitened_step, out=self._step)
-        for key in ("solve_time", "setup_time", "iterations"):
-            info[key] += first[key]
-        return int(flag), info
+        return int(flag), _with_first(info, first)
 
     def _whitened(self, unwhiten: FloatArray, out: FloatArray | None = None,
                   moving_only: bool = False) -> FloatArray:
@@ -568,6 +568,13 @@ class _SparseRows:
         np.multiply(self.values[:, 0, None], matrix[self.columns[:, 0]], out=out)
         for j in range(1, self.values.shape[1]):
             out += self.values[:, j, None] * matrix[self.columns[:, j]]
+
+
+def _with_first(info: dict[str, Any], first: dict[str, Any]) -> dict[str, Any]:
+    """A second solve's daqp ``info`` with the first's time and iterations added."""
+    for key in ("solve_time", "setup_time", "iterations"):
+        info[key] += first[key]
+    return info
 
 
 def _stage_values(limits: StageLimits, twists: FloatArray, out: FloatArray) -> FloatArray:
