@@ -71,6 +71,10 @@ class StageLimits:
             ``ratio``: a solver may then keep the rows of an earlier refill, for a plan
             that keeps within the sets with none of those rows active is the answer with
             the rows of any refill (it satisfies them all, and is optimal without them).
+        screened: most of the rows bind seldom (a motor model's voltage, current and
+            traction rows: a manoeuvre binds a few kinds): a solver may leave out of its
+            problem the rows no plan has needed for a while, check each plan against them,
+            and solve again with those it breaks (the same answer, as for ``guards``).
         memory: whatever the robot keeps between refills.
     """
 
@@ -84,6 +88,7 @@ class StageLimits:
     moving: int | None = None
     guards: int = 0
     inside: Callable[[FloatArray, float], bool] | None = None
+    screened: bool = False
     memory: dict[str, FloatArray] = field(default_factory=dict)
 
     @property
@@ -127,7 +132,8 @@ def leading_rows(limits: StageLimits, rows: int) -> StageLimits:
     return StageLimits(now=limits.now[:, :rows], before=limits.before[:, :rows],
                        lower=limits.lower[:, :rows], upper=limits.upper[:, :rows],
                        constant=limits.constant, change_times=limits.change_times,
-                       changed=limits.changed, moving=limits.moving, inside=limits.inside)
+                       changed=limits.changed, moving=limits.moving, inside=limits.inside,
+                       screened=limits.screened)
 
 
 def trailing_rows(limits: StageLimits, rows: int) -> StageLimits:

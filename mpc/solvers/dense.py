@@ -21,6 +21,9 @@ with them when it breaks one. Rows whose refill may be skipped (``StageLimits.in
 swerve's faces, supporting lines of its speed disks) are kept from the last tick while the
 last plan kept well inside the disks with none of them active: no new rows for daqp; the
 plan is checked, and the rows turned and the tick solved again when it reaches an edge.
+Rows a robot marks as seldom needed (``StageLimits.screened``: motor rows) leave daqp's
+problem once no plan has needed them for a while (:mod:`.row_screen`): the plan is checked
+against them, and the tick solved again with those it breaks.
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ from mpc.solvers.base import SolveResult
 from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
 from mpc.solvers.hessian_reuse import COST_TOLERANCE, SENSITIVITY_TOLERANCE, HessianReuse
 from mpc.solvers.qp_structure import QpStructure, assemble_qp, fill_inequality_bounds
+from mpc.solvers.row_screen import RowScreen
 
 __all__ = ["COST_TOLERANCE", "KEEP_ROWS_BELOW", "REBUILD_EARLY", "REBUILD_NOW",
            "SENSITIVITY_TOLERANCE", "DenseSolver"]
@@ -85,13 +89,19 @@ KEEP_ROWS_BELOW = 0.98
 #: least 1 rad/s) and still count as within it: rounding, not a second solve.
 _GUARD_SLACK = 1e-9
 
-#: The exit flag of a tick whose second daqp model, with the guard rows, could not be set up.
-_GUARDED_SET_UP_FAILED = -100
+#: The exit flags of a tick whose second daqp model, with the guard rows, or with screened
+#: rows its plan broke, could not be set up.
+_GUARDED_SET_UP_FAILED, _SCREENED_SET_UP_FAILED = -100, -101
+
+#: Rounds of a tick solved again with screened rows its plan broke (:mod:`.row_screen`)
+#: before every row is back in daqp's problem.
+_SCREEN_ROUNDS = 2
 
 _STATUS = {1: "solved", 2: "solved (soft)", -1: "infeasible", -2: "cycling", -3: "unbounded",
            -4: "maximum iterations reached", -5: "nonconvex", -6: "initial point infeasible",
            -7: "time limit reached",
-           _GUARDED_SET_UP_FAILED: "daqp set-up failed (with the guard rows)"}
+           _GUARDED_SET_UP_FAILED: "daqp set-up failed (with the guard rows)",
+           _SCREENED_SET_UP_FAILED: "daqp set-up failed (with rows the plan broke)"}
 
 
 class DenseSolver:
@@ -185,6 +195,16 @@ class DenseSolver:
         self.guarded_solves = 0  # ticks solved again with the guard rows (for benchmarks)
         self.kept_rows = 0  # ticks that kept the last refill's rows (for benchmarks)
         self.late_refills = 0  # of those, ticks whose plan made them refill after all
+        # Rows left out of daqp's problem while no plan needs them (StageLimits.screened;
+        # not with guards or kept rows, which count on daqp having every row they do not);
+        # a new model's warm start when the rows it has changed (its multipliers, in the
+        # solver's row order).
+        self._screen: RowScreen | None = None
+        if self.limits.screened and not every.guards and self.limits.inside is None:
+            extra = self.condenser.constraints.shape[0] - n * self.limits.rows
+            self._screen = RowScreen(self.limits, extra)
+        self._next_start: FloatArray | None = None
+        self.screened_solves = 0  # ticks solved again with rows their plan broke
         self.profile: TickProfile | None = None  # phase stopwatch, set by the controller
 
     def reset(self) -> None:
@@ -193,6 +213,9 @@ class DenseSolver:
         self._solver = None
         self._rebuild = None
         self._reuse.forget()
+        self._next_start = None
+        if self._screen is not None:
+            self._screen.reset()
 
     def _bind(self, tick: TickInput) -> BufferedFunction:
         """The tick's terms (:func:`~mpc.solvers.condensed.tick_terms`) as a CasADi buffer
@@ -220,7 +243,10 @@ class DenseSolver:
             profile.mark("solve: model")
         gradient = self._gradient
         rows_changed = self._refill_rows(tick)
-        lower, upper = self._step_bounds(tick)
+        lower, upper = every_lower, every_upper = self._step_bounds(tick)
+        screen = self._screen
+        if screen is not None:
+            lower, upper = screen.picked(lower), screen.picked(upper)
         if profile is not None:
             profile.mark("solve: condense")
         pending = self._rebuild
@@ -245,6 +271,8 @@ class DenseSolver:
                                twists=np.full((n, 3), np.nan), solve_time=0.0, iterations=0)
         whitened_step, _, flag, info = solver.solve()
         step = np.matmul(self._unwhiten, whitened_step, out=self._step)
+        if screen is not None and flag > 0:
+            flag, info = self._check_screened(tick, screen, info, every_lower, every_upper)
         twists = self._plan_twists(tick)
         if self._kept_rows and flag > 0 and not self._rows_may_stay(info, twists, 1.0):
             flag, info, lower, upper = self._solve_refilled(tick, solver, info)
@@ -362,8 +390,12 @@ class DenseSolver:
         self._rows_stale = self._rows_new = False
         whitened_gradient = self._unwhiten.T @ gradient
         self._whitened_gradient = whitened_gradient
-        if self._solver is None:
-            self._solver = self._set_up(whitened_gradient, self._whitened_rows, lower, upper)
+        start, self._next_start = self._next_start, None
+        if self._solver is None or start is not None:  # new, or other rows (_check_screened)
+            if start is not None and self._screen is not None:
+                start = self._screen.picked(start)
+            self._solver = self._set_up(whitened_gradient, self._whitened_rows, lower, upper,
+                                        start)
             return self._solver  # None if daqp refused it: the next tick sets up again
         update: dict[str, FloatArray] = {"f": whitened_gradient, "bupper": upper,
                                          "blower": lower}
@@ -391,6 +423,52 @@ class DenseSolver:
         settings.update(self._settings)
         solver.settings = settings
         return solver
+
+    def _check_screened(self, tick: TickInput, screen: RowScreen, info: dict[str, Any],
+                        lower: FloatArray, upper: FloatArray) -> tuple[int, dict[str, Any]]:
+        """After a solve with screened rows left out (:mod:`.row_screen`; ``lower`` and
+        ``upper`` the bounds of every row): note the rows the plan has active; solve again
+        (a model of its own, warm started, into ``_step``) with the rows left out that the
+        plan breaks, every row after :data:`_SCREEN_ROUNDS` such rounds; then leave out,
+        from the next tick, the rows no plan has needed for a while. daqp's exit flag and
+        its info (the solves' times and iterations summed)."""
+        flag, rounds = 1, 0
+        multipliers = screen.full(info["lam"])  # in the solver's row order
+        screen.solved(multipliers)
+        while (broken := screen.broken(self.limits, self._plan_twists(tick),
+                                       tick.last_twist)).size:
+            rounds += 1
+            screen.admit(broken if rounds <= _SCREEN_ROUNDS else np.arange(screen.stage_rows))
+            self.screened_solves += 1
+            self._whitened_rows = self._whitened(self._unwhiten)
+            solver = self._set_up(self._whitened_gradient, self._whitened_rows,
+                                  screen.picked(lower), screen.picked(upper),
+                                  screen.picked(multipliers))
+            self._solver = solver
+            if solver is None:
+                self._step[:] = np.nan
+                return _SCREENED_SET_UP_FAILED, info
+            self._limit_time(solver, info)
+            whitened_step, _, flag, second = solver.solve()
+            solver.settings = self._settings
+            np.matmul(self._unwhiten, whitened_step, out=self._step)
+            info = _with_first(second, info)
+            if flag <= 0:
+                return int(flag), info
+            multipliers = screen.full(info["lam"])
+            screen.solved(multipliers, again=True)
+        if screen.retire():  # the next tick's model has the rows left (the same Hessian)
+            self._next_start = multipliers
+            self._rows_stale = True
+        return int(flag), info
+
+    def _limit_time(self, solver: daqp.Model, first: dict[str, Any]) -> None:
+        """A second solve in a tick gets what is left of the time limit after the first."""
+        limit = self._settings["time_limit"]
+        if limit > 0.0:
+            settings = solver.settings
+            settings["time_limit"] = max(limit - float(first["solve_time"]), 1e-6)
+            solver.settings = settings
 
     def _solve_refilled(self, tick: TickInput, solver: daqp.Model, first: dict[str, Any]
                         ) -> tuple[int, dict[str, Any], FloatArray, FloatArray]:
@@ -442,7 +520,7 @@ class DenseSolver:
         n, m = guards.horizon, guards.rows
         at_guess = np.matmul(guards.now, tick.guess_twists[:, :, None])[:, :, 0]  # u_k alone
         whitened = np.empty((n * m, self.condenser.size))
-        _whiten_stages(guards, self._unwhiten, whitened.reshape(n, m, -1))
+        _whiten_stages(guards.now, guards.before, self._unwhiten, whitened.reshape(n, m, -1))
         problem = (self._whitened_gradient, np.concatenate([self._whitened_rows, whitened]),
                    np.concatenate([lower, (guards.lower - at_guess).ravel()]),
                    np.concatenate([upper, (guards.upper - at_guess).ravel()]))
@@ -453,11 +531,7 @@ class DenseSolver:
             solver = self._set_up(*problem, multipliers=multipliers)
             if solver is None:
                 continue
-            limit = self._settings["time_limit"]
-            if limit > 0.0:
-                settings = solver.settings
-                settings["time_limit"] = max(limit - float(first["solve_time"]), 1e-6)
-                solver.settings = settings
+            self._limit_time(solver, first)
             whitened_step, _, flag, info = solver.solve()
             if flag > 0:
                 break
@@ -475,16 +549,27 @@ class DenseSolver:
         went to 5-15 ms with threads on a loaded 2-core machine). ``moving_only``: ``out``
         holds the rest already, and only the rows a refill moves are done again
         (``limits.moving`` a stage, on ``u_k`` alone: a swerve module's speed faces, 12 of
-        the 44 rows a stage daqp solves with)."""
+        the 44 rows a stage daqp solves with). With rows screened out (:mod:`.row_screen`),
+        the rows in daqp's problem only."""
         limits = self.limits
         n, m = limits.horizon, limits.rows
-        whitened = np.empty_like(self._whitened_rows) if out is None else out
+        screen = self._screen
+        size = self.condenser.constraints.shape[0] if screen is None else screen.size
+        whitened = out if out is not None and out.shape[0] == size else np.empty(
+            (size, unwhiten.shape[1]))
+        if screen is not None and screen.rows is not None:  # the rows in daqp's problem
+            play = screen.in_play
+            rows = whitened[:size - screen.extra].reshape(n, -1, unwhiten.shape[1])
+            _whiten_stages(limits.now[:, play], limits.before[:, play], unwhiten, rows)
+            if screen.extra:
+                self._extra.times(unwhiten, out=whitened[size - screen.extra:])
+            return whitened
         rows = whitened[:n * m].reshape(n, m, -1)
         if moving_only and out is not None and limits.moving is not None:
             k = limits.moving
             np.matmul(limits.now[:, :k], unwhiten[:3 * n].reshape(n, 3, -1), out=rows[:, :k])
             return whitened
-        _whiten_stages(limits, unwhiten, rows)
+        _whiten_stages(limits.now, limits.before, unwhiten, rows)
         if whitened.shape[0] > n * m:  # path mode's progress rows
             self._extra.times(unwhiten, out=whitened[n * m:])
         return whitened
@@ -586,14 +671,15 @@ def _stage_values(limits: StageLimits, twists: FloatArray, out: FloatArray) -> F
     return out
 
 
-def _whiten_stages(limits: StageLimits, unwhiten: FloatArray, out: FloatArray) -> None:
-    """The limit rows times ``L^{-T}`` into ``out`` (N, m, columns), stage by stage:
-    stage ``k``'s rows touch ``u_k`` and ``u_{k-1}`` only."""
-    n = limits.horizon
+def _whiten_stages(now: FloatArray, before: FloatArray, unwhiten: FloatArray,
+                   out: FloatArray) -> None:
+    """Limit rows (``now``, ``before``: (N, m, 3)) times ``L^{-T}`` into ``out`` (N, m,
+    columns), stage by stage: stage ``k``'s rows touch ``u_k`` and ``u_{k-1}`` only."""
+    n = now.shape[0]
     blocks = unwhiten[:3 * n].reshape(n, 3, -1)
-    np.matmul(limits.now, blocks, out=out)
+    np.matmul(now, blocks, out=out)
     if n > 1:
-        out[1:] += np.matmul(limits.before[1:], blocks[:-1])
+        out[1:] += np.matmul(before[1:], blocks[:-1])
 
 
 def _factor(hessian: FloatArray) -> FloatArray:

@@ -1,0 +1,121 @@
+"""Which limit rows the dense solver hands daqp: a robot's rows that plans seldom need
+(``StageLimits.screened``: a motor model's voltage, current and traction rows) leave daqp's
+problem once no plan has had them active for :data:`SCREEN_AFTER` ticks.
+
+daqp's work grows with its rows (each iteration scans them all; measured with daqp 0.11,
+its flag to skip a row does not save that work), and a motor model has many rows of which
+a manoeuvre binds few: of the swerve preset's 96 a stage, 28 were ever active on its
+figure-eight at 0.8 and 1.0 of the motor model's speeds; omni-4's current rows bind where
+the Mecanum's traction rows do. A plan is checked against the rows left out and the tick
+solved again with those it breaks (:meth:`RowScreen.broken`), so the answer is the same:
+a plan optimal without some rows and within them is optimal with them. A row is screened
+by its place in a stage, for every stage alike (the plan shifts a stage a tick).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mpc.arrays import FloatArray, IntArray
+from mpc.robots.limits import StageLimits
+
+__all__ = ["SCREEN_AFTER", "RowScreen"]
+
+#: Ticks without a plan that has a row active (at any stage) before the row leaves daqp's
+#: problem; a row a plan breaks comes back and stays for as long again.
+SCREEN_AFTER = 50
+
+#: How far a plan may pass a row left out (relative to its bound, at least 1) and still
+#: count as within it: rounding, not a second solve.
+_SLACK = 1e-9
+
+
+class RowScreen:
+    """The rows in daqp's problem: each stage's rows at the places in play, then the
+    ``extra`` rows after the stages' (path mode's progress rows, always in).
+
+    Args:
+        limits: the stage rows (N stages of m).
+        extra: rows after the stages' in the solver's row order.
+    """
+
+    def __init__(self, limits: StageLimits, extra: int) -> None:
+        self.horizon, self.stage_rows, self.extra = limits.horizon, limits.rows, extra
+        self.in_play = np.ones(self.stage_rows, dtype=bool)
+        self.rows: IntArray | None = None  # daqp's rows in the solver's order; None: all
+        self._needed_at = np.zeros(self.stage_rows, dtype=np.int64)
+        self._ticks = 0
+
+    @property
+    def size(self) -> int:
+        """Rows in daqp's problem."""
+        return self.horizon * int(self.in_play.sum()) + self.extra
+
+    def reset(self) -> None:
+        """Every row back in play, needed as of now."""
+        self._admit(np.arange(self.stage_rows))
+
+    def full(self, multipliers: FloatArray) -> FloatArray:
+        """daqp's ``multipliers`` (of its rows) in the solver's row order, 0 for rows out."""
+        if self.rows is None:
+            return multipliers
+        every = np.zeros(self.horizon * self.stage_rows + self.extra)
+        every[self.rows] = multipliers
+        return every
+
+    def picked(self, values: FloatArray) -> FloatArray:
+        """The entries of ``values`` (in the solver's row order) for daqp's rows."""
+        return values if self.rows is None else values[self.rows]
+
+    def solved(self, multipliers: FloatArray, again: bool = False) -> None:
+        """A tick's plan (its ``multipliers`` in the solver's row order; ``again``: the
+        tick's second or later): its active rows are needed as of now."""
+        self._ticks += not again
+        stages = multipliers[:self.horizon * self.stage_rows].reshape(self.horizon, -1)
+        self._needed_at[(stages != 0.0).any(axis=0)] = self._ticks
+
+    def broken(self, limits: StageLimits, twists: FloatArray, last: FloatArray) -> IntArray:
+        """The places out of play whose rows the plan ``twists`` (N, 3) (after the command
+        ``last``) breaks at some stage, beyond rounding."""
+        rows = np.flatnonzero(~self.in_play)
+        if rows.size == 0:
+            return rows
+        values = np.matmul(limits.now[:, rows], twists[:, :, None])[:, :, 0]
+        values[0] += limits.before[0, rows] @ last
+        if limits.horizon > 1:
+            values[1:] += np.matmul(limits.before[1:, rows], twists[:-1, :, None])[:, :, 0]
+        upper, lower = limits.upper[:, rows], limits.lower[:, rows]
+        excess = np.maximum(values - upper, lower - values)
+        scale = np.maximum(1.0, np.minimum(np.abs(upper), np.abs(lower)))
+        return rows[(excess > _SLACK * scale).any(axis=0)]
+
+    def admit(self, places: IntArray) -> None:
+        """The rows at ``places`` back in play (a plan broke them)."""
+        self._admit(places)
+
+    def retire(self) -> bool:
+        """Take out of play the rows no plan has needed for :data:`SCREEN_AFTER` ticks;
+        whether any left."""
+        stale = self.in_play & (self._ticks - self._needed_at >= SCREEN_AFTER)
+        if not stale.any():
+            return False
+        if stale.sum() == self.in_play.sum():  # daqp needs a row: the last one needed stays
+            stale[np.flatnonzero(self.in_play)[np.argmax(self._needed_at[self.in_play])]] = False
+            if not stale.any():
+                return False
+        self.in_play &= ~stale
+        self._index()
+        return True
+
+    def _admit(self, places: IntArray) -> None:
+        self.in_play[places] = True
+        self._needed_at[places] = self._ticks
+        self._index()
+
+    def _index(self) -> None:
+        if self.in_play.all():
+            self.rows = None
+            return
+        n, m = self.horizon, self.stage_rows
+        stages = (m * np.arange(n)[:, None] + np.flatnonzero(self.in_play)).ravel()
+        self.rows = np.concatenate([stages, n * m + np.arange(self.extra)])

@@ -1,0 +1,160 @@
+"""Rows left out of daqp's problem while no plan needs them (motor rows,
+:mod:`mpc.solvers.row_screen`): the bookkeeping by hand, and closed loops whose commands
+equal those of the solver given every row."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from benchmarks.motors import scenario_reference
+from mpc import Controller
+from mpc.robots import motor_preset, preset
+from mpc.robots.limits import StageLimits
+from mpc.sim import simulate
+from mpc.solvers.dense import DenseSolver
+from mpc.solvers.row_screen import SCREEN_AFTER, RowScreen
+
+DT = 0.05
+
+
+def stage_rows(horizon: int = 3) -> StageLimits:
+    """Four rows a stage: |vx| <= 1, |vy| <= 2, |omega| <= 3, |vx - vx_before| <= 0.5."""
+    now = np.zeros((horizon, 4, 3))
+    before = np.zeros((horizon, 4, 3))
+    now[:, 0, 0] = now[:, 1, 1] = now[:, 2, 2] = now[:, 3, 0] = 1.0
+    before[:, 3, 0] = -1.0
+    upper = np.tile([1.0, 2.0, 3.0, 0.5], (horizon, 1))
+    return StageLimits(now=now, before=before, lower=-upper, upper=upper, constant=True,
+                       change_times=np.full(horizon, DT), screened=True)
+
+
+def needing(screen: RowScreen, places: list[int]) -> np.ndarray:
+    """Multipliers (the solver's row order) with ``places`` active at the middle stage."""
+    multipliers = np.zeros(screen.horizon * screen.stage_rows + screen.extra)
+    for place in places:
+        multipliers[screen.stage_rows + place] = 0.5
+    return multipliers
+
+
+def test_rows_no_plan_needs_for_screen_after_ticks_leave_and_the_stage_rows_come_first() -> None:
+    screen = RowScreen(stage_rows(), extra=2)
+    assert screen.rows is None and screen.size == 3 * 4 + 2
+    for tick in range(SCREEN_AFTER):
+        assert not screen.retire() or tick == SCREEN_AFTER - 1
+        screen.solved(needing(screen, [1]))
+    assert screen.retire()
+    np.testing.assert_array_equal(screen.in_play, [False, True, False, False])
+    np.testing.assert_array_equal(screen.rows, [1, 5, 9, 12, 13])  # then the extra rows
+    assert screen.size == 5
+    daqp_multipliers = np.array([0.1, 0.2, 0.3, 0.4, 0.5])
+    every = screen.full(daqp_multipliers)
+    np.testing.assert_array_equal(every, [0, 0.1, 0, 0, 0, 0.2, 0, 0, 0, 0.3, 0, 0, 0.4, 0.5])
+    np.testing.assert_array_equal(screen.picked(every), daqp_multipliers)
+    screen.admit(np.array([3]))
+    np.testing.assert_array_equal(screen.rows, [1, 3, 5, 7, 9, 11, 12, 13])
+    screen.reset()
+    assert screen.rows is None and screen.in_play.all()
+
+
+def test_a_row_needed_again_stays_and_daqp_keeps_at_least_one_row() -> None:
+    screen = RowScreen(stage_rows(), extra=0)
+    for tick in range(SCREEN_AFTER + 10):
+        screen.solved(needing(screen, [2] if tick == 30 else []))
+    assert screen.retire()  # nothing needed 0, 1, 3 for SCREEN_AFTER ticks; 2 was at 30
+    np.testing.assert_array_equal(screen.in_play, [False, False, True, False])
+    for _ in range(SCREEN_AFTER):
+        screen.solved(needing(screen, []))
+    assert not screen.retire()  # every row stale: the last one needed stays
+    np.testing.assert_array_equal(screen.in_play, [False, False, True, False])
+    screen.solved(needing(screen, [0]), again=True)  # a second solve: the same tick
+    screen.admit(np.array([0]))  # broken by a plan: back, needed as of now
+    assert screen.retire()  # and row 2, stale, leaves
+    np.testing.assert_array_equal(screen.in_play, [True, False, False, False])
+
+
+def test_broken_finds_the_rows_out_of_play_a_plan_breaks_at_any_stage() -> None:
+    limits = stage_rows()
+    screen = RowScreen(limits, extra=0)
+    for _ in range(SCREEN_AFTER):
+        screen.solved(needing(screen, [1]))
+    screen.retire()  # rows 0, 2, 3 out
+    last = np.array([0.9, 0.0, 0.0])
+    within = np.array([[0.95, 1.9, 2.0], [0.9, -2.5, -3.0], [0.5, 0.0, 0.0]])
+    assert screen.broken(limits, within, last).size == 0  # row 1 (|vy| <= 2) is in play
+    rounding = within.copy()
+    rounding[1, 2] = -3.0 - 1e-12  # past |omega| <= 3 by rounding only
+    assert screen.broken(limits, rounding, last).size == 0
+    spin = within.copy()
+    spin[2, 2] = 3.1
+    np.testing.assert_array_equal(screen.broken(limits, spin, last), [2])
+    # Row 3 holds the change from the command before: stage 0's from ``last``.
+    np.testing.assert_array_equal(screen.broken(limits, within, np.array([0.2, 0.0, 0.0])),
+                                  [3])
+    jump = within.copy()
+    jump[2, 0] = -0.9  # 0.9 -> -0.9 between stages 1 and 2, and past |vx| <= 1: no
+    np.testing.assert_array_equal(screen.broken(limits, jump, last), [3])
+
+
+def test_robots_without_a_motor_model_hand_daqp_every_row() -> None:
+    robot = preset("swerve")
+    controller = Controller(robot, scenario_reference("figure8", "fixed", robot, 0.8),
+                            horizon=20, dt=DT, solver="daqp")
+    solver = controller.solver
+    assert isinstance(solver, DenseSolver) and solver._screen is None
+
+
+@pytest.mark.parametrize(("layout", "mode", "atol"), [("swerve", "time", 1e-6),
+                                                      ("mecanum", "path", 1e-9)])
+def test_screened_motor_rows_give_the_commands_of_every_row(layout: str, mode: str,
+                                                            atol: float) -> None:
+    """The motor presets on their figure-eight at 0.8 of the motor model: rows leave daqp's
+    problem (71 of the swerve's 96 a stage), plans that break one are solved again with it
+    (13 ticks in 400), and the commands are those of the solver given every row, to daqp's
+    tolerance (a second solve's warm start differs)."""
+    robot = motor_preset(layout)
+    trajectory = scenario_reference("figure8", "fixed", robot.with_dynamics(None), 0.8)
+    runs = []
+    for screened in (True, False):
+        controller = Controller(robot, trajectory, horizon=20, dt=DT, mode=mode)
+        solver = controller.solver
+        assert isinstance(solver, DenseSolver) and solver._screen is not None
+        if not screened:
+            solver._screen = None
+        runs.append((simulate(controller, 20.0), solver))
+    (screened_run, solver), (every_run, _) = runs
+    assert solver._screen is not None and not solver._screen.in_play.all()
+    assert solver.screened_solves >= 1
+    assert set(screened_run.status) == {"solved"}
+    np.testing.assert_allclose(screened_run.twist_command, every_run.twist_command, rtol=0.0,
+                               atol=atol)
+
+
+def test_a_second_solve_daqp_cannot_set_up_is_a_failed_tick_with_a_safe_command(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Rows a plan broke need a model of their own; daqp refusing it fails the tick with its
+    own status, and the fallback sends a command within the limits."""
+    robot = motor_preset("swerve")
+    trajectory = scenario_reference("figure8", "fixed", robot.with_dynamics(None), 0.8)
+    controller = Controller(robot, trajectory, horizon=20, dt=DT)
+    solver = controller.solver
+    assert isinstance(solver, DenseSolver) and solver._screen is not None
+    run = simulate(controller, 3.0)  # 60 ticks: rows have left daqp's problem
+    assert solver._screen.rows is not None
+    solves = solver.screened_solves
+    check = DenseSolver._check_screened
+
+    def refused(self: DenseSolver, *args: object) -> tuple[int, dict[str, object]]:
+        with monkeypatch.context() as inner:  # this tick's plan breaks a row left out
+            inner.setattr(RowScreen, "broken",
+                          lambda screen, *_: np.flatnonzero(~screen.in_play)[:1])
+            inner.setattr(DenseSolver, "_set_up", lambda *_, **__: None)
+            return check(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(DenseSolver, "_check_screened", refused)
+    command = controller.step(run.pose[-1], 3.0)
+    assert solver.screened_solves == solves + 1
+    assert command.solver_status == "daqp set-up failed (with rows the plan broke)"
+    assert command.status.value != "solved"
+    assert np.all(np.isfinite(command.wheel_speeds))
+    assert np.all(np.abs(command.wheel_speeds) <= robot.max_wheel_speed * (1 + 1e-9))
