@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchmarks import motors
 from benchmarks.cli import main
 from benchmarks.motors import kinematic_stand_in, motor_demand, motor_reference
 from mpc.robots import motor_preset
@@ -51,3 +52,16 @@ def test_motors_command_writes_its_table(tmp_path: Path, capsys: pytest.CaptureF
     assert document["rows"][0]["voltage_violations"] == 0
     assert "| omni3 figure8 |" in capsys.readouterr().out
     assert main(["motors", "--layouts", "hexapod"]) == 2
+
+
+def test_perf_times_both_runs_and_counts_the_rows_daqp_kept() -> None:
+    """``mpc-bench motors --perf`` on one layout: both runs timed, and the motor rows that
+    left daqp's problem after 50 ticks without a plan needing them counted."""
+    lines: list[str] = []
+    (row,) = motors.perf(["mecanum"], ticks=70, repeats=1, log=lines.append)
+    assert row["layout"] == "mecanum" and row["rows"] == 28
+    for label in ("kinematic", "motors"):
+        assert 0.0 < row[f"{label}_p50"] <= row[f"{label}_p99"]
+    (solved,) = row["rows_solved_at_end"]
+    assert 0 < solved < row["rows"]
+    assert "in daqp's problem at the end" in lines[0]

@@ -207,6 +207,13 @@ class DenseSolver:
         self.screened_solves = 0  # ticks solved again with rows their plan broke
         self.profile: TickProfile | None = None  # phase stopwatch, set by the controller
 
+    @property
+    def stage_rows_solved(self) -> int:
+        """Limit rows a stage in daqp's problem now: the rows without the guards, fewer
+        while screened rows are left out (:mod:`.row_screen`)."""
+        screen = self._screen
+        return self.limits.rows if screen is None else int(screen.in_play.sum())
+
     def reset(self) -> None:
         """Forget the active set and the cached factorisation."""
         self._keep_rows_next = False
