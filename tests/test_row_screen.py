@@ -1,18 +1,20 @@
 """Rows left out of daqp's problem while no plan needs them (motor rows,
 :mod:`mpc.solvers.row_screen`): the bookkeeping by hand, and closed loops whose commands
-equal those of the solver given every row."""
+match those of the solver given every row."""
 
 from __future__ import annotations
 
+import daqp
 import numpy as np
 import pytest
 
 from benchmarks.motors import scenario_reference
 from mpc import Controller
+from mpc.model.layout import TickInput
 from mpc.robots import motor_preset, preset
 from mpc.robots.limits import StageLimits
 from mpc.sim import simulate
-from mpc.solvers.dense import DenseSolver
+from mpc.solvers.dense import DenseSolver, _whiten_stages
 from mpc.solvers.row_screen import SCREEN_AFTER, RowScreen
 
 DT = 0.05
@@ -38,12 +40,13 @@ def needing(screen: RowScreen, places: list[int]) -> np.ndarray:
 
 
 def test_rows_no_plan_needs_for_screen_after_ticks_leave_and_the_stage_rows_come_first() -> None:
-    screen = RowScreen(stage_rows(), extra=2)
+    limits = stage_rows()
+    screen = RowScreen(limits, extra=2)
     assert screen.rows is None and screen.size == 3 * 4 + 2
-    for tick in range(SCREEN_AFTER):
-        assert not screen.retire() or tick == SCREEN_AFTER - 1
+    for _ in range(SCREEN_AFTER):
+        assert not screen.retire(limits)
         screen.solved(needing(screen, [1]))
-    assert screen.retire()
+    assert screen.retire(limits)
     np.testing.assert_array_equal(screen.in_play, [False, True, False, False])
     np.testing.assert_array_equal(screen.rows, [1, 5, 9, 12, 13])  # then the extra rows
     assert screen.size == 5
@@ -58,19 +61,30 @@ def test_rows_no_plan_needs_for_screen_after_ticks_leave_and_the_stage_rows_come
 
 
 def test_a_row_needed_again_stays_and_daqp_keeps_at_least_one_row() -> None:
-    screen = RowScreen(stage_rows(), extra=0)
+    limits = stage_rows()
+    screen = RowScreen(limits, extra=0)
     for tick in range(SCREEN_AFTER + 10):
         screen.solved(needing(screen, [2] if tick == 30 else []))
-    assert screen.retire()  # nothing needed 0, 1, 3 for SCREEN_AFTER ticks; 2 was at 30
+    assert screen.retire(limits)  # nothing needed 0, 1, 3 for SCREEN_AFTER ticks; 2 was at 30
     np.testing.assert_array_equal(screen.in_play, [False, False, True, False])
     for _ in range(SCREEN_AFTER):
         screen.solved(needing(screen, []))
-    assert not screen.retire()  # every row stale: the last one needed stays
+    assert not screen.retire(limits)  # every row stale: the last one needed stays
     np.testing.assert_array_equal(screen.in_play, [False, False, True, False])
     screen.solved(needing(screen, [0]), again=True)  # a second solve: the same tick
     screen.admit(np.array([0]))  # broken by a plan: back, needed as of now
-    assert screen.retire()  # and row 2, stale, leaves
+    assert screen.retire(limits)  # and row 2, stale, leaves
     np.testing.assert_array_equal(screen.in_play, [True, False, False, False])
+
+
+def test_equality_rows_never_leave() -> None:
+    limits = stage_rows()
+    limits.lower[1, 2] = limits.upper[1, 2] = 0.0  # omega = 0 at stage 1
+    screen = RowScreen(limits, extra=0)
+    for _ in range(SCREEN_AFTER):
+        screen.solved(needing(screen, [1]))
+    assert screen.retire(limits)
+    np.testing.assert_array_equal(screen.in_play, [False, True, True, False])
 
 
 def test_broken_finds_the_rows_out_of_play_a_plan_breaks_at_any_stage() -> None:
@@ -78,7 +92,7 @@ def test_broken_finds_the_rows_out_of_play_a_plan_breaks_at_any_stage() -> None:
     screen = RowScreen(limits, extra=0)
     for _ in range(SCREEN_AFTER):
         screen.solved(needing(screen, [1]))
-    screen.retire()  # rows 0, 2, 3 out
+    screen.retire(limits)  # rows 0, 2, 3 out
     last = np.array([0.9, 0.0, 0.0])
     within = np.array([[0.95, 1.9, 2.0], [0.9, -2.5, -3.0], [0.5, 0.0, 0.0]])
     assert screen.broken(limits, within, last).size == 0  # row 1 (|vy| <= 2) is in play
@@ -104,30 +118,59 @@ def test_robots_without_a_motor_model_hand_daqp_every_row() -> None:
     assert isinstance(solver, DenseSolver) and solver._screen is None
 
 
-@pytest.mark.parametrize(("layout", "mode", "atol"), [("swerve", "time", 1e-6),
-                                                      ("mecanum", "path", 1e-9)])
-def test_screened_motor_rows_give_the_commands_of_every_row(layout: str, mode: str,
-                                                            atol: float) -> None:
-    """The motor presets on their figure-eight at 0.8 of the motor model: rows leave daqp's
-    problem (71 of the swerve's 96 a stage), plans that break one are solved again with it
-    (13 ticks in 400), and the commands are those of the solver given every row, to daqp's
-    tolerance (a second solve's warm start differs)."""
+@pytest.mark.parametrize(("layout", "mode", "ratio"), [("swerve", "time", 0.8),
+                                                       ("ball3", "time", 1.0),
+                                                       ("mecanum", "path", 0.8)])
+def test_every_plan_with_rows_left_out_is_the_plan_of_every_row(layout: str, mode: str,
+                                                                 ratio: float) -> None:
+    """Each tick's plan, rows left out of daqp's problem (71 of the swerve's 96 a stage at
+    0.8 of the motor model), against the same QP with every row solved cold in a model of
+    its own: within every row, and the same cost to daqp's tolerance (a warm and a cold
+    solve of the same QP part by up to 4.4e-6 of it, with or without rows left out, on
+    these runs). (Closed loops with
+    and without screening part as such differences add up: the same RMS error, commands
+    apart by up to 0.2 rad/s on the balls.)"""
     robot = motor_preset(layout)
-    trajectory = scenario_reference("figure8", "fixed", robot.with_dynamics(None), 0.8)
-    runs = []
-    for screened in (True, False):
-        controller = Controller(robot, trajectory, horizon=20, dt=DT, mode=mode)
-        solver = controller.solver
-        assert isinstance(solver, DenseSolver) and solver._screen is not None
-        if not screened:
-            solver._screen = None
-        runs.append((simulate(controller, 20.0), solver))
-    (screened_run, solver), (every_run, _) = runs
-    assert solver._screen is not None and not solver._screen.in_play.all()
-    assert solver.screened_solves >= 1
-    assert set(screened_run.status) == {"solved"}
-    np.testing.assert_allclose(screened_run.twist_command, every_run.twist_command, rtol=0.0,
-                               atol=atol)
+    trajectory = scenario_reference("figure8", "fixed", robot.with_dynamics(None), ratio)
+    controller = Controller(robot, trajectory, horizon=20, dt=DT, mode=mode)
+    solver = controller.solver
+    assert isinstance(solver, DenseSolver) and solver._screen is not None
+    check = solver._check_screened
+    gaps: list[float] = []
+
+    def compare(tick: TickInput, screen: RowScreen, info: dict[str, object],
+                lower: np.ndarray, upper: np.ndarray) -> tuple[int, dict[str, object]]:
+        left_out = screen.rows is not None
+        flag, info = check(tick, screen, info, lower, upper)
+        if not left_out or flag <= 0:
+            return flag, info
+        limits, unwhiten = solver.limits, solver._unwhiten
+        n, m = limits.horizon, limits.rows
+        rows = np.empty((lower.size, unwhiten.shape[1]))
+        _whiten_stages(limits.now, limits.before, unwhiten, rows[:n * m].reshape(n, m, -1))
+        if lower.size > n * m:
+            solver._extra.times(unwhiten, out=rows[n * m:])
+        gradient = solver._whitened_gradient
+        mine = np.linalg.solve(unwhiten, solver._step)  # the plan's step, whitened
+        every = daqp.Model()
+        assert every.setup(np.eye(gradient.size), gradient, rows, upper, lower,
+                           np.zeros(upper.size, dtype=np.intc))[0] >= 0
+        cold, _, cold_flag, _ = every.solve()
+        assert cold_flag == 1
+        values = rows @ mine
+        assert np.all(values <= upper + 1e-6) and np.all(values >= lower - 1e-6)
+
+        def cost(y: np.ndarray) -> float:
+            return float(0.5 * y @ y + gradient @ y)
+
+        gaps.append(abs(cost(mine) - cost(cold)) / max(1.0, abs(cost(cold))))
+        return flag, info
+
+    solver._check_screened = compare  # type: ignore[method-assign]
+    simulate(controller, 6.0)
+    assert len(gaps) >= 50 and max(gaps) < 2e-5  # the every-row solver's own: up to 4.4e-6
+    if layout == "swerve":
+        assert solver.screened_solves >= 1  # plans that broke a row left out
 
 
 def test_a_second_solve_daqp_cannot_set_up_is_a_failed_tick_with_a_safe_command(

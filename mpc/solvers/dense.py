@@ -196,11 +196,13 @@ class DenseSolver:
         self.kept_rows = 0  # ticks that kept the last refill's rows (for benchmarks)
         self.late_refills = 0  # of those, ticks whose plan made them refill after all
         # Rows left out of daqp's problem while no plan needs them (StageLimits.screened;
-        # not with guards or kept rows, which count on daqp having every row they do not);
-        # a new model's warm start when the rows it has changed (its multipliers, in the
-        # solver's row order).
+        # not with guards or kept rows, which count on daqp having every row they do not,
+        # nor with constant rows, whose whitened set a Hessian rebuild installs a tick
+        # late); a new model's warm start when the rows it has changed (its multipliers, in
+        # the solver's row order).
         self._screen: RowScreen | None = None
-        if self.limits.screened and not every.guards and self.limits.inside is None:
+        if (self.limits.screened and not self.limits.constant and not every.guards
+                and self.limits.inside is None):
             extra = self.condenser.constraints.shape[0] - n * self.limits.rows
             self._screen = RowScreen(self.limits, extra)
         self._next_start: FloatArray | None = None
@@ -440,6 +442,8 @@ class DenseSolver:
         from the next tick, the rows no plan has needed for a while. daqp's exit flag and
         its info (the solves' times and iterations summed)."""
         flag, rounds = 1, 0
+        if not math.isfinite(float(self._step.sum())):  # not a plan: nothing to check
+            return flag, info
         multipliers = screen.full(info["lam"])  # in the solver's row order
         screen.solved(multipliers)
         while (broken := screen.broken(self.limits, self._plan_twists(tick),
@@ -448,9 +452,12 @@ class DenseSolver:
             screen.admit(broken if rounds <= _SCREEN_ROUNDS else np.arange(screen.stage_rows))
             self.screened_solves += 1
             self._whitened_rows = self._whitened(self._unwhiten)
-            solver = self._set_up(self._whitened_gradient, self._whitened_rows,
-                                  screen.picked(lower), screen.picked(upper),
-                                  screen.picked(multipliers))
+            solver = None
+            for start in (screen.picked(multipliers), None):  # warm; cold if daqp refuses
+                solver = self._set_up(self._whitened_gradient, self._whitened_rows,
+                                      screen.picked(lower), screen.picked(upper), start)
+                if solver is not None:
+                    break
             self._solver = solver
             if solver is None:
                 self._step[:] = np.nan
@@ -464,17 +471,19 @@ class DenseSolver:
                 return int(flag), info
             multipliers = screen.full(info["lam"])
             screen.solved(multipliers, again=True)
-        if screen.retire():  # the next tick's model has the rows left (the same Hessian)
+        if screen.retire(self.limits):  # the next tick's model: the rows left (same Hessian)
             self._next_start = multipliers
             self._rows_stale = True
         return int(flag), info
 
     def _limit_time(self, solver: daqp.Model, first: dict[str, Any]) -> None:
-        """A second solve in a tick gets what is left of the time limit after the first."""
+        """A second solve in a tick gets what is left of the time limit after the first
+        (its set-up and solve times, ``first``: daqp's info)."""
         limit = self._settings["time_limit"]
         if limit > 0.0:
             settings = solver.settings
-            settings["time_limit"] = max(limit - float(first["solve_time"]), 1e-6)
+            used = float(first["solve_time"]) + float(first["setup_time"])
+            settings["time_limit"] = max(limit - used, 1e-6)
             solver.settings = settings
 
     def _solve_refilled(self, tick: TickInput, solver: daqp.Model, first: dict[str, Any]

@@ -93,10 +93,11 @@ class RowScreen:
         """The rows at ``places`` back in play (a plan broke them)."""
         self._admit(places)
 
-    def retire(self) -> bool:
-        """Take out of play the rows no plan has needed for :data:`SCREEN_AFTER` ticks;
-        whether any left."""
+    def retire(self, limits: StageLimits) -> bool:
+        """Take out of play the rows no plan has needed for :data:`SCREEN_AFTER` ticks
+        (never an equality row of ``limits``: every plan is on it); whether any left."""
         stale = self.in_play & (self._ticks - self._needed_at >= SCREEN_AFTER)
+        stale &= ~(limits.lower == limits.upper).any(axis=0)
         if not stale.any():
             return False
         if stale.sum() == self.in_play.sum():  # daqp needs a row: the last one needed stays
