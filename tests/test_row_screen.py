@@ -1,6 +1,6 @@
 """Rows left out of daqp's problem while no plan needs them (motor rows,
-:mod:`mpc.solvers.row_screen`): the bookkeeping by hand, and closed loops whose commands
-match those of the solver given every row."""
+:mod:`mpc.solvers.row_screen`): the bookkeeping by hand, and each tick's plan against the same
+QP given every row."""
 
 from __future__ import annotations
 
