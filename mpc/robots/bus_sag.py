@@ -39,9 +39,8 @@ def sag(forces: ForceMap, twists: FloatArray, previous: FloatArray, change_times
     change = (twists - previous) / times
     if robot.wheel_dim == 2:  # along each wheel's drive direction, as its rows have it
         e = directions[:, :n]  # (N, n, 2)
-        speed_map = np.einsum("knd,ndj->knj", e, robot.wheel_blocks)
-        drive_map = np.einsum("knd,ndj->knj", e, forces.drive_map)
-        effort_map = np.einsum("knd,ndj->knj", e, forces.effort_map)
+        maps = np.matmul(e.transpose(1, 0, 2), forces.wheel_maps).transpose(1, 0, 2)
+        speed_map, drive_map, effort_map = maps[:, :, 0:3], maps[:, :, 3:6], maps[:, :, 6:9]
 
         def apply(maps: FloatArray, twist: FloatArray) -> FloatArray:
             return np.matmul(maps, twist[:, :, None])[:, :, 0]

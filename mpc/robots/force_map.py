@@ -140,6 +140,13 @@ class ForceMap:
         return self._flat["contacts"]
 
     @functools.cached_property
+    def wheel_maps(self) -> FloatArray:
+        """(n, d, 9): each wheel's velocity block, ``drive_map`` and ``effort_map`` side by
+        side (one product with a steered wheel's direction turns all three)."""
+        return readonly(np.concatenate([self.robot.wheel_blocks, self.drive_map,
+                                        self.effort_map], axis=2))
+
+    @functools.cached_property
     def _flat(self) -> dict[str, FloatArray]:
         return {"blocks": readonly(self.robot.wheel_blocks.reshape(-1, 3)),
                 "effort": readonly(self.effort_map.reshape(-1, 3)),

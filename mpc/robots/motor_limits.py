@@ -46,6 +46,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from mpc.arrays import FloatArray
 from mpc.robots.base import Robot
@@ -82,6 +83,8 @@ class MotorStageLimits(StageLimits):
     g_end: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 2)))
     g_start: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 2)))
     coef: FloatArray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    basis: FloatArray = field(default_factory=lambda: np.zeros((0, 2, _BASIS)))
+    turning: _Turning | None = None
     first_moving: int = 0  # the motor rows from this one on turn with the plan
 
 
@@ -111,30 +114,41 @@ def stage_limits(robot: Robot, change_times: FloatArray,
         previous=np.zeros((horizon, 3)), turn=np.zeros((horizon, 3)),
         turn_start=np.zeros((horizon, 3)), directions=directions,
         motor_bound=np.array(bound), base_now=empty.copy(), base_before=empty.copy(),
-        g=empty.copy(), coef=empty.copy(),
+        g=empty.copy(), g_end=np.zeros((horizon, rows.rows, 2)),
+        g_start=np.zeros((horizon, rows.rows, 2)), coef=empty.copy(), basis=_basis(rows),
+        turning=_turning(rows),
         first_moving=int(np.sum(rows.direction == FIXED)))
     _fill_rows(limits)
     return limits
 
 
+#: Columns of :func:`_basis`: ``q``, ``s_now``, ``s_before``, ``g`` (three each), then
+#: ``g``'s first two at the row's end of the change and at its start (two each).
+_BASIS = 16
+
+
+def _basis(rows: MotorRows) -> FloatArray:
+    """(m, 2, 16): each motor row's matrices side by side, so that one product with its unit
+    direction ``d`` gives all of ``d . q``, ``d . s_now``, ... (see :func:`_fill_rows`)."""
+    end = rows.end[:, None, None]
+    return np.concatenate([rows.q, rows.s_now, rows.s_before, rows.g,
+                           rows.g[:, :, :2] * end, rows.g[:, :, :2] * ~end], axis=2)
+
+
 def _fill_rows(limits: MotorStageLimits, first: int = 0) -> None:
     """The motor rows' base coefficients and Coriolis rows for the present directions (of
-    the rows from ``first`` on: the moving ones are last)."""
-    rows = limits.motor
-    if rows is None:  # pragma: no cover - set by stage_limits
-        return
+    the rows from ``first`` on: the moving ones are last): one batch of (N, 2) x (2, 16)
+    products, a row at a time (element-wise products broadcast over (N, m, 3) took four
+    times as long)."""
     pick = slice(first, None)
-    times = limits.change_times[:, None, None]
-    d0 = limits.directions[:, pick, 0:1]
-    d1 = limits.directions[:, pick, 1:2]
-
-    def turned(matrix: FloatArray) -> FloatArray:  # d . matrix per stage and row
-        return d0 * matrix[pick, 0, :] + d1 * matrix[pick, 1, :]
-
-    q = turned(rows.q) / times
-    limits.base_now[:, pick] = turned(rows.s_now) + q
-    limits.base_before[:, pick] = turned(rows.s_before) - q
-    limits.g[:, pick] = turned(rows.g)
+    turned = np.matmul(limits.directions[:, pick].transpose(1, 0, 2),
+                       limits.basis[pick]).transpose(1, 0, 2)  # (N, rows, 16)
+    q = turned[:, :, 0:3] / limits.change_times[:, None, None]
+    np.add(turned[:, :, 3:6], q, out=limits.base_now[:, pick])
+    np.subtract(turned[:, :, 6:9], q, out=limits.base_before[:, pick])
+    limits.g[:, pick] = turned[:, :, 9:12]
+    limits.g_end[:, pick] = turned[:, :, 12:14]
+    limits.g_start[:, pick] = turned[:, :, 14:16]
 
 
 def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
@@ -159,9 +173,6 @@ def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
     if rows.moving:
         _turn_rows(limits, forces, guess, previous, steer_angles)
         _fill_rows(limits, limits.first_moving)
-    if rows.moving or limits.g_end.shape[0] == 0:
-        limits.g_end = limits.g[:, :, :2] * rows.end[None, :, None]
-        limits.g_start = limits.g[:, :, :2] * ~rows.end[None, :, None]
     g_end, g_start = limits.g_end, limits.g_start  # (N, m, 2): each row's end's own
     # g . coriolis at each row's end of the change (N, m_motor)
     offset = (g_end[:, :, 0] * turn_end[:, 0:1] + g_end[:, :, 1] * turn_end[:, 1:2]
@@ -245,44 +256,65 @@ def _sag_voltage_rows(robot: Robot, limits: MotorStageLimits, forces: ForceMap,
     limits.changed = True
 
 
+@dataclass(frozen=True, eq=False)
+class _Turning:
+    """Which motor rows turn with the plan, and how (built once: :func:`_turning`):
+    steered wheels' rows (``drive``) along their wheel's velocity (``drive_wheels``); 2-D
+    contacts' traction rows, at the change's end and at its start (``sides``: the rows,
+    their contacts, and the cosine and sine of their edge's angle from the force)."""
+
+    drive: npt.NDArray[np.intp]
+    drive_wheels: npt.NDArray[np.intp]
+    sides: tuple[tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], FloatArray, FloatArray],
+                 ...]
+
+
+def _turning(rows: MotorRows) -> _Turning:
+    drive = np.flatnonzero(rows.direction == DRIVE)
+    sides = []
+    for end in (True, False):
+        side = np.flatnonzero((rows.direction == FORCE) & (rows.end == end))
+        sides.append((side, rows.index[side], np.cos(rows.angle[side]),
+                      np.sin(rows.angle[side])))
+    return _Turning(drive, rows.index[drive], tuple(sides))
+
+
 def _turn_rows(limits: MotorStageLimits, forces: ForceMap, guess: FloatArray,
                previous: FloatArray, steer_angles: FloatArray | None) -> None:
     """Point the moving rows: a steered wheel's along its velocity at the stage's end in
     ``guess`` (where that is at rest: the stage before's, or the present steer angle), a
-    2-D contact's polygon at the force ``guess`` asks of it at the row's end."""
-    rows = limits.motor
-    if rows is None:  # pragma: no cover
+    2-D contact's polygon at the force ``guess`` asks of it at the row's end (no force:
+    along the body x axis). Unit vectors throughout, no angles."""
+    turning, d = limits.turning, limits.directions
+    if turning is None:  # pragma: no cover - set by stage_limits
         return
-    d = limits.directions
-    drive = rows.direction == DRIVE
-    if np.any(drive):
+    horizon = len(guess)
+    if turning.drive.size:
         n = forces.robot.n_wheels
-        velocity = (guess @ forces.flat_blocks.T).reshape(len(guess), n, 2)
+        velocity = (guess @ forces.flat_blocks.T).reshape(horizon, n, 2)
         speed = np.hypot(velocity[:, :, 0], velocity[:, :, 1])
-        angle = np.arctan2(velocity[:, :, 1], velocity[:, :, 0])
-        rest = np.zeros(n) if steer_angles is None else np.asarray(steer_angles, float)
         stopped = speed <= AT_REST
-        if np.any(stopped):  # at rest: keep the direction before
-            for k in range(len(guess)):
-                angle[k] = np.where(stopped[k], rest, angle[k])
-                rest = angle[k]
-        wheel = rows.index[drive]
-        d[:, drive, 0] = np.cos(angle[:, wheel])
-        d[:, drive, 1] = np.sin(angle[:, wheel])
-    force_rows = rows.direction == FORCE
-    if np.any(force_rows):
+        unit = velocity / np.where(stopped, 1.0, speed)[:, :, None]
+        if stopped.any():  # at rest: keep the direction before
+            rest = np.zeros(n) if steer_angles is None else np.asarray(steer_angles, float)
+            before = np.stack([np.cos(rest), np.sin(rest)], axis=1)
+            for k in range(horizon):
+                unit[k] = np.where(stopped[k, :, None], before, unit[k])
+                before = unit[k]
+        d[:, turning.drive] = unit[:, turning.drive_wheels]
+    if turning.sides[0][0].size or turning.sides[1][0].size:
         change = (guess - previous) / limits.change_times[:, None]
-        contact = rows.index[force_rows]
-        ends = rows.end[force_rows]
-        angles = np.empty((len(guess), int(force_rows.sum())))
-        for turn, mask in ((limits.turn, ends), (limits.turn_start, ~ends)):
-            accel = change + turn  # (N, 3)
-            force = np.einsum("cij,kj->kci", forces.contact_maps, accel)  # (N, c, 2)
-            heading = np.arctan2(force[:, :, 1], force[:, :, 0])
-            angles[:, mask] = heading[:, contact[mask]]
-        angles += rows.angle[force_rows]
-        d[:, force_rows, 0] = np.cos(angles)
-        d[:, force_rows, 1] = np.sin(angles)
+        contacts = forces.contact_maps.shape[0]
+        for (rows, contact, cos, sin), turn in zip(turning.sides,
+                                                    (limits.turn, limits.turn_start),
+                                                    strict=True):
+            force = ((change + turn) @ forces.flat_contacts.T).reshape(horizon, contacts, 2)
+            size = np.hypot(force[:, :, 0], force[:, :, 1])
+            unit = force / np.where(size > 0.0, size, 1.0)[:, :, None]
+            unit[size == 0.0] = (1.0, 0.0)
+            along = unit[:, contact]  # (N, rows, 2): each row's contact's force direction
+            d[:, rows, 0] = along[:, :, 0] * cos - along[:, :, 1] * sin
+            d[:, rows, 1] = along[:, :, 1] * cos + along[:, :, 0] * sin
 
 
 def _coriolis(twists: FloatArray, out: FloatArray) -> None:
