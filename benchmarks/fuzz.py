@@ -2,10 +2,10 @@
 
 Every preset robot, every solver path and the options that change the control path
 (time and path mode, stage lengths, command delay, fewer polygon sides, a derated or dead
-wheel, a tight iteration budget) run in turn, tick after tick, on a plant that is
-disturbed at random: pose jumps of up to 2 m and a full turn, measurement noise, time
-that jumps forwards and backwards, references swapped mid-run, resets. Every command is
-checked against what a robot may be told:
+wheel, a tight iteration budget, the motor presets' motor rows) run in turn, tick after
+tick, on a plant that is disturbed at random: pose jumps of up to 2 m and a full turn,
+measurement noise, time that jumps forwards and backwards, references swapped mid-run,
+resets. Every command is checked against what a robot may be told:
 
 - finite wheel speeds, twist and steer angles;
 - every wheel within its speed limit;
@@ -34,7 +34,7 @@ from benchmarks.runner import machine
 from benchmarks.scenarios import Parser, ScenarioError
 from mpc import Command, Controller, Status
 from mpc.model import integrate
-from mpc.robots import PRESETS, Robot, preset
+from mpc.robots import MOTOR_ROBOT_PRESETS, PRESETS, Robot, motor_preset, preset
 from mpc.validation import MAX_SIMULATION_TICKS
 from trajectories import Circle, FigureEight, SpinHeading, Trajectory
 
@@ -53,6 +53,8 @@ CONFIGURATIONS: tuple[tuple[str, str, dict[str, Any], float], ...] = (
     ("osqp path 8 sides", "", {"solver": "osqp", "mode": "path", "polygon_sides": 8}, 0.3),
     ("ipopt", "", {"solver": "ipopt", "max_iter": 30}, 0.04),
     ("ipopt path", "", {"solver": "ipopt", "mode": "path", "max_iter": 30}, 0.03),
+    ("daqp motors", "motors", {}, 0.3),
+    ("daqp motors path", "motors", {"mode": "path"}, 0.2),
 )
 
 
@@ -87,6 +89,8 @@ def references(rng: np.random.Generator) -> list[Trajectory]:
 
 
 def transformed(robot: Robot, how: str) -> Robot:
+    if how == "motors":  # the layout's motor preset (motor rows, no acceleration limit)
+        return motor_preset(robot.name)
     if how == "dead":
         return robot.derated({0: 0.0})
     if how == "half":
@@ -191,12 +195,15 @@ def main(argv: list[str]) -> int:
     if not 0 <= args.seed <= 2**31:
         raise ScenarioError(f"--seed must be an integer 0 to {2**31}, got {args.seed}")
     out = None if args.out is None else claim(args.out, ("fuzz.json",), args.force)
-    shares = sum(c[3] for c in CONFIGURATIONS) * len(PRESETS)
+    pairs = [(robot, config) for robot in PRESETS for config in CONFIGURATIONS
+             if config[1] != "motors" or robot in MOTOR_ROBOT_PRESETS]
+    shares = sum(config[3] for _, config in pairs)
     plan = [(robot, config, max(10, round(args.ticks * config[3] / shares)))
-            for robot in PRESETS for config in CONFIGURATIONS]
+            for robot, config in pairs]
     total = sum(n for *_, n in plan)
-    print(f"fuzz: {total} ticks over {len(PRESETS)} robots x {len(CONFIGURATIONS)} "
-          f"configurations, seed {args.seed}", flush=True)
+    print(f"fuzz: {total} ticks over {len(plan)} runs ({len(PRESETS)} robots x "
+          f"{len(CONFIGURATIONS)} configurations, the motor ones on the "
+          f"{len(MOTOR_ROBOT_PRESETS)} motor presets), seed {args.seed}", flush=True)
     print(f"{'robot':8s} {'configuration':26s} {'ticks':>6s} {'unsafe':>6s} "
           f"{'fallbacks':>9s} {'wall [s]':>8s}")
     tallies = []
