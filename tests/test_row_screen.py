@@ -201,3 +201,25 @@ def test_a_second_solve_daqp_cannot_set_up_is_a_failed_tick_with_a_safe_command(
     assert command.status.value != "solved"
     assert np.all(np.isfinite(command.wheel_speeds))
     assert np.all(np.abs(command.wheel_speeds) <= robot.max_wheel_speed * (1 + 1e-9))
+
+
+def test_a_second_solve_gets_what_is_left_of_the_time_limit() -> None:
+    """A tick solved again (rows a plan broke, or guards) has one time limit in all: the
+    second model gets the limit less the first solve's set-up and solve times, and the
+    tick's first model keeps the whole limit."""
+    robot = motor_preset("mecanum")
+    trajectory = scenario_reference("figure8", "fixed", robot.with_dynamics(None), 0.8)
+    controller = Controller(robot, trajectory, horizon=20, dt=DT, time_limit=2e-3)
+    solver = controller.solver
+    assert isinstance(solver, DenseSolver)
+    simulate(controller, 0.1)  # the model is set up
+    assert solver._solver is not None
+    first = {"solve_time": 6e-4, "setup_time": 1e-4}
+    second = daqp.Model()
+    second.setup(np.eye(2), np.zeros(2), np.eye(2), np.ones(2), -np.ones(2),
+                 np.zeros(2, dtype=np.intc))
+    solver._limit_time(second, first)
+    assert second.settings["time_limit"] == pytest.approx(2e-3 - 7e-4)
+    assert solver._solver.settings["time_limit"] == pytest.approx(2e-3)
+    solver._limit_time(second, {"solve_time": 5e-3, "setup_time": 0.0})  # spent already
+    assert second.settings["time_limit"] == pytest.approx(1e-6)
