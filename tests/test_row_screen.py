@@ -54,7 +54,7 @@ def test_rows_no_plan_needs_for_screen_after_ticks_leave_and_the_stage_rows_come
     every = screen.full(daqp_multipliers)
     np.testing.assert_array_equal(every, [0, 0.1, 0, 0, 0, 0.2, 0, 0, 0, 0.3, 0, 0, 0.4, 0.5])
     np.testing.assert_array_equal(screen.picked(every), daqp_multipliers)
-    screen.admit(np.array([3]))
+    screen.admit(np.array([3]), limits)
     np.testing.assert_array_equal(screen.rows, [1, 3, 5, 7, 9, 11, 12, 13])
     screen.reset()
     assert screen.rows is None and screen.in_play.all()
@@ -72,7 +72,7 @@ def test_a_row_needed_again_stays_and_daqp_keeps_at_least_one_row() -> None:
     assert not screen.retire(limits)  # every row stale: the last one needed stays
     np.testing.assert_array_equal(screen.in_play, [False, False, True, False])
     screen.solved(needing(screen, [0]), again=True)  # a second solve: the same tick
-    screen.admit(np.array([0]))  # broken by a plan: back, needed as of now
+    screen.admit(np.array([0]), limits)  # broken by a plan: back, needed as of now
     assert screen.retire(limits)  # and row 2, stale, leaves
     np.testing.assert_array_equal(screen.in_play, [True, False, False, False])
 

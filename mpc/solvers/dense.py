@@ -449,7 +449,8 @@ class DenseSolver:
         while (broken := screen.broken(self.limits, self._plan_twists(tick),
                                        tick.last_twist)).size:
             rounds += 1
-            screen.admit(broken if rounds <= _SCREEN_ROUNDS else np.arange(screen.stage_rows))
+            screen.admit(broken if rounds <= _SCREEN_ROUNDS else np.arange(screen.stage_rows),
+                         self.limits)
             self.screened_solves += 1
             self._whitened_rows = self._whitened(self._unwhiten)
             solver = None

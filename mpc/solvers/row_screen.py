@@ -25,8 +25,9 @@ __all__ = ["SCREEN_AFTER", "RowScreen"]
 #: problem; a row a plan breaks comes back and stays for as long again.
 SCREEN_AFTER = 50
 
-#: How far a plan may pass a row left out (relative to its bound, at least 1) and still
-#: count as within it: rounding, not a second solve.
+#: How far a plan may pass a row left out (relative to the largest finite bound of the
+#: rows left out when they left, at least 1) and still count as within it: rounding, not a
+#: second solve.
 _SLACK = 1e-9
 
 
@@ -43,6 +44,9 @@ class RowScreen:
         self.horizon, self.stage_rows, self.extra = limits.horizon, limits.rows, extra
         self.in_play = np.ones(self.stage_rows, dtype=bool)
         self.rows: IntArray | None = None  # daqp's rows in the solver's order; None: all
+        self._out = np.zeros(0, dtype=np.intp)  # the places out of play
+        self._slack = _SLACK  # how far past a row left out counts as rounding
+        self._previous = np.zeros((self.horizon, 3))  # u_{k-1} of each stage
         self._needed_at = np.zeros(self.stage_rows, dtype=np.int64)
         self._ticks = 0
 
@@ -53,7 +57,7 @@ class RowScreen:
 
     def reset(self) -> None:
         """Every row back in play, needed as of now."""
-        self._admit(np.arange(self.stage_rows))
+        self._admit(np.arange(self.stage_rows), None)
 
     def full(self, multipliers: FloatArray) -> FloatArray:
         """daqp's ``multipliers`` (of its rows) in the solver's row order, 0 for rows out."""
@@ -77,26 +81,29 @@ class RowScreen:
     def broken(self, limits: StageLimits, twists: FloatArray, last: FloatArray) -> IntArray:
         """The places out of play whose rows the plan ``twists`` (N, 3) (after the command
         ``last``) breaks at some stage, beyond rounding."""
-        rows = np.flatnonzero(~self.in_play)
-        if rows.size == 0:
-            return rows
-        values = np.matmul(limits.now[:, rows], twists[:, :, None])[:, :, 0]
-        values[0] += limits.before[0, rows] @ last
-        if limits.horizon > 1:
-            values[1:] += np.matmul(limits.before[1:, rows], twists[:-1, :, None])[:, :, 0]
-        upper, lower = limits.upper[:, rows], limits.lower[:, rows]
-        excess = np.maximum(values - upper, lower - values)
-        scale = np.maximum(1.0, np.minimum(np.abs(upper), np.abs(lower)))
-        return rows[(excess > _SLACK * scale).any(axis=0)]
+        out = self._out
+        if out.size == 0:
+            return out
+        previous = self._previous
+        previous[0] = last
+        previous[1:] = twists[:-1]
+        # every row (contiguous products beat gathering the rows out first)
+        values = np.matmul(limits.now, twists[:, :, None])
+        values += np.matmul(limits.before, previous[:, :, None])
+        values = values[:, out, 0]
+        excess = np.maximum(values - limits.upper[:, out], limits.lower[:, out] - values)
+        return out[(excess > self._slack).any(axis=0)]
 
-    def admit(self, places: IntArray) -> None:
-        """The rows at ``places`` back in play (a plan broke them)."""
-        self._admit(places)
+    def admit(self, places: IntArray, limits: StageLimits) -> None:
+        """The rows at ``places`` of ``limits`` back in play (a plan broke them)."""
+        self._admit(places, limits)
 
     def retire(self, limits: StageLimits) -> bool:
         """Take out of play the rows no plan has needed for :data:`SCREEN_AFTER` ticks
         (never an equality row of ``limits``: every plan is on it); whether any left."""
         stale = self.in_play & (self._ticks - self._needed_at >= SCREEN_AFTER)
+        if not stale.any():
+            return False
         stale &= ~(limits.lower == limits.upper).any(axis=0)
         if not stale.any():
             return False
@@ -105,15 +112,21 @@ class RowScreen:
             if not stale.any():
                 return False
         self.in_play &= ~stale
-        self._index()
+        self._index(limits)
         return True
 
-    def _admit(self, places: IntArray) -> None:
+    def _admit(self, places: IntArray, limits: StageLimits | None) -> None:
         self.in_play[places] = True
         self._needed_at[places] = self._ticks
-        self._index()
+        self._index(limits)
 
-    def _index(self) -> None:
+    def _index(self, limits: StageLimits | None) -> None:
+        """daqp's rows and the places out of play, and the slack of the rows out."""
+        self._out = np.flatnonzero(~self.in_play)
+        if limits is not None and self._out.size:
+            bounds = np.abs(np.concatenate([limits.lower[:, self._out].ravel(),
+                                            limits.upper[:, self._out].ravel()]))
+            self._slack = _SLACK * max(1.0, float(bounds[np.isfinite(bounds)].max(initial=0.0)))
         if self.in_play.all():
             self.rows = None
             return
