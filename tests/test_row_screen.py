@@ -12,7 +12,7 @@ from benchmarks.motors import scenario_reference
 from mpc import Controller
 from mpc.model.layout import TickInput
 from mpc.robots import motor_preset, preset
-from mpc.robots.limits import StageLimits
+from mpc.robots.limits import StageLimits, overshoot, stage_values
 from mpc.sim import simulate
 from mpc.solvers.dense import DenseSolver, _whiten_stages
 from mpc.solvers.row_screen import SCREEN_AFTER, RowScreen
@@ -223,3 +223,15 @@ def test_a_second_solve_gets_what_is_left_of_the_time_limit() -> None:
     assert solver._solver.settings["time_limit"] == pytest.approx(2e-3)
     solver._limit_time(second, {"solve_time": 5e-3, "setup_time": 0.0})  # spent already
     assert second.settings["time_limit"] == pytest.approx(1e-6)
+
+
+def test_stage_values_and_overshoot_by_hand() -> None:
+    limits = stage_rows(horizon=2)
+    twists = np.array([[0.5, -1.0, 2.0], [1.2, 0.0, -3.5]])
+    last = np.array([0.4, 0.0, 0.0])
+    # rows: vx, vy, omega, vx - vx_before
+    np.testing.assert_allclose(stage_values(limits, twists, last),
+                               [[0.5, -1.0, 2.0, 0.1], [1.2, 0.0, -3.5, 0.7]])
+    np.testing.assert_allclose(stage_values(limits, twists)[0, 3], 0.5)  # without u_{-1}
+    np.testing.assert_allclose(overshoot(limits, stage_values(limits, twists, last)),
+                               [[-0.5, -1.0, -1.0, -0.4], [0.2, -2.0, 0.5, 0.2]])

@@ -125,6 +125,25 @@ def linear_stage_limits(speed: SpeedRows, max_speed: FloatArray, max_accel: Floa
         change_times=np.array(change_times, dtype=float))
 
 
+def stage_values(limits: StageLimits, twists: FloatArray, last: FloatArray | None = None,
+                 out: FloatArray | None = None) -> FloatArray:
+    """The rows' values (N, m) at a plan's ``twists`` (N, 3) (into ``out`` if given):
+    ``now[k] @ u_k + before[k] @ u_{k-1}``, stage 0's part on the command before it,
+    ``last``, left out when None (a solver keeps it in the stage's bounds)."""
+    values = np.empty((limits.horizon, limits.rows)) if out is None else out
+    np.matmul(limits.now, twists[:, :, None], out=values[:, :, None])
+    if limits.horizon > 1:
+        values[1:] += np.matmul(limits.before[1:], twists[:-1, :, None])[:, :, 0]
+    if last is not None:
+        values[0] += limits.before[0] @ last
+    return values
+
+
+def overshoot(limits: StageLimits, values: FloatArray) -> FloatArray:
+    """How far each of the rows' ``values`` (N, m) is past its bounds (<= 0 within)."""
+    return np.maximum(values - limits.upper, limits.lower - values)
+
+
 def leading_rows(limits: StageLimits, rows: int) -> StageLimits:
     """The first ``rows`` rows of every stage of ``limits`` as limits of their own: views
     of the same arrays, so a refill of ``limits`` refills them (``changed`` is the caller's

@@ -44,7 +44,13 @@ from mpc.model.jit import jitted
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
-from mpc.robots.limits import StageLimits, leading_rows, trailing_rows
+from mpc.robots.limits import (
+    StageLimits,
+    leading_rows,
+    overshoot,
+    stage_values,
+    trailing_rows,
+)
 from mpc.robots.motor_limits import stage_limits, update_stage_limits
 from mpc.solvers.base import SolveResult
 from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
@@ -382,7 +388,7 @@ class DenseSolver:
         limits, condenser = self.limits, self.condenser
         n, m = limits.horizon, limits.rows
         values = np.empty(condenser.constraints.shape[0])
-        _stage_values(limits, tick.guess_twists, values[:n * m].reshape(n, m))
+        stage_values(limits, tick.guess_twists, out=values[:n * m].reshape(n, m))
         if values.size > n * m:
             values[n * m:] = condenser.constraints[n * m:] @ tick.guess[condenser.columns]
         return values
@@ -522,9 +528,9 @@ class DenseSolver:
         guards = self._guards
         if guards is None:
             return True
-        values = np.matmul(guards.now, twists[:, :, None])[:, :, 0]
-        excess = np.maximum(values - guards.upper, guards.lower - values)
-        return bool(excess.max() <= self._guard_slack)
+        # (stage 0's part on the last command is zero: guards are on u_k alone)
+        return bool(overshoot(guards, stage_values(guards, twists)).max()
+                    <= self._guard_slack)
 
     def _solve_guarded(self, tick: TickInput, lower: FloatArray, upper: FloatArray,
                        first: dict[str, Any]) -> tuple[int, dict[str, Any]]:
@@ -677,15 +683,6 @@ def _with_first(info: dict[str, Any], first: dict[str, Any]) -> dict[str, Any]:
     for key in ("solve_time", "setup_time", "iterations"):
         info[key] += first[key]
     return info
-
-
-def _stage_values(limits: StageLimits, twists: FloatArray, out: FloatArray) -> FloatArray:
-    """The limit rows' values (N, m) at ``twists`` (N, 3) into ``out``, but for stage 0's
-    part on the command before it (the caller's)."""
-    np.matmul(limits.now, twists[:, :, None], out=out[:, :, None])
-    if limits.horizon > 1:
-        out[1:] += np.matmul(limits.before[1:], twists[:-1, :, None])[:, :, 0]
-    return out
 
 
 def _whiten_stages(now: FloatArray, before: FloatArray, unwhiten: FloatArray,

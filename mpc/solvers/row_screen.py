@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from mpc.arrays import FloatArray, IntArray
-from mpc.robots.limits import StageLimits
+from mpc.robots.limits import StageLimits, overshoot, stage_values
 
 __all__ = ["SCREEN_AFTER", "RowScreen"]
 
@@ -46,7 +46,6 @@ class RowScreen:
         self.rows: IntArray | None = None  # daqp's rows in the solver's order; None: all
         self._out = np.zeros(0, dtype=np.intp)  # the places out of play
         self._slack = _SLACK  # how far past a row left out counts as rounding
-        self._previous = np.zeros((self.horizon, 3))  # u_{k-1} of each stage
         self._needed_at = np.zeros(self.stage_rows, dtype=np.int64)
         self._ticks = 0
 
@@ -84,14 +83,8 @@ class RowScreen:
         out = self._out
         if out.size == 0:
             return out
-        previous = self._previous
-        previous[0] = last
-        previous[1:] = twists[:-1]
         # every row (contiguous products beat gathering the rows out first)
-        values = np.matmul(limits.now, twists[:, :, None])
-        values += np.matmul(limits.before, previous[:, :, None])
-        values = values[:, out, 0]
-        excess = np.maximum(values - limits.upper[:, out], limits.lower[:, out] - values)
+        excess = overshoot(limits, stage_values(limits, twists, last))[:, out]
         return out[(excess > self._slack).any(axis=0)]
 
     def admit(self, places: IntArray, limits: StageLimits) -> None:
