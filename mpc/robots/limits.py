@@ -144,6 +144,17 @@ def overshoot(limits: StageLimits, values: FloatArray) -> FloatArray:
     return np.maximum(values - limits.upper, limits.lower - values)
 
 
+#: How far past a row a plan may be and still count as within it, relative to the rows'
+#: largest finite bound (at least 1): rounding, not a broken row.
+ROUNDING = 1e-9
+
+
+def rounding_slack(*bounds: FloatArray) -> float:
+    """:data:`ROUNDING` times the largest finite magnitude among ``bounds`` (at least 1)."""
+    values = np.abs(np.concatenate([np.ravel(b) for b in bounds]))
+    return ROUNDING * max(1.0, float(values[np.isfinite(values)].max(initial=0.0)))
+
+
 def leading_rows(limits: StageLimits, rows: int) -> StageLimits:
     """The first ``rows`` rows of every stage of ``limits`` as limits of their own: views
     of the same arrays, so a refill of ``limits`` refills them (``changed`` is the caller's

@@ -48,6 +48,7 @@ from mpc.robots.limits import (
     StageLimits,
     leading_rows,
     overshoot,
+    rounding_slack,
     stage_values,
     trailing_rows,
 )
@@ -90,10 +91,6 @@ _EQUALITY, _ACTIVE, _ACTIVE_LOWER = 5, 1, 3
 #: those rows rather than refill them (checked after its solve all the same; the margin
 #: keeps plans near the edge from solving twice).
 KEEP_ROWS_BELOW = 0.98
-
-#: How far a plan may pass a guard row (relative to the guards' largest bound at set-up, at
-#: least 1 rad/s) and still count as within it: rounding, not a second solve.
-_GUARD_SLACK = 1e-9
 
 #: The exit flags of a tick whose second daqp model, with the guard rows, or with screened
 #: rows its plan broke, could not be set up.
@@ -145,9 +142,7 @@ class DenseSolver:
             self._guards = trailing_rows(every, every.guards)
             if self._guards.before.any():
                 raise RuntimeError("guard rows must be on u_k alone (StageLimits.guards)")
-            bounds = np.abs(np.concatenate([self._guards.lower, self._guards.upper]))
-            self._guard_slack = _GUARD_SLACK * max(1.0, float(bounds[np.isfinite(bounds)]
-                                                                .max(initial=0.0)))
+            self._guard_slack = rounding_slack(self._guards.lower, self._guards.upper)
         structure = assemble_qp(model, self.limits)
         self.structure = structure
         moving = self.limits.rows if self.limits.moving is None else self.limits.moving

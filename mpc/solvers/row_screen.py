@@ -17,19 +17,13 @@ from __future__ import annotations
 import numpy as np
 
 from mpc.arrays import FloatArray, IntArray
-from mpc.robots.limits import StageLimits, overshoot, stage_values
+from mpc.robots.limits import StageLimits, overshoot, rounding_slack, stage_values
 
 __all__ = ["SCREEN_AFTER", "RowScreen"]
 
 #: Ticks without a plan that has a row active (at any stage) before the row leaves daqp's
 #: problem; a row a plan breaks comes back and stays for as long again.
 SCREEN_AFTER = 50
-
-#: How far a plan may pass a row left out (relative to the largest finite bound of the
-#: rows left out when they left, at least 1) and still count as within it: rounding, not a
-#: second solve.
-_SLACK = 1e-9
-
 
 class RowScreen:
     """The rows in daqp's problem: each stage's rows at the places in play, then the
@@ -45,7 +39,7 @@ class RowScreen:
         self.in_play = np.ones(self.stage_rows, dtype=bool)
         self.rows: IntArray | None = None  # daqp's rows in the solver's order; None: all
         self._out = np.zeros(0, dtype=np.intp)  # the places out of play
-        self._slack = _SLACK  # how far past a row left out counts as rounding
+        self._slack = 0.0  # how far past a row left out counts as rounding (set as they leave)
         self._needed_at = np.zeros(self.stage_rows, dtype=np.int64)
         self._ticks = 0
 
@@ -116,10 +110,8 @@ class RowScreen:
     def _index(self, limits: StageLimits | None) -> None:
         """daqp's rows and the places out of play, and the slack of the rows out."""
         self._out = np.flatnonzero(~self.in_play)
-        if limits is not None and self._out.size:
-            bounds = np.abs(np.concatenate([limits.lower[:, self._out].ravel(),
-                                            limits.upper[:, self._out].ravel()]))
-            self._slack = _SLACK * max(1.0, float(bounds[np.isfinite(bounds)].max(initial=0.0)))
+        if limits is not None and self._out.size:  # (its bounds when the rows left)
+            self._slack = rounding_slack(limits.lower[:, self._out], limits.upper[:, self._out])
         if self.in_play.all():
             self.rows = None
             return
