@@ -536,7 +536,7 @@ class DenseSolver:
         assert guards is not None  # only called with guards
         self.guarded_solves += 1
         n, m = guards.horizon, guards.rows
-        at_guess = np.matmul(guards.now, tick.guess_twists[:, :, None])[:, :, 0]  # u_k alone
+        at_guess = stage_values(guards, tick.guess_twists)  # (on u_k alone)
         whitened = np.empty((n * m, self.condenser.size))
         _whiten_stages(guards.now, guards.before, self._unwhiten, whitened.reshape(n, m, -1))
         problem = (self._whitened_gradient, np.concatenate([self._whitened_rows, whitened]),
