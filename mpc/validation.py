@@ -180,6 +180,11 @@ MAX_LENGTH = 1e3
 #: Smallest positive size in a robot's geometry [m] (wheel radius, base radius, wheelbase,
 #: track, caster offset): a micrometre.
 MIN_LENGTH = 1e-6
+#: Smallest limit of a wheel or steering rate [rad/s, or rad/s^2 for accelerations] (before
+#: derating): the clamp's rounding slack is relative to the limits, and limits far below this
+#: would take the QP rows and the clamp's ratios towards underflow; 1e-6 rad/s turns a
+#: 5 cm wheel 5 nm a second.
+MIN_RATE = 1e-6
 #: Largest time a controller is stepped at [s] (ROS epoch stamps are about 1.8e9 s; at
 #: 1e10 s a double still resolves 2 us).
 MAX_TIME = 1e10

@@ -206,3 +206,24 @@ def test_a_last_command_beyond_the_speed_limits_gives_way_to_them(name: str) -> 
     target = np.array([0.0, 0.2, -0.3])
     safe, _ = clamp_command(robot, target, last, 0.05, steer)
     assert np.all(robot.wheel_magnitudes(safe) <= robot.max_wheel_speed * (1 + 1e-9))
+
+
+@pytest.mark.parametrize(("limit", "factor"), [(1e-6, 1.0), (1e-3, 1.0), (30.0, 1e-6)])
+def test_tiny_limits_hold_to_rounding_relative_to_themselves(limit: float,
+                                                             factor: float) -> None:
+    """The clamp's rounding slack is relative to each wheel's limit: a limit of 1e-6 rad/s
+    (the smallest a robot takes) or a wheel derated to 1e-6 of the others holds to 1e-9
+    of itself, not to an absolute 1e-12 rad/s (which let a 1e-13 limit read 8x)."""
+    from mpc.robots import mecanum
+
+    robot = mecanum(wheelbase=0.3, track=0.25, wheel_radius=0.05, max_wheel_speed=limit,
+                    max_wheel_accel=40.0).derated({0: factor})
+    rng = np.random.default_rng(11)
+    scale = limit * 0.1  # twists at this robot's scale
+    last = np.zeros(3)
+    for _ in range(200):
+        target = rng.normal(size=3) * scale * rng.choice([0.5, 3.0])
+        safe, _ = clamp_command(robot, target, last, DT)
+        speeds = robot.wheel_magnitudes(safe)
+        assert (speeds <= robot.max_wheel_speed * (1.0 + 1e-9)).all()
+        last = safe

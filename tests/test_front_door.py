@@ -755,3 +755,22 @@ def test_cli_refuses_a_robot_file_named_like_a_preset(tmp_path: Path, capsys: An
                                "--out", str(tmp_path / "out")]))
     assert exit_info.value.code == 2
     assert "--robot" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("build", "name"), [
+    (lambda v: mecanum(wheelbase=0.3, track=0.25, wheel_radius=0.05, max_wheel_speed=v),
+     "max_wheel_speed"),
+    (lambda v: omni(n_wheels=3, base_radius=0.2, wheel_radius=0.05, max_wheel_speed=20.0,
+                    max_wheel_accel=v), "max_wheel_accel"),
+    (lambda v: swerve(module_positions=[[0.25, 0.25], [0.25, -0.25], [-0.25, 0.25],
+                                        [-0.25, -0.25]], wheel_radius=0.05,
+                      max_wheel_speed=30.0, max_steer_rate=v), "max_steer_rate"),
+])
+@pytest.mark.parametrize("value", [1e-300, 1e-13, 0.9e-6])
+def test_limits_below_the_smallest_rate_are_refused(build: Callable[[float], object],
+                                                    name: str, value: float) -> None:
+    """Limits far below any motor's (they would take the clamp's ratios and the QP rows
+    towards underflow) are refused by name, with the bound; 1e-6 itself is taken."""
+    with pytest.raises(RobotError, match=rf"^{name} must be at least 1e-06 \["):
+        build(value)
+    build(1e-6)

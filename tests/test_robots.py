@@ -166,6 +166,9 @@ def test_derated_wheel() -> None:
     np.testing.assert_allclose(dead.desaturate([0.1, 0.0, 0.0]), 0.0)
     with pytest.raises(RobotError, match="derating factors"):
         MECANUM.derated({0: 1.5})
+    with pytest.raises(RobotError, match=r"derating factors must be 0 .* or at least 1e-06"):
+        MECANUM.derated({0: 1e-14})  # lost in the other wheels' rounding
+    assert MECANUM.derated({0: 1e-6}).max_wheel_speed[0] > 0.0
     with pytest.raises(RobotError, match="wheel index"):
         MECANUM.derated({7: 0.5})
 

@@ -11,11 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from mpc.arrays import FloatArray
-from mpc.robots.base import Robot
+from mpc.robots.base import SPEED_SLACK, Robot
 from mpc.robots.motor_step import motor_step_fraction
-
-#: Relative slack under which a wheel counts as within its limit (rounding).
-_SPEED_SLACK = 1e-12
 
 #: Passes of the motor step: each takes the Coriolis term of the step the last one left.
 _MOTOR_PASSES = 4
@@ -59,10 +56,10 @@ def clamp_command(
         safe = robot.rest_projector @ safe
     limit = robot.max_wheel_speed
     speed = robot.wheel_magnitudes(safe)
-    if (speed - limit).max() > _SPEED_SLACK:
-        over = speed - limit > _SPEED_SLACK  # the test above, element by element (rounding)
+    over = speed - limit > robot.speed_slack  # beyond rounding
+    if over.any():
         # The smallest limit / speed over the wheels; a failed wheel (limit 0) stops the robot.
-        safe = safe * (limit[over] / speed[over]).min() * (1.0 - _SPEED_SLACK)
+        safe = safe * (limit[over] / speed[over]).min() * (1.0 - SPEED_SLACK)
     safe = _limit_step(robot, safe, last, dt, steer_angles, limit)
     return safe, bool(safe is not target and not np.array_equal(safe, target))
 
@@ -73,7 +70,7 @@ def _limit_step(robot: Robot, safe: FloatArray, last: FloatArray, dt: float,
     the speed limits ``limit``) shortened for acceleration, motors and steering."""
     # A last command beyond the speed limits (the limits were just derated) cannot be
     # stepped from within the other limits: the speed limits win, and the step is whole.
-    if (robot.wheel_magnitudes(last) - limit * (1 + 1e-9)).max() > _SPEED_SLACK:
+    if (robot.wheel_magnitudes(last) - limit * (1 + 1e-9) > robot.speed_slack).any():
         return safe
     accel = robot.max_wheel_accel
     if accel is not None:
@@ -86,7 +83,7 @@ def _limit_step(robot: Robot, safe: FloatArray, last: FloatArray, dt: float,
                  else np.maximum(accel * dt - 2.0 * snap, 0.5 * accel * dt))
         ratio = float((robot.wheel_magnitudes(step) / bound).max())
         if ratio > 1.0:
-            safe = last + (1.0 - _SPEED_SLACK) / ratio * step
+            safe = last + (1.0 - SPEED_SLACK) / ratio * step
     if robot.dynamics is not None:
         for _ in range(_MOTOR_PASSES):  # the Coriolis term moves with the step: again
             fraction = motor_step_fraction(robot, last, safe, dt, steer_angles)

@@ -48,7 +48,7 @@ from mpc.robots.limits import (
 )
 from mpc.robots.speed_checks import SpeedLimitChecks
 from mpc.robots.steer_states import SteerStateJoints
-from mpc.validation import MAX_WHEELS, shown
+from mpc.validation import MAX_WHEELS, MIN_RATE, shown
 
 if TYPE_CHECKING:
     from mpc.robots.dynamics import RobotDynamics
@@ -98,6 +98,9 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
     #: rest, ``I - pinv(W_f) W_f``; None when no wheel has failed.
     rest_projector: FloatArray | None = field(init=False, repr=False, default=None)
     _flat_pinv: FloatArray = field(init=False, repr=False)  # (3, n * d) least squares
+    #: How far over its speed limit a wheel may read and count as within it (rounding) [rad/s]
+    #: (n,): :data:`SPEED_SLACK` of the limit, of the nominal one for a failed wheel.
+    speed_slack: FloatArray = field(init=False, repr=False)
 
     def _finish(self) -> None:
         """Checks shared by every layout; subclasses call it last in ``__post_init__``."""
@@ -106,18 +109,35 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         if self.n_wheels > MAX_WHEELS:
             raise RobotError(f"a robot has at most {MAX_WHEELS} wheels (a bound of this "
                              f"library), got {self.n_wheels}")
+        self._check_rates()
         flat = self.wheel_blocks.reshape(-1, 3)
         check_holonomic(flat, f"robot {self.name!r}")
         object.__setattr__(self, "_flat_pinv", readonly(np.linalg.pinv(flat)))
+        object.__setattr__(self, "speed_slack", _speed_slack(self.nominal_max_wheel_speed,
+                                                             self.nominal_max_wheel_speed))
         if self.derating is None:
             self._check_dynamics()
             return
         derating = check_derating(self.derating, self.n_wheels)
         object.__setattr__(self, "derating", derating)
+        object.__setattr__(self, "speed_slack", _speed_slack(self.max_wheel_speed,
+                                                             self.nominal_max_wheel_speed))
         projector = rest_projector(self.wheel_blocks, derating)
         if projector is not None:
             object.__setattr__(self, "rest_projector", projector)
         self._check_dynamics()
+
+    def _check_rates(self) -> None:
+        """Every nominal speed, acceleration and steering-rate limit at least
+        :data:`~mpc.validation.MIN_RATE`; the clamp's rounding slack from them
+        (:attr:`speed_slack`)."""
+        for name, unit, values in (
+                ("max_wheel_speed", "rad/s", self.nominal_max_wheel_speed),
+                ("max_wheel_accel", "rad/s^2", self.nominal_max_wheel_accel),
+                ("max_steer_rate", "rad/s", self.max_steer_rates)):
+            if values is not None and not bool((np.asarray(values) >= MIN_RATE).all()):
+                raise RobotError(f"{name} must be at least {MIN_RATE:g} [{unit}] on every wheel "
+                                 f"(a bound of this library), got {shown(values)}")
 
     def _check_dynamics(self) -> None:
         """With dynamics: the force map can be built (a supported wheel type whose wheels
@@ -323,3 +343,13 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         if dynamics is not None and not isinstance(dynamics, RobotDynamics):
             raise RobotError(f"dynamics must be a RobotDynamics or None, got {shown(dynamics)}")
         return dataclasses.replace(self, dynamics=dynamics)
+
+
+#: Relative rounding slack of a wheel's speed against its limit (the clamp's).
+SPEED_SLACK = 1e-12
+
+
+def _speed_slack(limit: FloatArray, nominal: FloatArray) -> FloatArray:
+    """:data:`SPEED_SLACK` of each limit, of the nominal limit where the wheel has failed
+    (limit 0: a twist projected to keep it at rest reads rounding, not 0)."""
+    return readonly(SPEED_SLACK * np.where(limit > 0.0, limit, nominal))

@@ -1,5 +1,6 @@
-"""Per-wheel speed derating: factors in [0, 1] scaling each wheel's speed limit (0: a failed
-wheel held at rest), checked, merged, and the projector that keeps failed wheels at rest.
+"""Per-wheel speed derating: factors in [0, 1] (0, or at least :data:`MIN_DERATING`) scaling
+each wheel's speed limit (0: a failed wheel held at rest), checked, merged, and the projector
+that keeps failed wheels at rest.
 """
 
 from __future__ import annotations
@@ -11,6 +12,10 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.validation import is_finite_number, is_integer, real_array, shown
 
+#: Smallest derating factor above 0: a wheel's speed is computed from twists of the other
+#: wheels' scale, so a limit 1e-14 of theirs reads their rounding (0.5 % over it, measured).
+MIN_DERATING = 1e-6
+
 
 def check_derating(derating: object, n_wheels: int) -> tuple[float, ...]:
     """``derating`` as ``n_wheels`` floats in [0, 1], or RobotError."""
@@ -21,6 +26,11 @@ def check_derating(derating: object, n_wheels: int) -> tuple[float, ...]:
         )
     if np.any(factors < 0.0) or np.any(factors > 1.0):
         raise RobotError(f"derating factors must lie in [0, 1], got {shown(derating)}")
+    if np.any((factors > 0.0) & (factors < MIN_DERATING)):
+        raise RobotError(f"derating factors must be 0 (a failed wheel, held at rest) or at "
+                         f"least {MIN_DERATING:g} (a bound of this library: a limit that "
+                         f"far below the other wheels' is lost in their rounding), got "
+                         f"{shown(derating)}")
     return tuple(float(f) for f in factors)
 
 
