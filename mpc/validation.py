@@ -6,6 +6,7 @@ the argument and says what was expected and what arrived.
 
 from __future__ import annotations
 
+import enum
 import functools
 import inspect
 import math
@@ -43,9 +44,11 @@ def as_float(value: object) -> float:
 
 
 def is_finite_number(value: object) -> bool:
-    """A finite real number (Python or NumPy), but not a bool (a number too large for a
-    float is not finite)."""
-    return (isinstance(value, numbers.Real) and not isinstance(value, bool)
+    """A finite real number (Python or NumPy, a 0-d NumPy array of one too), but not a bool
+    (a number too large for a float is not finite)."""
+    if isinstance(value, numbers.Real):
+        return not isinstance(value, bool) and math.isfinite(as_float(value))
+    return (isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf"
             and math.isfinite(as_float(value)))
 
 
@@ -241,12 +244,20 @@ def within(name: str, array: FloatArray, bound: float, unit: str,
 def body_points(name: str, value: object, what: str,
                 error: type[MpcError] = MpcError) -> FloatArray:
     """Body-frame points [m] as an (n, 2) float array, n >= 2 (``what`` names them:
-    "modules", "balls"), each coordinate within +-:data:`MAX_LENGTH`, or ``error``."""
+    "modules", "balls"), each coordinate within +-:data:`MAX_LENGTH` and every two at least
+    :data:`MIN_LENGTH` apart (two wheels cannot stand in one place), or ``error``."""
     points = real_array(name, value, "an (n, 2) array of numbers [m]", error)
     if points.ndim != 2 or points.shape[1] != 2 or points.shape[0] < 2:
         raise error(f"{name} must have shape (n, 2) with n >= 2 {what}, "
                     f"got shape {points.shape}")
-    return within(name, points, MAX_LENGTH, "[m]", error)
+    points = within(name, points, MAX_LENGTH, "[m]", error)
+    gaps = np.hypot(*(points[:, None, :] - points[None, :, :]).transpose(2, 0, 1))
+    close = np.argwhere(np.triu(gaps < MIN_LENGTH, k=1))
+    if close.size:
+        i, j = (int(v) for v in close[0])
+        raise error(f"{name}: {what} {i} and {j} must stand apart (at least {MIN_LENGTH:g} m), "
+                    f"got {points[i].tolist()} and {points[j].tolist()} m")
+    return points
 
 
 def file_text(path: object, what: str, error: type[MpcError] = MpcError) -> str:
@@ -340,3 +351,28 @@ def checked_constructor(error: type[MpcError]) -> Callable[[C], C]:
         return cls
 
     return decorate
+
+
+def checked_public(namespace: dict[str, Any], error: type[MpcError]) -> None:
+    """:func:`checked_arguments` on every public callable of a package (the names in its
+    ``namespace["__all__"]``): a function under the package's name, a class that defines its
+    own ``__init__`` in place (:func:`checked_constructor`), so that ``time_optimal(path,
+    robot, sampels=400)`` raises ``error`` naming the parameters. Protocols, abstract
+    classes, enums, exceptions and named tuples are left as they are; so is anything already
+    checked (a class two packages export keeps the first package's error)."""
+    for name in namespace.get("__all__", ()):
+        item = namespace.get(name)
+        if inspect.isfunction(item):
+            if not hasattr(item, "__wrapped__"):
+                namespace[name] = checked_arguments(error)(item)
+        elif inspect.isclass(item) and _own_constructor(item):
+            checked_constructor(error)(item)
+
+
+def _own_constructor(cls: type) -> bool:
+    """Whether ``cls`` defines an unchecked ``__init__`` of its own and is a class users
+    build (not a protocol, an abstract class, an enum or an exception)."""
+    init = vars(cls).get("__init__")
+    return (init is not None and not hasattr(init, "__wrapped__")
+            and not issubclass(cls, (BaseException, enum.Enum))
+            and not getattr(cls, "_is_protocol", False) and not inspect.isabstract(cls))

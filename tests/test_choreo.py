@@ -327,8 +327,9 @@ def test_modules_at_one_point_are_refused_naming_the_config(tmp_path: Path) -> N
     for side in ("frontLeft", "backLeft"):
         content["trajectory"]["config"][side] = {"x": 0.0, "y": 0.0}
     path = write(tmp_path, content)
-    with pytest.raises(TrajectoryError, match=r"^choreo file '.*': trajectory\.config: robot "
-                                              "'generated' is not holonomic"):
+    with pytest.raises(TrajectoryError, match=r"^choreo file '.*': trajectory\.config: "
+                                              "module_positions: modules 0 and 1 must stand "
+                                              "apart"):
         read_choreo(path)
 
 

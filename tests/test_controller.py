@@ -402,6 +402,24 @@ def test_reset_refuses_a_last_twist_the_wheels_cannot_drive(name: str, last_twis
     assert needle in str(raised.value)
 
 
+@pytest.mark.parametrize("name", ["mecanum", "swerve"])
+def test_reset_scales_a_measured_twist_a_little_beyond_the_limits_into_them(name: str) -> None:
+    """Odometry at top speed reads a few percent over the limits: up to MEASURED_SLACK over,
+    the twist is scaled into the limits (the next command starts from there), not refused
+    (a ROS node resetting on its odometry would throw)."""
+    from mpc.control.controller import MEASURED_SLACK
+
+    robot = preset(name)
+    controller = Controller(robot, Circle(0.5, 10.0))
+    top = robot.desaturate(np.array([100.0, 30.0, 2.0]))  # at the limits
+    controller.reset(last_twist=top * (1.0 + 0.9 * MEASURED_SLACK))
+    assert robot.speed_ratio(controller._last) == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(controller._last / np.linalg.norm(controller._last),
+                               top / np.linalg.norm(top), atol=1e-12)  # the same direction
+    with pytest.raises(ControllerError, match="by more than 10%"):
+        controller.reset(last_twist=top * (1.0 + 1.1 * MEASURED_SLACK))
+
+
 def test_step_arguments_that_do_not_fit_its_signature_are_the_projects_error() -> None:
     controller = Controller(preset("mecanum"), Circle(0.5, 10.0))
     pose = controller.trajectory.sample(0.0).pose

@@ -774,3 +774,157 @@ def test_limits_below_the_smallest_rate_are_refused(build: Callable[[float], obj
     with pytest.raises(RobotError, match=rf"^{name} must be at least 1e-06 \["):
         build(value)
     build(1e-6)
+
+
+PUBLIC_PACKAGES = ("mpc.control", "mpc.robots", "mpc.sim", "mpc.model", "mpc.plot",
+                   "trajectories", "mpc.adapters.ros", "mpc.adapters.wpilib")
+
+
+def _public_callables() -> list[tuple[str, str, Any]]:
+    """Every function, and every class users build (its own ``__init__``; not a protocol,
+    abstract class, enum, exception or named tuple), in the packages' ``__all__``."""
+    import enum
+    import importlib
+    import inspect
+
+    found = []
+    for package in PUBLIC_PACKAGES:
+        try:
+            module = importlib.import_module(package)
+        except ModuleNotFoundError:  # an adapter whose optional extra is not installed
+            continue
+        for name in module.__all__:
+            item = getattr(module, name)
+            if inspect.isfunction(item) or (
+                    inspect.isclass(item) and "__init__" in vars(item)
+                    and not issubclass(item, (BaseException, enum.Enum))
+                    and not getattr(item, "_is_protocol", False)
+                    and not inspect.isabstract(item)):
+                found.append((package, name, item))
+    return found
+
+
+@pytest.mark.parametrize(("package", "name", "item"), _public_callables(),
+                         ids=lambda value: value if isinstance(value, str) else "")
+def test_every_public_callable_names_an_unknown_keyword(package: str, name: str,
+                                                        item: Any) -> None:
+    """A misspelt keyword (``time_optimal(path, robot, sampels=400)``) raises the package's
+    own error naming the callable and its parameters, for every public function and class,
+    not Python's TypeError."""
+    with pytest.raises(MpcError, match=rf"{name}\(\): unknown keyword argument\(s\) "
+                                       r"'colour_xyz'; its parameters are "):
+        item(colour_xyz=1)
+
+
+def _choreo_with_a_huge_integer(tmp_path: Path) -> object:
+    import json
+
+    from trajectories import read_choreo
+
+    document = json.loads((Path(__file__).parent / "data" / "minimal.traj").read_text())
+    text = json.dumps(document).replace('"vx": 0.0', '"vx": ' + "1" * 401, 1)
+    assert "1" * 401 in text
+    path = tmp_path / "huge.traj"
+    path.write_text(text)
+    return read_choreo(path)
+
+
+def _recorded_far_apart() -> object:
+    from mpc.sim import Recorder
+
+    robot, trajectory = preset("mecanum"), Circle(0.5, 10.0)
+    controller, recorder = Controller(robot, trajectory), Recorder(robot, trajectory, 0.05)
+    pose = trajectory.sample(0.0).pose
+    recorder.record(0.0, pose, controller.step(pose, 0.0))
+    return recorder.record(1e300, pose, controller.step(pose, 0.05))
+
+
+@pytest.mark.parametrize(("call", "error", "message"), [
+    # a JSON integer of 401 digits: not an OverflowError from float()
+    (_choreo_with_a_huge_integer, TrajectoryError, "vx: expected a finite number, got an "
+                                                   "integer of 401 digits"),
+    # math.sin takes one number; the reference samples arrays of times
+    (lambda _: Circle(1.0, 10.0, heading=math.sin).sample([0.0, 1.0]), TrajectoryError,
+     r"vectorised: np.sin, not math.sin"),
+    # two modules in one place
+    (lambda _: swerve(module_positions=[[0.3, 0.3], [0.3, 0.3], [-0.3, -0.3], [-0.3, 0.3]],
+                      wheel_radius=0.05, max_wheel_speed=30.0, max_steer_rate=10.0),
+     RobotError, r"modules 0 and 1 must stand apart"),
+    # a plain number where a ROS stamp (sec, nanosec) belongs
+    (lambda _: __import__("mpc.adapters.ros", fromlist=["ReferenceClock"]).ReferenceClock()(5),
+     TrajectoryError, r"a stamp must be a builtin_interfaces/Time"),
+    # a recording tick at 1e300 s: bounded like step()'s t, not a lap count that allocates
+    (lambda _: _recorded_far_apart(), SimulationError, r"within \+-1e\+10"),
+])
+def test_more_bad_input_is_named(tmp_path: Path, call: Callable[[Path], object],
+                                 error: type[Exception], message: str) -> None:
+    if "stamp" in message:
+        pytest.importorskip("rosbags")
+    with pytest.raises(error, match=message):
+        call(tmp_path)
+
+
+@pytest.mark.parametrize(("pose", "twist", "dt", "message"), [
+    ([0.0, 0.0], [1.0, 0.0, 0.0], 0.1, r"pose must have shape \(3,\)"),
+    ([0.0, 0.0, 0.0], [math.nan, 0.0, 0.0], 0.1, "twist must be finite"),
+    ([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], -1.0, r"dt \[s\] must be a finite number >= 0"),
+    ("abc", [1.0, 0.0, 0.0], 0.1, "pose must be 3 numbers"),
+])
+def test_integrate_checks_its_arguments(pose: Any, twist: Any, dt: float,
+                                        message: str) -> None:
+    """The README's loop integrates the commanded twist with mpc.model.integrate: a NaN
+    twist or a negative dt is named, not a NaN pose or a backwards step."""
+    from mpc.model import integrate
+
+    with pytest.raises(ControllerError, match=message):
+        integrate(pose, twist, dt)
+    np.testing.assert_allclose(integrate([1.0, 2.0, 0.0], [1.0, 0.0, 0.0], 0.5),
+                               [1.5, 2.0, 0.0])
+
+
+def test_zero_dimensional_arrays_are_numbers() -> None:
+    """``np.array(0.05)`` is a number wherever a number is asked (dt, t), as ``np.float64``
+    is; a 0-d array of a bool is not."""
+    controller = Controller(preset("mecanum"), Circle(0.5, 10.0), dt=np.array(0.05))
+    assert controller.dt == 0.05 and isinstance(controller.dt, float)
+    assert controller.step([0.5, 0.0, 0.0], np.array(0.5)).status is Status.SOLVED
+    with pytest.raises(ControllerError, match="dt"):
+        Controller(preset("mecanum"), Circle(0.5, 10.0), dt=np.array(True))
+
+
+def test_long_ticks_keep_the_default_stages_within_the_bound() -> None:
+    """The default stage is 2 dt in time mode, but never past MAX_STEP (60 s) unless dt
+    itself is: dt = 40 s plans 60 s stages, not 80."""
+    from mpc.validation import MAX_STEP
+
+    controller = Controller(preset("mecanum"), Circle(0.5, 1000.0), horizon=3, dt=40.0)
+    assert controller.stage_dt == MAX_STEP
+    assert Controller(preset("mecanum"), Circle(0.5, 10.0), dt=0.05).stage_dt == 0.1
+
+
+def test_nav2_controller_checks_its_options_when_built() -> None:
+    """A nav2 controller is built once and planned in a subscription callback: its own
+    options are checked when it is built, not at the first plan."""
+    pytest.importorskip("rosbags")
+    from mpc.adapters.ros import Nav2Controller
+
+    robot = preset("mecanum")
+    for options, message in (({"colour": 1}, "unknown option.*'colour'"),
+                             ({"horizon": -5}, "horizon must be an integer >= 1"),
+                             ({"dt": "x"}, r"dt \[s\] must be a finite number > 0")):
+        with pytest.raises(ControllerError, match=message):
+            Nav2Controller(robot, **options)
+    Nav2Controller(robot, solver="osqp", horizon=10)
+
+
+def test_laps_are_not_timed_between_ticks_far_apart() -> None:
+    """Two recorded ticks 1e8 s apart span 10^7 laps of a 10 s circle: more laps than
+    ticks cannot be timed, and ``lap_times`` says so (empty) instead of allocating them."""
+    from mpc.sim import Recorder
+
+    robot, trajectory = preset("mecanum"), Circle(0.5, 10.0)
+    controller, recorder = Controller(robot, trajectory), Recorder(robot, trajectory, 0.05)
+    pose = trajectory.sample(0.0).pose
+    recorder.record(0.0, pose, controller.step(pose, 0.0))
+    recorder.record(1e8, pose, controller.step(pose, 0.05))
+    assert recorder.result().lap_times().size == 0

@@ -598,3 +598,74 @@ def test_a_retimed_trajectory_from_its_own_grid() -> None:
     np.testing.assert_allclose(sample.pose, expected.pose, atol=1e-12)
     np.testing.assert_allclose(sample.velocity, expected.velocity, atol=1e-12)
     np.testing.assert_allclose(sample.acceleration, expected.acceleration, atol=1e-12)
+
+
+def _slow_steering_swerve(steer_rate: float) -> Robot:
+    from mpc.robots import swerve
+
+    return swerve(module_positions=[[0.25, 0.25], [0.25, -0.25], [-0.25, 0.25],
+                                    [-0.25, -0.25]], wheel_radius=0.05, max_wheel_speed=30.0,
+                  max_steer_rate=steer_rate, max_wheel_accel=60.0)
+
+
+@pytest.mark.parametrize("steer_rate", [0.5, 1.0])
+def test_circle_at_fixed_heading_on_swerve_with_slow_steering_matches_closed_form(
+        steer_rate: float) -> None:
+    # At fixed heading every module moves with the body, along the circle's tangent, which
+    # turns at v / R: the steering limit caps the speed at v = steer_rate R (below the
+    # wheels' 1.5 m/s and the 3 m/s^2 their acceleration allows at R = 1 m), so a lap of
+    # 2 pi R takes 2 pi / steer_rate, whatever the radius.
+    robot = _slow_steering_swerve(steer_rate)
+    retimed = time_optimal(Circle(1.0, 3.0, heading=0.2), robot)
+    assert retimed.lap_time == pytest.approx(2.0 * math.pi / steer_rate, rel=1e-4)
+    assert retimed.info is not None
+    assert retimed.info.steer_demand == pytest.approx(1.0, abs=1e-4)
+    report = feasibility(retimed, robot, samples=4001)
+    assert report.steer_ratio == pytest.approx(1.0, abs=1e-4) and report.is_feasible
+    # the same circle twice as fast asks twice the steering rate
+    twice = Circle(1.0, math.pi / steer_rate, heading=0.2)
+    assert feasibility(twice, robot).steer_ratio == pytest.approx(2.0, rel=1e-9)
+    assert not feasibility(twice, robot).is_feasible
+
+
+def _module_turn_rates(trajectory: Trajectory, robot: Robot, times: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Each module's direction rate by finite differences of its velocity's angle (modulo a
+    half turn, the flip rule) and its speed [rad/s], (k - 1, n): the independent answer."""
+    velocities = robot.wheel_velocities(trajectory.body_twist(times))  # (k, n, 2)
+    angles = np.unwrap(2.0 * np.arctan2(velocities[..., 1], velocities[..., 0]), axis=0) / 2.0
+    rates = np.abs(np.diff(angles, axis=0)) / np.diff(times)[:, None]
+    speeds = np.linalg.norm(velocities, axis=-1)
+    return rates, np.minimum(speeds[1:], speeds[:-1])
+
+
+@pytest.mark.parametrize(("name", "path"), [
+    ("swerve", "out-and-back"), ("caster4", "out-and-back"), ("caster4", "figure8")])
+def test_retimed_steered_modules_turn_within_their_steering_rate(name: str, path: str) -> None:
+    """Tight turns (a 0.1 m radius out-and-back, a 0.3 m figure-eight) at the wheels' own
+    pace ask the steered modules to turn several times faster than they can; the retimed
+    timing keeps every module that moves above the steering floor within its rate
+    (finite differences of the module angles, not the retimer's own measure)."""
+    from trajectories import OutAndBack
+    from trajectories.steering import STEER_FLOOR
+
+    robot = preset(name)
+    source = (OutAndBack(2.0, 8.0, width=0.2) if path == "out-and-back"
+              else FigureEight(0.3, 8.0))
+    retimed = time_optimal(source, robot, samples=400)
+    assert retimed.info is not None and retimed.info.steer_demand <= 1.0
+    from types import SimpleNamespace
+
+    unsteered = SimpleNamespace(wheel_blocks=robot.wheel_blocks,
+                                max_wheel_speed=robot.max_wheel_speed,
+                                max_wheel_accel=robot.max_wheel_accel)  # no steering limits
+    unlimited = time_optimal(source, unsteered, samples=400)
+    assert retimed.lap_time > 1.02 * unlimited.lap_time  # the steering limits bind
+    assert feasibility(unlimited, robot).steer_ratio > 1.3  # ... which ignoring them breaks
+    times = np.linspace(0.0, retimed.lap_time, 40001)
+    rates, speeds = _module_turn_rates(retimed, robot, times)
+    counted = speeds > STEER_FLOOR * robot.max_wheel_speed * (1.0 + 1e-3)
+    limits = robot.max_steer_rates
+    assert limits is not None
+    assert (rates[counted] <= np.broadcast_to(limits, rates.shape)[counted]
+            * (1.0 + 2e-3)).all()

@@ -247,7 +247,7 @@ def test_unknown_preset_lists_names() -> None:
         (lambda: swerve(module_positions=[[0.3, 0.3]], wheel_radius=0.05, max_wheel_speed=1.0,
                         max_steer_rate=5.0), r"shape \(n, 2\)"),
         (lambda: swerve(module_positions=[[0.0, 0.0], [0.0, 0.0]], wheel_radius=0.05,
-                        max_wheel_speed=1.0, max_steer_rate=5.0), "not holonomic"),
+                        max_wheel_speed=1.0, max_steer_rate=5.0), "must stand apart"),
         (lambda: swerve(module_positions=[[0.3, 0.3], [0.3, -0.3]], wheel_radius=0.05,
                         max_wheel_speed=1.0, max_steer_rate=0.0), "max_steer_rate"),
     ],

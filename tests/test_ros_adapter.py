@@ -71,6 +71,16 @@ def test_yaw_and_quaternion_agree_with_the_euler_formula() -> None:
         np.testing.assert_allclose([x, y, z, w], [q.x, q.y, q.z, q.w], atol=1e-15)
     # a small roll and pitch do not change the yaw (ZYX convention)
     assert yaw_from_quaternion(quaternion(0.02, -0.03, 1.0)) == pytest.approx(1.0, abs=1e-12)
+    # a quaternion off unit length (a hand-written message) stands for its direction
+    q = quaternion(0.02, -0.03, 2.5)
+    scaled = types.geometry_msgs__msg__Quaternion(x=3 * q.x, y=3 * q.y, z=3 * q.z, w=3 * q.w)
+    assert yaw_from_quaternion(scaled) == pytest.approx(2.5, abs=1e-12)
+    # the zero quaternion (an unset orientation) is no rotation: refused, not yaw 0
+    from trajectories import TrajectoryError
+
+    zero = types.geometry_msgs__msg__Quaternion(x=0.0, y=0.0, z=0.0, w=0.0)
+    with pytest.raises(TrajectoryError, match="quaternion must not be zero"):
+        yaw_from_quaternion(zero)
 
 
 def test_poses_and_twists_in_and_out() -> None:

@@ -185,7 +185,7 @@ def test_description_and_toml_build_the_robot(tmp_path: Path) -> None:
     [
         ({"positions": [[0.2, 0.0]]}, r"shape \(n, 2\) with n >= 2 balls"),
         ({"positions": [[0.2, 0.0, 1.0], [0.0, 0.2, 1.0]]}, r"shape \(n, 2\)"),
-        ({"positions": [[0.2, 0.0], [0.2, 0.0]]}, "not holonomic"),
+        ({"positions": [[0.2, 0.0], [0.2, 0.0]]}, "balls 0 and 1 must stand apart"),
         ({"positions": [["a", 0.0], [0.0, 0.2]]}, "array of numbers"),
         ({"positions": [[True, 0.0], [0.0, 0.2]]}, "array of numbers"),
         ({"positions": [[math.nan, 0.0], [0.0, 0.2]]}, "finite"),

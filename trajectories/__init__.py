@@ -18,6 +18,9 @@ References also come from files: :func:`read_waypoint_csv`, Choreo ``.traj`` fil
 needs the ``ros`` extra).
 """
 
+from mpc.errors import TrajectoryError as _Error
+from mpc.validation import checked_public as _checked_public
+
 from .base import Trajectory, TrajectorySample, body_twist
 from .choreo import (
     CHOREO_TO_OURS,
@@ -86,3 +89,6 @@ __all__ = [
     "read_waypoint_csv",
     "time_optimal",
 ]
+
+# Arguments that do not fit a public callable's signature raise TrajectoryError, not TypeError.
+_checked_public(globals(), _Error)

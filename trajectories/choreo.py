@@ -230,6 +230,9 @@ class _File:
     def check(self, value: Any, field: str, positive: bool = False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.error(field, f"expected a number, got {_json(value)}")
+        if isinstance(value, int) and not -1e300 < value < 1e300:  # JSON integers are unbounded
+            raise self.error(field, f"expected a finite number{' > 0' if positive else ''}, "
+                                    f"got an integer of {len(str(abs(value)))} digits")
         if not math.isfinite(value) or (positive and value <= 0):
             raise self.error(field, f"expected a finite number{' > 0' if positive else ''}, "
                                     f"got {_json(value)}")

@@ -1,4 +1,5 @@
-"""Can a robot follow a reference at all? Peak wheel speed against the wheel limits."""
+"""Can a robot follow a reference at all? Peak wheel speed against the wheel limits, and
+for steered modules (swerve, casters) the steering rate (:mod:`trajectories.steering`)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ import numpy.typing as npt
 from ._validation import FloatArray, positive_number, samples_in, shown
 from .base import Trajectory
 from .errors import TrajectoryError
+from .retiming_problem import path_geometry
+from .steering import steer_demand
 
 #: Most times :func:`feasibility` samples (a bound of this library: 10^6 twists and
 #: wheel speeds take a few hundred MB).
@@ -41,7 +44,10 @@ class FeasibilityReport:
     ``peak_ratio`` is the largest |wheel speed| / limit over all samples and
     wheels (1.0 = exactly at the limit); ``time`` [s] and ``wheel`` (index
     into the robot's wheel order) say where it occurs; ``ratios`` (k,) is the
-    peak ratio over wheels at each sample time ``times`` (k,) [s].
+    peak ratio over wheels at each sample time ``times`` (k,) [s]. ``steer_ratio`` is
+    the peak steering rate / limit over steered modules (each turning with its velocity's
+    direction; 0 for robots without steering limits, and for modules slower than
+    :data:`~trajectories.steering.STEER_FLOOR` of their speed limit), at ``steer_time``.
     """
 
     peak_ratio: float
@@ -49,11 +55,14 @@ class FeasibilityReport:
     wheel: int
     ratios: FloatArray
     times: FloatArray  # [s]
+    steer_ratio: float = 0.0
+    steer_time: float = 0.0  # [s]
 
     @property
     def is_feasible(self) -> bool:
-        """True if no wheel exceeds its limit at any sample (peak_ratio <= 1)."""
-        return self.peak_ratio <= 1.0
+        """True if no wheel exceeds its speed limit and no steered module its steering
+        rate at any sample (peak_ratio <= 1 and steer_ratio <= 1)."""
+        return self.peak_ratio <= 1.0 and self.steer_ratio <= 1.0
 
 
 def feasibility(
@@ -68,7 +77,9 @@ def feasibility(
     [start_time, start_time + duration] (start_time is 0 except for waypoints
     starting later), maps them through ``robot.wheel_speeds`` and divides by
     ``robot.max_wheel_speed`` (a wheel with limit 0 gives ratio 0 at rest,
-    inf otherwise). ``duration`` [s] defaults to one period, or to
+    inf otherwise). A robot with ``wheel_blocks`` (n, 2, 3) and ``max_steer_rates`` (an
+    :class:`mpc.robots.Robot` with steered wheels) is also measured against its steering
+    rates (``steer_ratio``). ``duration`` [s] defaults to one period, or to
     the trajectory's duration (waypoints: their span). This is the
     open-loop demand of the reference; tracking corrections come on top.
     """
@@ -122,6 +133,8 @@ def feasibility(
         )
     sample, wheel = np.unravel_index(int(np.argmax(wheel_ratios)), wheel_ratios.shape)
     ratios = wheel_ratios.max(axis=1)
+    steer = _steer_ratios(trajectory, robot, times, limits)
+    turn = int(np.argmax(steer)) if steer is not None else 0
     times.flags.writeable = False
     ratios.flags.writeable = False
     return FeasibilityReport(
@@ -130,4 +143,26 @@ def feasibility(
         wheel=int(wheel),
         ratios=ratios,
         times=times,
+        steer_ratio=float(steer[turn]) if steer is not None else 0.0,
+        steer_time=float(times[turn]) if steer is not None else 0.0,
     )
+
+
+def _steer_ratios(trajectory: Trajectory, robot: object, times: FloatArray,
+                  speed_limits: FloatArray) -> FloatArray | None:
+    """Peak steering rate / limit at each of ``times`` (k,) for a robot with steered
+    modules (``max_steer_rates`` not None and ``wheel_blocks`` (n, 2, 3)), else None."""
+    rates = getattr(robot, "max_steer_rates", None)
+    blocks = getattr(robot, "wheel_blocks", None)
+    if rates is None or blocks is None:
+        return None
+    blocks = np.asarray(blocks, dtype=np.float64)
+    rates = np.broadcast_to(np.asarray(rates, dtype=np.float64), speed_limits.shape)
+    if blocks.shape != (speed_limits.size, 2, 3) or not (np.isfinite(rates)
+                                                         & (rates > 0.0)).all():
+        raise TrajectoryError(f"robot.max_steer_rates must be {speed_limits.size} finite "
+                              f"numbers > 0 [rad/s] for its modules' velocity maps "
+                              f"wheel_blocks ({speed_limits.size}, 2, 3), got {shown(rates)} "
+                              f"and wheel_blocks of shape {blocks.shape}")
+    geometry = path_geometry(trajectory, times)
+    return steer_demand(blocks, speed_limits, rates, geometry.twist, geometry.twist_rate)

@@ -150,7 +150,17 @@ class FunctionHeading(HeadingProfile):
 
 
 def _call(function: Callable[[FloatArray], npt.ArrayLike], t: FloatArray, name: str) -> FloatArray:
-    values = real_array(f"the heading function's {name}(t)", function(t),
+    try:
+        result = function(t)
+    except TypeError as error:
+        if t.ndim == 0:  # a scalar time: the callable's own TypeError
+            raise
+        # math.sin and the like take one number: the times come as an array
+        raise TrajectoryError(
+            f"the heading function's {name}(t) must take an array of times [s] and return an "
+            f"array of that shape (vectorised: np.sin, not math.sin); called with an array of "
+            f"shape {t.shape} it raised TypeError: {error}") from None
+    values = real_array(f"the heading function's {name}(t)", result,
                         "real numbers [rad, rad/s or rad/s^2]", TrajectoryError)
     if values.shape != t.shape:
         try:

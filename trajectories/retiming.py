@@ -48,7 +48,7 @@ from typing import Any, Protocol
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import positive_number, samples_in, shown
+from ._validation import FloatArray, positive_number, samples_in, shown
 from .base import Trajectory
 from .errors import TrajectoryError
 from .retiming_problem import (
@@ -110,6 +110,9 @@ class RetimingRobot(Protocol):
         """Acceleration limits, shape (n,) [rad/s^2], > 0, or None (unlimited)."""
         ...
 
+    # Optional: ``max_steer_rates`` (n,) [rad/s] or None, the steering limits of modules
+    # with a velocity vector (d = 2: swerve, casters); see :mod:`trajectories.steering`.
+
 
 def time_optimal(
     path: Trajectory,
@@ -120,13 +123,18 @@ def time_optimal(
     max_heading_rate: float | None = None,
     samples: int = DEFAULT_SAMPLES,
 ) -> RetimedTrajectory:
-    """The fastest timing of the geometry of ``path`` within the robot's exact wheel limits.
+    """The fastest timing of the geometry of ``path`` within the robot's exact wheel limits
+    and, for steered modules (swerve, casters), their steering rate
+    (:mod:`trajectories.steering`: a module turns with its velocity's direction; one slower
+    than 2 % of its speed limit may lag it).
 
     Args:
         path: a periodic or finite trajectory; its pose over its own time
             (one period, or its span) is the path, heading included.
         robot: ``wheel_blocks`` (n, d, 3), ``max_wheel_speed`` (n,) [rad/s] and
-            ``max_wheel_accel`` (n,) [rad/s^2] or None, e.g. an :class:`mpc.robots.Robot`.
+            ``max_wheel_accel`` (n,) [rad/s^2] or None, e.g. an :class:`mpc.robots.Robot`;
+            with ``max_steer_rates`` (n,) [rad/s] (not None) and d = 2, the steering
+            limits too.
         periodic: steady laps (sdot the same at the start and end of a lap;
             the default for a periodic path) or rest to rest (False; the
             default for a finite path).
@@ -164,13 +172,17 @@ def time_optimal(
     # the solver meets its equality rows to its tolerance: make the ends exact
     b[0] = b[-1] = min(b[0], b[-1]) if steady else 0.0
     solver_lap = lap_time(coarse.s, b)
-    speed, accel = peak_demand(fine, limits, b)
-    demand = max(speed * speed, accel)  # both scale with b: speed with sqrt(b), accel with b
+    speed, accel, steer = peak_demand(fine, limits, b)
+    # all scale with b: speed and steering with sqrt(b), acceleration with b (a module that
+    # slows below the steering floor leaves the steering demand: scaling down stays within)
+    demand = max(speed * speed, accel, steer * steer)
     if not (demand > 0.0 and math.isfinite(demand)):
         raise TrajectoryError(f"the retiming cone program returned an unusable timing (peak "
-                              f"speed demand {shown(speed)}, acceleration demand {shown(accel)})")
+                              f"speed demand {shown(speed)}, acceleration demand {shown(accel)}"
+                              f", steering demand {shown(steer)})")
     factor = (1.0 - MARGIN) / demand
     b *= factor
+    steer = peak_demand(fine, limits, b)[2] if limits.steer_rate is not None else 0.0
     info = RetimingInfo(
         status=solution.status,
         iterations=solution.iterations,
@@ -180,6 +192,7 @@ def time_optimal(
         stretch=1.0 / math.sqrt(factor),
         speed_demand=speed * math.sqrt(factor),
         accel_demand=accel * factor,
+        steer_demand=steer,
     )
     return RetimedTrajectory(source, coarse.s, np.sqrt(b), periodic=steady, info=info)
 
@@ -242,6 +255,7 @@ def _checked_limits(robot: Any, max_speed: Any, max_heading_rate: Any) -> Limits
     ):
         raise TrajectoryError(f"{expected}; got max_wheel_accel {shown(accel)} for {n} wheels "
                               "(each finite and > 0)")
+    steer = _checked_steer_rates(robot, blocks)
     caps = []
     for name, value in (("max_speed [m/s]", max_speed),
                         ("max_heading_rate [rad/s]", max_heading_rate)):
@@ -250,4 +264,23 @@ def _checked_limits(robot: Any, max_speed: Any, max_heading_rate: Any) -> Limits
             raise TrajectoryError(f"{name} must be at least {MIN_CAP:g} (a bound of this "
                                   f"library: slower, the lap time overflows), got {cap!r}")
         caps.append(cap)
-    return Limits(blocks, speed, accel, caps[0], caps[1])
+    return Limits(blocks, speed, accel, caps[0], caps[1], steer)
+
+
+def _checked_steer_rates(robot: Any, blocks: FloatArray) -> FloatArray | None:
+    """The steering limits [rad/s] (n,) of a robot with steered modules (``max_steer_rates``
+    not None, modules with a velocity vector: ``d = 2``), else None."""
+    raw = getattr(robot, "max_steer_rates", None)
+    if raw is None or blocks.shape[1] != 2:
+        return None
+    try:
+        rates = np.array(raw, dtype=np.float64)
+    except (TypeError, ValueError) as error:
+        raise TrajectoryError(f"robot.max_steer_rates must be {blocks.shape[0]} numbers "
+                              f"[rad/s] or None, got {shown(raw)}: {error}") from None
+    if rates.ndim == 0:
+        rates = np.full(blocks.shape[0], float(rates))
+    if rates.shape != (blocks.shape[0],) or not (np.isfinite(rates) & (rates > 0.0)).all():
+        raise TrajectoryError(f"robot.max_steer_rates must be {blocks.shape[0]} finite "
+                              f"numbers > 0 [rad/s] or None, got {shown(raw)}")
+    return rates

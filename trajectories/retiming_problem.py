@@ -23,6 +23,7 @@ from mpc.validation import shown
 from ._validation import FloatArray
 from .base import Trajectory
 from .errors import TrajectoryError
+from .steering import steer_bound, steer_demand
 
 #: Statuses of clarabel whose solution is used (the check afterwards makes it feasible).
 _ACCEPTED_STATUSES = ("Solved", "AlmostSolved")
@@ -75,7 +76,8 @@ class Limits:
     ``wheel_blocks`` (n, d, 3) maps a body twist to wheel velocities [rad/s];
     ``wheel_speed`` (n,) [rad/s] (0: a failed wheel held at rest);
     ``wheel_accel`` (n,) [rad/s^2] or None; ``path_speed`` [m/s] and
-    ``heading_rate`` [rad/s] optional caps.
+    ``heading_rate`` [rad/s] optional caps; ``steer_rate`` (n,) [rad/s] the steering
+    limits of steered modules (``d = 2``; :mod:`trajectories.steering`) or None.
     """
 
     wheel_blocks: FloatArray
@@ -83,6 +85,23 @@ class Limits:
     wheel_accel: FloatArray | None
     path_speed: float | None
     heading_rate: float | None
+    steer_rate: FloatArray | None = None
+
+    def steer_bound(self, geometry: PathGeometry) -> FloatArray:
+        """The largest b = sdot^2 at each point within the steering limits, (m,); inf where
+        they do not bound it (no steered modules, or none turning)."""
+        if self.steer_rate is None:
+            return np.full(geometry.s.shape, np.inf)
+        return steer_bound(self.wheel_blocks, self.wheel_speed, self.steer_rate,
+                           geometry.twist, geometry.twist_rate)
+
+    def steer_demand(self, geometry: PathGeometry, b: FloatArray) -> FloatArray:
+        """Peak steering rate / limit at sdot = sqrt(b) per row, shape (m,); 0 if none."""
+        if self.steer_rate is None:
+            return np.zeros(b.shape)
+        root = np.sqrt(b)[:, np.newaxis]
+        return steer_demand(self.wheel_blocks, self.wheel_speed, self.steer_rate,
+                            geometry.twist * root, geometry.twist_rate * root * root)
 
     def speed_demand(self, twist: FloatArray) -> FloatArray:
         """Peak speed / limit over every speed limit at sdot = 1, shape (m,); inf: cannot move."""
@@ -265,8 +284,10 @@ def _time_cones(cones: _Rows, offsets: dict[str, int], m: int) -> None:
     cones.cones += [clarabel.SecondOrderConeT(3)] * (2 * m - 1)
 
 
-def peak_demand(fine: PathGeometry, limits: Limits, b: FloatArray) -> tuple[float, float]:
-    """Peak speed and acceleration demand (1 = at a limit) of the timing ``b`` between grid points.
+def peak_demand(fine: PathGeometry, limits: Limits,
+                b: FloatArray) -> tuple[float, float, float]:
+    """Peak speed, acceleration and steering demand (1 = at a limit) of the timing ``b``
+    between grid points.
 
     ``b`` is sdot^2 on a coarse grid whose points are every r-th point of
     ``fine`` (r = refinement); inside each cell b is linear in s (constant
@@ -286,7 +307,8 @@ def peak_demand(fine: PathGeometry, limits: Limits, b: FloatArray) -> tuple[floa
     inside = PathGeometry(fine.s[index].ravel(), fine.twist[index].reshape(-1, 3),
                           fine.twist_rate[index].reshape(-1, 3))
     accel = limits.accel_demand(inside, b_inside.ravel(), a)
-    return float(speed.max()), float(accel.max())
+    steer = limits.steer_demand(inside, b_inside.ravel())
+    return float(speed.max()), float(accel.max()), float(steer.max())
 
 def lap_time(s: FloatArray, b: FloatArray) -> float:
     """Lap time [s] of b = sdot^2 on the grid s: sum 2 ds / (sqrt(b_k) + sqrt(b_k+1))."""
@@ -295,11 +317,13 @@ def lap_time(s: FloatArray, b: FloatArray) -> float:
 
 
 def speed_bound(limits: Limits, geometry: PathGeometry) -> FloatArray:
-    """Upper bound on b = sdot^2 at each grid point from every speed limit; raises if 0 twice."""
+    """Upper bound on b = sdot^2 at each grid point from every speed limit and the steering
+    limits; raises if 0 twice."""
     demand = limits.speed_demand(geometry.twist)
     moving = demand > 0.0
     with np.errstate(divide="ignore"):
         bound = np.where(moving, 1.0 / np.where(moving, demand, 1.0) ** 2, np.inf)
+    bound = np.minimum(bound, limits.steer_bound(geometry))
     finite = bound[np.isfinite(bound) & (bound > 0.0)]
     if finite.size == 0:
         raise TrajectoryError("the robot cannot drive this path at all: every point of it "

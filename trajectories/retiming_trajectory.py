@@ -40,8 +40,10 @@ class RetimingInfo:
     ``status`` and ``iterations`` are clarabel's; ``solve_time`` [s] its own
     timer, ``build_time`` [s] assembling the problem; ``solver_lap_time`` [s]
     the cone program's lap; ``stretch`` = lap time / solver lap time (>= 1 when
-    the check between grid points slowed the timing down); ``speed_demand``
-    and ``accel_demand`` the peaks (1 = at a limit) on the check grid after it.
+    the check between grid points slowed the timing down); ``speed_demand``,
+    ``accel_demand`` and ``steer_demand`` (steered modules' turn rate,
+    :mod:`trajectories.steering`; 0 without) the peaks (1 = at a limit) on the check
+    grid after it.
     """
 
     status: str
@@ -52,6 +54,7 @@ class RetimingInfo:
     stretch: float
     speed_demand: float
     accel_demand: float
+    steer_demand: float = 0.0
 
 
 class _PhaseTiming:

@@ -34,6 +34,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.interpolate import CubicSpline
 
+from mpc.validation import is_integer
+
 from ._validation import FloatArray, positive_number, shown
 from .base import Trajectory
 from .errors import TrajectoryError
@@ -60,11 +62,15 @@ def require_rosbags() -> None:
 
 
 def yaw_from_quaternion(q: Any) -> float:
-    """Yaw [rad] in (-pi, pi] of a quaternion with fields x, y, z, w (REP-103, z up)."""
+    """Yaw [rad] in (-pi, pi] of a quaternion with fields x, y, z, w (REP-103, z up); one
+    that is not of unit length is taken as its direction (the formula is homogeneous)."""
     x, y, z, w = (float(q.x), float(q.y), float(q.z), float(q.w))
     if not all(math.isfinite(v) for v in (x, y, z, w)):
         raise TrajectoryError(f"quaternion must be finite, got ({x}, {y}, {z}, {w})")
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    if not x * x + y * y + z * z + w * w > 0.0:
+        raise TrajectoryError(f"quaternion must not be zero (it is no rotation), got "
+                              f"({x}, {y}, {z}, {w})")
+    return math.atan2(2.0 * (w * z + x * y), w * w + x * x - y * y - z * z)
 
 
 def quaternion_from_yaw(yaw: float) -> tuple[float, float, float, float]:
@@ -74,7 +80,12 @@ def quaternion_from_yaw(yaw: float) -> tuple[float, float, float, float]:
 
 def stamp_nanoseconds(stamp: Any) -> int:
     """A ``builtin_interfaces/Time`` (sec, nanosec) as integer nanoseconds since its epoch."""
-    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+    sec: Any = getattr(stamp, "sec", None)
+    nanosec: Any = getattr(stamp, "nanosec", None)
+    if not (is_integer(sec) and is_integer(nanosec) and 0 <= nanosec < 1_000_000_000):
+        raise TrajectoryError("a stamp must be a builtin_interfaces/Time (integer sec, and "
+                              f"nanosec in [0, 1e9)), got {shown(stamp)}")
+    return int(sec) * 1_000_000_000 + int(nanosec)
 
 
 def poses_from_path(message: Any) -> FloatArray:

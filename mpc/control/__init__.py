@@ -15,5 +15,10 @@
 from mpc.control.clamp import clamp_command
 from mpc.control.command import Command, Status
 from mpc.control.controller import SOLVERS, Controller
+from mpc.errors import ControllerError as _Error
+from mpc.validation import checked_public as _checked_public
 
 __all__ = ["SOLVERS", "Command", "Controller", "Status", "clamp_command"]
+
+# Arguments that do not fit a public callable's signature raise ControllerError, not TypeError.
+_checked_public(globals(), _Error)

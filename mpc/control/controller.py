@@ -47,7 +47,12 @@ from mpc.validation import (
 )
 from trajectories import Trajectory, TrajectoryError
 
-__all__ = ["DEFAULT_POLYGON_SIDES", "MODES", "SOLVERS", "Controller"]
+__all__ = ["DEFAULT_POLYGON_SIDES", "MEASURED_SLACK", "MODES", "SOLVERS", "Controller"]
+
+#: How far beyond the wheels' speed limits a measured ``last_twist`` (:meth:`Controller.reset`)
+#: may be and be scaled into them (odometry noise at top speed); further is refused (a
+#: twist in the wrong units, or a robot pushed far past what its wheels drive).
+MEASURED_SLACK = 0.10
 
 
 class Controller:
@@ -200,7 +205,9 @@ class Controller:
     def reset(self, last_twist: ArrayLike | None = None,
               steer_angles: ArrayLike | None = None) -> None:
         """Forget the plan, warm start, failures and timing; the robot is at rest unless
-        ``last_twist`` (the body twist it is executing now [m/s, m/s, rad/s]) says.
+        ``last_twist`` (the body twist it is executing now [m/s, m/s, rad/s]) says. A
+        measured twist up to :data:`MEASURED_SLACK` beyond the wheels' speed limits
+        (odometry noise at top speed) is scaled into them; one further beyond is refused.
 
         Swerve modules are at ``steer_angles`` [rad] (n,) if given; else a module moving
         in ``last_twist`` points along it (flip rule from its last commanded angle) and one
@@ -211,12 +218,16 @@ class Controller:
         # angles, and the clamp takes them at those angles.
         speeds = self.robot.wheel_magnitudes(last)
         limit = self.robot.max_wheel_speed
-        if not self.robot.steer_states and np.any(speeds - limit > 1e-9 * np.maximum(limit, 1.0)):
+        over = speeds - limit * (1.0 + MEASURED_SLACK) > 1e-9 * np.maximum(limit, 1.0)
+        if not self.robot.steer_states and np.any(over):
             wheel = int(np.argmax(speeds - limit))
             raise ControllerError(
                 f"last_twist {last.tolist()} drives wheel {wheel} at {speeds[wheel]:.6g} "
-                f"rad/s, beyond its limit {limit[wheel]:.6g} rad/s: the twist the robot is "
-                "executing must be one its wheels can drive")
+                f"rad/s, beyond its limit {limit[wheel]:.6g} rad/s by more than "
+                f"{MEASURED_SLACK:.0%}: the twist the robot is executing must be one its "
+                "wheels can drive")
+        if not self.robot.steer_states:
+            last = self.robot.desaturate(last)  # noise at top speed: into the limits
         self._last = last
         steer = self._steer if self._steer is not None else self.robot.initial_steer_angles()
         if steer_angles is not None:

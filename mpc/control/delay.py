@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections import deque
 
 from mpc.arrays import FloatArray
-from mpc.model.se2 import integrate
+from mpc.model.se2 import integrate_unchecked as integrate
 
 
 class DelayCompensator:

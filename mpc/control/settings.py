@@ -61,9 +61,10 @@ def check_step(name: str, value: object) -> float:
 
 
 def check_stage_dt(stage_dt: object, dt: float, mode: str) -> float:
-    """``stage_dt`` [s] (if None: ``2 dt`` in time mode, ``dt`` in path mode), >= ``dt``."""
+    """``stage_dt`` [s] (if None: ``2 dt`` in time mode, at most :data:`MAX_STEP` unless
+    ``dt`` is longer; ``dt`` in path mode), >= ``dt``."""
     if stage_dt is None:
-        return 2.0 * dt if mode == "time" else dt
+        return max(dt, min(2.0 * dt, MAX_STEP)) if mode == "time" else dt
     stage = check_step("stage_dt", stage_dt)
     if stage < dt:
         raise ControllerError(f"stage_dt must be >= dt = {shown(dt)} s (a stage is at least one "

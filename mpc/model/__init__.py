@@ -6,11 +6,13 @@ Modules: :mod:`.se2` (rigid motion under a constant twist), :mod:`.layout`
 (zero-copy CasADi calls).
 """
 
+from mpc.errors import ControllerError as _Error
 from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import Layout, TickInput, TrackingLayouts, tracking_layouts
 from mpc.model.se2 import SMALL_ROTATION, integrate, twist_integral, twist_logarithm
 from mpc.model.tracking import DIRECTION_SPEED, TrackingModel
 from mpc.model.weights import Weights, load_weights, make_weights, tuned_layouts, tuned_weights
+from mpc.validation import checked_public as _checked_public
 
 __all__ = [
     "DIRECTION_SPEED",
@@ -30,3 +32,6 @@ __all__ = [
     "twist_integral",
     "twist_logarithm",
 ]
+
+# Arguments that do not fit a public callable's signature raise ControllerError, not TypeError.
+_checked_public(globals(), _Error)

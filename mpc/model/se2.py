@@ -17,8 +17,11 @@ import math
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
+from mpc.errors import ControllerError
+from mpc.validation import finite_vector, non_negative
 
 #: Below this ``|omega * dt|`` [rad] the maps use their Taylor series.
 SMALL_ROTATION = 1e-3
@@ -42,8 +45,19 @@ def twist_integral(pose: ca.SX, twist: ca.SX, dt: float | ca.SX) -> ca.SX:
                       pose[2] + angle)
 
 
-def integrate(pose: FloatArray, twist: FloatArray, dt: float) -> FloatArray:
-    """:func:`twist_integral` in NumPy for one pose (3,) and twist (3,)."""
+def integrate(pose: ArrayLike, twist: ArrayLike, dt: float) -> FloatArray:
+    """The pose (x, y, theta) [m, m, rad] after driving the body ``twist`` (vx, vy, omega)
+    [m/s, m/s, rad/s] from ``pose`` for ``dt`` >= 0 [s] (:func:`twist_integral` in NumPy;
+    each checked: ControllerError names a bad one)."""
+    start = finite_vector("pose", pose, 3, "(x, y, theta) [m, m, rad]", ControllerError)
+    drive = finite_vector("twist", twist, 3, "(vx, vy, omega) [m/s, m/s, rad/s]",
+                          ControllerError)
+    duration = non_negative("dt [s]", dt, ControllerError)
+    return integrate_unchecked(start, drive, duration)
+
+
+def integrate_unchecked(pose: FloatArray, twist: FloatArray, dt: float) -> FloatArray:
+    """:func:`integrate` without the checks (the delay prediction's, every tick)."""
     angle = float(twist[2]) * dt
     if abs(angle) < SMALL_ROTATION:
         sin_over = 1 - angle * angle / 6 + angle**4 / 120

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from mpc.errors import ReportError
+from mpc.validation import checked_public as _checked_public
 from mpc.validation import shown
 
 from .record import run_record
@@ -83,3 +84,7 @@ def write_report(results: Mapping[str, Any], out_dir: str | Path,
     from .writer import write_report as write
 
     return write(results, out_dir, on_figure=on_figure, workers=workers)
+
+
+# Arguments that do not fit a public callable's signature raise ReportError, not TypeError.
+_checked_public(globals(), ReportError)

@@ -15,6 +15,7 @@ presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel); :class:`RobotDynami
 limits (:mod:`mpc.robots.motor_limits`); :func:`motor_preset` ships them per layout.
 """
 
+from mpc.errors import RobotError as _Error
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.caster import CasterRobot, caster
 from mpc.robots.dynamics import RobotDynamics, choreo_dynamics, dynamics
@@ -33,6 +34,7 @@ from mpc.robots.spherical import SphericalRobot, spherical
 from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
 from mpc.robots.swerve import SwerveRobot, swerve, wrap_angle
 from mpc.robots.wheel_set import wheel_set
+from mpc.validation import checked_public as _checked_public
 
 __all__ = [
     "CasterRobot",
@@ -71,3 +73,6 @@ __all__ = [
     "wheel_set",
     "wrap_angle",
 ]
+
+# Arguments that do not fit a public callable's signature raise RobotError, not TypeError.
+_checked_public(globals(), _Error)

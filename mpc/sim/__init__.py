@@ -16,6 +16,7 @@
   ``ros`` extra, imported only when called).
 """
 
+from mpc.errors import SimulationError as _Error
 from mpc.sim.bag import write_bag
 from mpc.sim.baselines import SATURATIONS, FeedforwardPController
 from mpc.sim.motor_plant import MotorPlant, MotorPlantConfig
@@ -24,6 +25,7 @@ from mpc.sim.recorder import Recorder
 from mpc.sim.result import LIMIT_RTOL, SimResult
 from mpc.sim.setpoint import FeedforwardPSetpointController, SwerveSetpoint, generate_setpoint
 from mpc.sim.simulate import TrackingController, simulate
+from mpc.validation import checked_public as _checked_public
 
 __all__ = [
     "LIMIT_RTOL",
@@ -43,3 +45,6 @@ __all__ = [
     "simulate",
     "write_bag",
 ]
+
+# Arguments that do not fit a public callable's signature raise SimulationError, not TypeError.
+_checked_public(globals(), _Error)

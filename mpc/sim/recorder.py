@@ -26,7 +26,7 @@ from mpc.control.command import Command
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
 from mpc.sim.result import SimResult
-from mpc.validation import finite_vector, is_finite_number, positive, shown
+from mpc.validation import MAX_TIME, finite_vector, is_finite_number, positive, shown
 from trajectories import Trajectory
 
 
@@ -69,8 +69,9 @@ class Recorder:
         controller saw (default: the true pose), the wheel speeds actually reached [rad/s]
         (default: the command's) and the reference pose tracked at this tick [m, m, rad]
         (default: the trajectory at ``t - command.lag``, what the controller tracked)."""
-        if not is_finite_number(t):
-            raise SimulationError(f"t must be a finite time in seconds, got {shown(t)}")
+        if not is_finite_number(t) or abs(float(t)) > MAX_TIME:  # type: ignore[arg-type]
+            raise SimulationError(f"t must be a finite time in seconds within +-{MAX_TIME:g} "
+                                  f"(step()'s bound), got {shown(t)}")
         if not isinstance(command, Command):
             raise SimulationError("command must be the Command step() returned, "
                                   f"got {shown(command)}")

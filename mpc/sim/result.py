@@ -93,13 +93,17 @@ class SimResult:
     def lap_times(self, skip: float = 0.0) -> FloatArray:
         """Durations of the complete laps of a periodic reference after ``skip`` [s]:
         between the ticks at which the tracked reference time passes whole periods
-        (interpolated). Empty for a non-periodic reference or fewer than two passes."""
+        (interpolated). Empty for a non-periodic reference, fewer than two passes, or
+        ticks too far apart to time laps (more passes than ticks)."""
         period = self.trajectory.period
         progress = self.reference_time
         if period is None or progress[-1] <= progress[0]:
             return np.zeros(0)
         first = math.floor(progress[0] / period) + 1
-        marks = period * np.arange(first, math.floor(progress[-1] / period) + 1)
+        last = math.floor(progress[-1] / period)
+        if last - first + 1 > progress.size:  # laps shorter than the ticks between them
+            return np.zeros(0)
+        marks = period * np.arange(first, last + 1)
         # progress never decreases, so np.interp inverts it (ties: the first tick)
         passes = np.interp(marks, progress, self.time)
         passes = passes[passes >= self.time[0] + skip - 1e-12]

@@ -58,6 +58,8 @@ from mpc.adapters.ros.messages import (
     twist_stamped,
 )
 from mpc.adapters.ros.nav2 import Nav2Controller
+from mpc.errors import ControllerError as _Error
+from mpc.validation import checked_public as _checked_public
 from trajectories.rosbag import (
     pose_from_message,
     quaternion_from_yaw,
@@ -70,3 +72,6 @@ __all__ = ["ROS2_MECANUM_ORDER", "Nav2Controller", "ReferenceClock", "copy_messa
            "from_ros2_mecanum", "joint_group_command", "pose_from_message",
            "quaternion_from_yaw", "stamp_nanoseconds", "time_message", "to_ros2_mecanum",
            "twist_from_message", "twist_message", "twist_stamped", "yaw_from_quaternion"]
+
+# Arguments that do not fit a public callable's signature raise ControllerError, not TypeError.
+_checked_public(globals(), _Error)

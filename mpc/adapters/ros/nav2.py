@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from typing import Any
 
@@ -12,9 +13,10 @@ from mpc.adapters.ros.clock import ReferenceClock
 from mpc.adapters.ros.messages import twist_stamped
 from mpc.arrays import FloatArray
 from mpc.control import Command, Controller
+from mpc.control.settings import check_step
 from mpc.errors import ControllerError
 from mpc.robots import Robot
-from mpc.validation import non_negative, positive, shown
+from mpc.validation import MAX_HORIZON, integer_in, non_negative, positive, shown
 from trajectories import FunctionHeading, HeadingSpec, Trajectory
 from trajectories.path import PathDerivatives
 from trajectories.rosbag import (
@@ -59,6 +61,11 @@ class _Slowed(Trajectory):
                                r**3 * p.jerk)
 
 
+#: The Controller's own options a Nav2Controller passes through (``**options``).
+_CONTROLLER_OPTIONS = frozenset(inspect.signature(Controller.__init__).parameters) - {
+    "self", "robot", "trajectory", "horizon", "dt"}
+
+
 class Nav2Controller:
     """The MPC with the shape of a nav2 controller plugin, on ROS messages.
 
@@ -79,7 +86,17 @@ class Nav2Controller:
                  speed: float | None = None, max_speed: float | None = None,
                  heading: HeadingSpec | None = None, base_frame: str = "base_link",
                  **options: Any) -> None:
-        self.robot, self.dt, self.horizon, self._options = robot, dt, horizon, options
+        if not isinstance(robot, Robot):
+            raise ControllerError(f"robot must be an mpc.robots.Robot, got {shown(robot)}")
+        # checked now, not in the first set_plan (inside a subscription callback)
+        unknown = sorted(set(options) - _CONTROLLER_OPTIONS)
+        if unknown:
+            raise ControllerError(
+                f"Nav2Controller(): unknown option(s) {', '.join(map(repr, unknown))} for the "
+                f"Controller; its options are {', '.join(sorted(_CONTROLLER_OPTIONS))}")
+        self.robot, self._options = robot, options
+        self.dt = check_step("dt", dt)
+        self.horizon = integer_in("horizon", horizon, 1, MAX_HORIZON, ControllerError)
         self.speed = None if speed is None else positive("speed [m/s]", speed, ControllerError)
         self.max_speed = None if max_speed is None else positive("max_speed [m/s]", max_speed,
                                                                   ControllerError)

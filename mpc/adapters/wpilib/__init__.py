@@ -44,9 +44,14 @@ from mpc.adapters.wpilib.kinematics import (
     robot_from_swerve_kinematics,
 )
 from mpc.adapters.wpilib.reference import WpilibReference, reference_from_wpilib_trajectory
+from mpc.errors import ControllerError as _Error
+from mpc.validation import checked_public as _checked_public
 
 __all__ = ["MpcFollower", "WpilibReference", "chassis_speeds_from_twist",
            "mecanum_wheel_speeds", "pose2d_from_pose", "pose_from_pose2d",
            "reference_from_wpilib_trajectory", "robot_from_mecanum_kinematics",
            "robot_from_swerve_kinematics", "swerve_module_states",
            "twist_from_chassis_speeds"]
+
+# Arguments that do not fit a public callable's signature raise ControllerError, not TypeError.
+_checked_public(globals(), _Error)

@@ -36,7 +36,8 @@ class MpcFollower:
         robot: the drive layout (e.g. from :func:`robot_from_swerve_kinematics`).
         trajectory: the reference (e.g. from :func:`reference_from_wpilib_trajectory`).
         dt: the loop period [s] (``TimedRobot``'s 20 ms by default); also the MPC tick.
-        horizon: MPC steps planned ahead (default 25: 0.5 s at 20 ms).
+        horizon: MPC stages planned ahead (default 25: with the default stages, one tick
+            then ``2 dt`` each, 0.98 s at 20 ms).
         **options: further :class:`~mpc.control.Controller` options (``solver``,
             ``weights``, ``delay_ticks``, ``time_scaling``, ...).
     """
