@@ -836,7 +836,8 @@ def _recorded_far_apart() -> object:
     controller, recorder = Controller(robot, trajectory), Recorder(robot, trajectory, 0.05)
     pose = trajectory.sample(0.0).pose
     recorder.record(0.0, pose, controller.step(pose, 0.0))
-    return recorder.record(1e300, pose, controller.step(pose, 0.05))
+    recorder.record(1e300, pose, controller.step(pose, 0.05))
+    return recorder
 
 
 @pytest.mark.parametrize(("call", "error", "message"), [
@@ -885,11 +886,12 @@ def test_integrate_checks_its_arguments(pose: Any, twist: Any, dt: float,
 def test_zero_dimensional_arrays_are_numbers() -> None:
     """``np.array(0.05)`` is a number wherever a number is asked (dt, t), as ``np.float64``
     is; a 0-d array of a bool is not."""
-    controller = Controller(preset("mecanum"), Circle(0.5, 10.0), dt=np.array(0.05))
+    dt, t, flag = np.array(0.05), np.array(0.5), np.array(True)
+    controller = Controller(preset("mecanum"), Circle(0.5, 10.0), dt=dt)  # type: ignore[arg-type]
     assert controller.dt == 0.05 and isinstance(controller.dt, float)
-    assert controller.step([0.5, 0.0, 0.0], np.array(0.5)).status is Status.SOLVED
+    assert controller.step([0.5, 0.0, 0.0], t).status is Status.SOLVED  # type: ignore[arg-type]
     with pytest.raises(ControllerError, match="dt"):
-        Controller(preset("mecanum"), Circle(0.5, 10.0), dt=np.array(True))
+        Controller(preset("mecanum"), Circle(0.5, 10.0), dt=flag)  # type: ignore[arg-type]
 
 
 def test_long_ticks_keep_the_default_stages_within_the_bound() -> None:
