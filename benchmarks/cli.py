@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from benchmarks.executor import RunPool
+from benchmarks.executor import RunPool, check_pool_options
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.progress import Progress
 from benchmarks.reference_files import file_scenarios, read_reference
@@ -56,6 +56,7 @@ from benchmarks.scenarios import (
     csv_reference,
     parse_speeds,
     robots,
+    seed,
 )
 from mpc.errors import MpcError, ReportError
 from mpc.robots import motor_preset
@@ -107,8 +108,8 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
                              "pace the wheels allow + --skip, at least 6 s)")
     parser.add_argument("--skip", type=float,
                         help="seconds of settling left out of the tracking errors (default "
-                             "2.0, 1.0 with --quick, at most half of --duration); a given "
-                             "value must leave at least half of --duration")
+                             "2.0, 1.0 with --quick); with --duration, at most half of it; "
+                             "without, the run lasts its 2.2 laps after the skip")
     parser.add_argument("--plant", default="ideal", choices=sorted(PLANT_PRESETS),
                         help="simulated robot: ideal, realistic (motor lag, 1-tick delay, "
                              "pose noise, slip) or motor (the layouts' motor presets driven "
@@ -122,7 +123,7 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
     parser.add_argument("--trajectory-csv", metavar="CSV",
                         help="also run a waypoint trajectory from a CSV file (t,x,y,theta) on "
                              "every layout, named 'csv' (older form of --trajectory FILE.csv)")
-    parser.add_argument("--seed", type=int, default=0, help="seed for noise and slip (0)")
+    parser.add_argument("--seed", type=seed, default=0, help="seed for noise and slip (0)")
     parser.add_argument("--out", default="bench-out", metavar="DIR",
                         help="output folder (bench-out)")
     add_force_argument(parser)
@@ -151,8 +152,6 @@ def _check_run_numbers(args: argparse.Namespace) -> None:
             not 4 <= args.polygon_sides <= MAX_POLYGON_SIDES or args.polygon_sides % 2):
         raise ScenarioError(f"--polygon-sides must be an even integer 4 to "
                             f"{MAX_POLYGON_SIDES}, got {args.polygon_sides}")
-    if args.seed < 0:
-        raise ScenarioError(f"--seed must be >= 0, got {args.seed}")
 
 
 def _check_run_lengths(scenarios: list[Any], args: argparse.Namespace) -> None:
@@ -227,9 +226,7 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     settings = Settings(horizon=args.horizon, dt=args.dt, polygon_sides=args.polygon_sides)
     check_plan_sizes({**chosen_robots, **{str(file.path): file.robot for file in files
                                           if file.robot is not None}}, controllers, settings)
-    writes = ("results.json", "results.csv", *(() if args.no_report else ("report/index.html",)))
-    out = claim(args.out, writes, args.force)
-
+    check_pool_options(args.workers, args.scheduler)
     scenarios = [*build_scenarios(chosen_robots, trajectories if shapes else [], speeds,
                                   headings, csv_trajectory),
                  *file_scenarios(files, chosen_robots)]
@@ -241,10 +238,14 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
         raise ScenarioError(f"no run: {', '.join(skipped)} do(es) not apply (--controllers "
                             "and --layouts; mpc-tuned needs a preset with tuned weights, "
                             "ff-p-setpoint a swerve robot)")
+    # the output folder last, once every option is known to be good (no empty folder left)
+    writes = ("results.json", "results.csv", *(() if args.no_report else ("report/index.html",)))
+    out = claim(args.out, writes, args.force)
     started = time.perf_counter()
     failed: list[dict[str, Any]] = []
     with RunPool(args.workers, args.scheduler) as pool, Progress(total, "runs") as progress:
-        progress.print(f"mpc-bench: {len(scenarios)} scenarios x {len(controllers)} controllers "
+        progress.print(f"mpc-bench: {_count(len(scenarios), 'scenario')} x "
+                       f"{_count(len(controllers), 'controller')} "
                        f"({total} runs), plant {args.plant}, horizon {args.horizon}, "
                        f"dt {args.dt} s, on {pool.description}")
         for note in pool.notes:
@@ -361,6 +362,11 @@ COMMANDS: dict[str, Command] = {
 }
 
 
+def _count(number: int, noun: str) -> str:
+    """``"1 scenario"``, ``"2 scenarios"``."""
+    return f"{number} {noun}" + ("" if number == 1 else "s")
+
+
 def command_parser() -> Parser:
     """The whole command line as one argparse tree, for ``--help`` and shell completion:
     the subcommands (each with its own options) and, at the top, the options of ``run``."""
@@ -369,7 +375,8 @@ def command_parser() -> Parser:
         parents=[_parser("mpc-bench", add_help=False)],
         description="Benchmark MPC tracking against feedforward + P baselines on holonomic "
                     "robots. Without a COMMAND, runs the benchmark with the options below.",
-        epilog="'mpc-bench COMMAND --help' shows a command's options. An --out folder that "
+        epilog="'mpc-bench --version' prints the version. 'mpc-bench COMMAND --help' shows a "
+               "command's options. An --out folder that "
                "holds a command's results is not overwritten without --force. Shell "
                "completion (pip install argcomplete): "
                'eval "$(register-python-argcomplete mpc-bench)"',
@@ -404,6 +411,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if argv and argv[0] in ("-h", "--help"):
             command_parser().print_help()
+            return 0
+        if argv and argv[0] == "--version":
+            from importlib.metadata import version
+
+            print(f"mpc-bench {version('holonomic-mpc')}")
             return 0
         if argv and argv[0] in COMMANDS:
             command = COMMANDS[argv[0]]

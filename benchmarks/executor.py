@@ -158,7 +158,9 @@ def _simulate(spec: RunSpec) -> dict[str, Any]:
              else trajectory.sample(0.0).pose + np.asarray(spec.initial_offset, dtype=float))
     result = simulate(control, length, initial_pose=start, plant=_plant(spec.plant),
                       seed=spec.seed)
-    skip = min(spec.skip, 0.5 * length)  # the window the metrics and the report share
+    # the window the metrics and the report share: a default duration is laps after the
+    # skip (all of it kept); a given one keeps at least its second half
+    skip = spec.skip if spec.duration is None else min(spec.skip, 0.5 * length)
     metrics = result.metrics(skip=skip)
     if spec.series:
         return pack_run(scenario, spec.controller, metrics, result, skip)
@@ -219,6 +221,15 @@ def _blas_env() -> dict[str, str | None]:
     return {name: os.environ.get(name) for name in THREAD_ENV}
 
 
+def check_pool_options(workers: int | None, scheduler: str | None) -> None:
+    """``--workers`` and ``--scheduler`` as :class:`RunPool` takes them, or ScenarioError
+    (callers check them before they create an output folder)."""
+    if workers is not None and (not isinstance(workers, int) or workers < 1):
+        raise ScenarioError(f"--workers must be an integer >= 1, got {workers!r}")
+    if workers is not None and scheduler is not None:
+        raise ScenarioError("give --workers or --scheduler, not both")
+
+
 class RunPool:
     """Runs specs in this process (``workers=1``), on ``workers`` local processes (default:
     the machine's cores) or on the Dask cluster at ``scheduler`` (``tcp://host:port``).
@@ -229,10 +240,7 @@ class RunPool:
 
     def __init__(self, workers: int | None = None, scheduler: str | None = None,
                  timeout: float = 10.0) -> None:
-        if workers is not None and (not isinstance(workers, int) or workers < 1):
-            raise ScenarioError(f"--workers must be an integer >= 1, got {workers!r}")
-        if workers is not None and scheduler is not None:
-            raise ScenarioError("give --workers or --scheduler, not both")
+        check_pool_options(workers, scheduler)
         self.workers = workers or os.cpu_count() or 1
         self.scheduler, self.timeout = scheduler, timeout  # [s] to reach the scheduler
         self._executor: cf.Executor | None = None

@@ -31,7 +31,7 @@ import numpy as np
 
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
-from benchmarks.scenarios import Parser, ScenarioError
+from benchmarks.scenarios import Parser, ScenarioError, seed
 from mpc import Command, Controller, Status
 from mpc.model import integrate
 from mpc.robots import MOTOR_ROBOT_PRESETS, PRESETS, Robot, motor_preset, preset
@@ -181,7 +181,7 @@ def _parser() -> Parser:
     parser = Parser(prog="mpc-bench fuzz", description=__doc__.split("\n")[0])
     parser.add_argument("--ticks", type=int, default=100_000,
                         help="ticks in all, shared out over robots and configurations (100000)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of every disturbance (0)")
+    parser.add_argument("--seed", type=seed, default=0, help="seed of every disturbance (0)")
     parser.add_argument("--out", default=None, metavar="DIR", help="also write fuzz.json here")
     add_force_argument(parser)
     return parser

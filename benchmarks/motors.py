@@ -37,7 +37,7 @@ import numpy as np
 
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
-from benchmarks.scenarios import Parser, ScenarioError, choose
+from benchmarks.scenarios import Parser, ScenarioError, choose, seed
 from benchmarks.scenarios import reference as scenario_reference
 from mpc import Controller
 from mpc.arrays import FloatArray
@@ -198,7 +198,8 @@ def run(layouts: list[str], trajectories: list[str], controllers: list[str], *,
                 log(f"{layout:8s} {shape:8s} T {period:5.2f} s {name:16s} "
                     f"rms {row['rms_position_error'] * 1e3:7.1f} mm  "
                     f"V {row['voltage_violations']:3d}  I {row['current_violations']:3d}  "
-                    f"slip {row['slip_events']:3d}  tick p50 {row['tick_time_p50'] * 1e3:.3f} "
+                    f"slip {row['slip_events']:3d}  failures {row['failures']:3d}  "
+                    f"tick p50 {row['tick_time_p50'] * 1e3:.3f} "
                     f"p99 {row['tick_time_p99'] * 1e3:.3f} ms "
                     f"({time.perf_counter() - started:.1f} s)")
     return rows
@@ -220,8 +221,9 @@ def table(rows: list[dict[str, Any]], controllers: list[str]) -> str:
                 continue
             r = found[0]
             period = r["period"]
+            failed = f" ({r['failures']} failed)" if r.get("failures") else ""
             cells.append(f"{r['rms_position_error'] * 1e3:.1f} / {r['voltage_violations']} / "
-                         f"{r['current_violations']} / {r['slip_events']}")
+                         f"{r['current_violations']} / {r['slip_events']}{failed}")
         lines.append(f"| {layout} {shape} | {period:.2f} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -269,14 +271,16 @@ def _parser() -> Parser:
     parser.add_argument("--controllers",
                         help=f"comma list of {', '.join(CONTROLLERS)} "
                              f"(default: {', '.join(DEFAULT_CONTROLLERS)})")
-    parser.add_argument("--heading", default="fixed", choices=("fixed", "tangent"))
+    parser.add_argument("--heading", default="fixed", choices=("fixed", "tangent"),
+                        help="the reference's heading (fixed)")
     parser.add_argument("--ratio", type=float, default=1.0,
                         help="the reference's peak need / the motor model (1.0)")
     parser.add_argument("--size", type=float, default=1.0, help="shape size [m] (1.0)")
     parser.add_argument("--laps", type=float, default=2.0, help="laps per run (2)")
     parser.add_argument("--skip", type=float, default=2.0,
                         help="seconds left out of the errors (2.0)")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=seed, default=0,
+                        help="seed of the motor plant's randomness (0)")
     parser.add_argument("--perf", action="store_true",
                         help="instead: tick times with and without the motor rows per layout "
                              "(mpc-bench perf's scenario, runs interleaved)")
@@ -299,6 +303,8 @@ def main(argv: list[str]) -> int:
             raise ScenarioError(f"{flag} must be at most {high:g} (a bound of this command), "
                                 f"got {value:g}")
     layouts = choose("--layouts", "layout", args.layouts, MOTOR_ROBOT_PRESETS)
+    if not args.perf and (args.ticks != 400 or args.repeats != 3):
+        raise ScenarioError("--ticks and --repeats apply to --perf only")
     out = claim(args.out, ("motors-perf.json" if args.perf else "motors.json",), args.force)
     if args.perf:
         if args.ticks < 20 or args.repeats < 1:
@@ -323,10 +329,12 @@ def main(argv: list[str]) -> int:
                             f"{args.ratio:g}: {error}") from None
     print()
     print("RMS position error [mm] / voltage-violation ticks / current-violation ticks / "
-          "slip ticks")
+          "slip ticks (failed ticks, where any, in brackets)")
     print(table(rows, controllers))
     (out / "motors.json").write_text(json.dumps(
         {"command": " ".join(["mpc-bench", "motors", *argv]), "machine": machine(),
+         "settings": {"ratio": args.ratio, "size": args.size, "laps": args.laps,
+                      "skip": args.skip, "seed": args.seed, "heading": args.heading},
          "rows": rows}, indent=1))
     print(f"\nwrote {out / 'motors.json'} ({time.perf_counter() - started:.0f} s)")
     return 0

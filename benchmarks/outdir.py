@@ -11,6 +11,7 @@ costs nothing. Other commands' files in the same folder do not count: ``mpc-benc
 from __future__ import annotations
 
 import argparse
+import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -26,7 +27,9 @@ def add_force_argument(parser: argparse.ArgumentParser) -> None:
 def claim(out: str | Path, writes: Iterable[str], force: bool) -> Path:
     """The folder ``out``, created if needed, once it is safe to write ``writes`` (paths
     relative to it) there: raises a one-line :class:`ScenarioError` naming the folder and
-    ``--force`` if one of them exists and ``force`` is False, or if ``out`` is a file."""
+    ``--force`` if one of them exists and ``force`` is False, if ``out`` is a file, or if
+    it cannot be written (a file is made and removed in it: found before the work, not
+    after it, with the results lost)."""
     folder = Path(out)
     if folder.exists() and not folder.is_dir():
         raise ScenarioError(f"--out must be a folder, {str(folder)!r} is a file")
@@ -34,7 +37,13 @@ def claim(out: str | Path, writes: Iterable[str], force: bool) -> Path:
     if held and not force:
         raise ScenarioError(f"--out {str(folder)!r} already holds results ({', '.join(held)}); "
                             "add --force to overwrite them, or choose another --out")
-    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as error:
+        raise ScenarioError(f"--out {str(folder)!r} cannot be written: {error.strerror or error}"
+                            ) from None
     return folder
 
 

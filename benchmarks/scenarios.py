@@ -72,6 +72,8 @@ class Parser(argparse.ArgumentParser):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs.setdefault("allow_abbrev", False)
+        if isinstance(kwargs.get("description"), str):  # docstring markup is not for a terminal
+            kwargs["description"] = kwargs["description"].replace("``", "")
         super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
@@ -82,13 +84,31 @@ class ScenarioError(MpcError):
     """An unknown name or an unusable file among the benchmark's options."""
 
 
+def seed(text: str) -> int:
+    """A ``--seed`` (argparse type): an integer >= 0, as NumPy's and Optuna's generators
+    take (a negative one failed deep inside them, after the work had begun)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return value
+
+
+#: Names the prose uses for a choice, and the choice they stand for.
+ALIASES: dict[str, str] = {"figure-eight": "figure8"}
+
+
 def choose(flag: str, kind: str, requested: str | None, valid: tuple[str, ...] | list[str],
            default: tuple[str, ...] | list[str] | None = None) -> list[str]:
     """Split a comma list given with ``flag`` and check each name (the error names the flag),
     or return the default (every valid name)."""
     if requested is None:
         return list(valid if default is None else default)
-    names = [name.strip() for name in requested.split(",") if name.strip()]
+    # each name once, in the order given (a name twice would run twice); the prose names
+    names = list(dict.fromkeys(ALIASES.get(name.strip(), name.strip())
+                               for name in requested.split(",") if name.strip()))
     unknown = [name for name in names if name not in valid]
     if unknown or not names:
         raise ScenarioError(

@@ -38,10 +38,10 @@ from typing import Any
 import numpy as np
 
 from benchmarks.cli import add_pool_arguments
-from benchmarks.executor import RunPool, RunSpec
+from benchmarks.executor import RunPool, RunSpec, check_pool_options
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.progress import Progress
-from benchmarks.scenarios import CONTROLLERS, Parser, ScenarioError, Settings, choose
+from benchmarks.scenarios import CONTROLLERS, Parser, ScenarioError, Settings, choose, seed
 from benchmarks.table import Column, format_table
 from mpc.validation import MAX_HORIZON, MAX_SIMULATION_TICKS
 
@@ -176,12 +176,13 @@ def _parser() -> Parser:
     parser.add_argument("--kinds", help=f"comma list of {', '.join(KINDS)} (default: all)")
     parser.add_argument("--controllers", default="mpc-daqp",
                         help=f"comma list of {', '.join(CONTROLLERS)} (mpc-daqp)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of every random draw (0)")
+    parser.add_argument("--seed", type=seed, default=0, help="seed of every random draw (0)")
     parser.add_argument("--no-faults", action="store_true", help="ideal plant")
     parser.add_argument("--duration", type=float, default=10.0, help="seconds per run (10)")
     parser.add_argument("--skip", type=float, default=2.0, help="settling seconds (2)")
     parser.add_argument("--horizon", type=int, default=20, help="MPC horizon (20)")
-    parser.add_argument("--out", default="sweep-out", metavar="DIR", help="(sweep-out)")
+    parser.add_argument("--out", default="sweep-out", metavar="DIR",
+                        help="writes sweep.json here (sweep-out)")
     add_force_argument(parser)
     add_pool_arguments(parser)
     return parser
@@ -204,6 +205,7 @@ def main(argv: list[str]) -> int:
     controllers = choose("--controllers", "controller", args.controllers, CONTROLLERS)
     specs = sample_cases(args.runs, kinds, controllers, args.seed, not args.no_faults,
                          args.duration, args.skip, Settings(horizon=args.horizon))
+    check_pool_options(args.workers, args.scheduler)
     out = claim(args.out, ("sweep.json",), args.force)
     started = time.perf_counter()
     with RunPool(args.workers, args.scheduler) as pool, Progress(len(specs), "runs") as bar:

@@ -46,7 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks.cli import add_pool_arguments
-from benchmarks.executor import RunPool, RunSpec, optimal_lap
+from benchmarks.executor import RunPool, RunSpec, check_pool_options, optimal_lap
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.progress import Progress
 from benchmarks.runner import build_scenarios, describe_robot, run_pace
@@ -60,10 +60,11 @@ from benchmarks.scenarios import (
     applies,
     choose,
     parse_speeds,
+    seed,
 )
 from mpc.errors import MpcError
 from mpc.model.weights import Weights
-from mpc.robots import load, preset
+from mpc.robots import Robot, load, preset
 
 #: (low, high) of each tuned parameter, log-uniform; path-mode parameters last.
 SPACE: dict[str, tuple[float, float]] = {
@@ -126,14 +127,19 @@ def scenario_cost(run: dict[str, Any], mode: str, heading_scale: float,
     return cost + penalty + FAILURE_PENALTY * m["failures"] / max(1, run["ticks"])
 
 
+def tuned_robot(name: str) -> Robot:
+    """``--robot``: a preset name or a robot file, or ScenarioError naming the flag."""
+    try:
+        return load(name) if name.endswith(".toml") else preset(name)
+    except MpcError as error:
+        raise ScenarioError(f"--robot: {error}") from None
+
+
 class Tuner:
     """The study's runs: one spec per scenario for a parameter set, costs per trial."""
 
     def __init__(self, args: Any, pool: RunPool, log: Any) -> None:
-        try:
-            robot = load(args.robot) if args.robot.endswith(".toml") else preset(args.robot)
-        except MpcError as error:
-            raise ScenarioError(f"--robot: {error}") from None
+        robot = tuned_robot(args.robot)
         self.robot_spec = args.robot if args.robot in PRESETS else describe_robot(robot)
         self.mode, self.args, self.pool = args.mode, args, pool
         trajectories = choose("--trajectories", "trajectory", args.trajectories, TRAJECTORIES)
@@ -354,7 +360,7 @@ def _parser() -> Parser:
     parser.add_argument("--batch", type=int, default=1,
                         help="trials evaluated at once (1; more for big clusters: the sampler "
                              "then proposes with fewer results, results depend on it)")
-    parser.add_argument("--seed", type=int, default=0, help="sampler seed (0)")
+    parser.add_argument("--seed", type=seed, default=0, help="sampler seed (0)")
     parser.add_argument("--trajectories", help="comma list (default: circle,figure8)")
     parser.add_argument("--heading", help="comma list of headings (default: fixed,tangent)")
     parser.add_argument("--speeds", help="comma list (default: inside,beyond)")
@@ -366,7 +372,9 @@ def _parser() -> Parser:
     parser.add_argument("--duration", type=float,
                         help="simulated seconds per run (default: two laps at the target pace)")
     parser.add_argument("--skip", type=float, default=2.0, help="settling seconds (2)")
-    parser.add_argument("--out", default="tune-out", metavar="DIR", help="(tune-out)")
+    parser.add_argument("--out", default="tune-out", metavar="DIR",
+                        help="writes weights.toml, study.json, summary.md and the figures "
+                             "here (tune-out)")
     add_force_argument(parser)
     add_pool_arguments(parser)
     return parser
@@ -381,6 +389,8 @@ def main(argv: list[str]) -> int:
     if args.horizon < 1 or not args.dt > 0 or (args.duration is not None
                                                and not args.duration > args.skip >= 0):
         raise ScenarioError("--horizon must be >= 1, --dt > 0, --duration > --skip >= 0")
+    tuned_robot(args.robot)  # every option checked before the output folder is made
+    check_pool_options(args.workers, args.scheduler)
     out = claim(args.out, ("weights.toml", "study.json", "summary.md", "history.png",
                            "importance.png"), args.force)
     with RunPool(args.workers, args.scheduler) as pool, Progress(args.trials, "trials") as bar:

@@ -140,7 +140,9 @@ DATA = Path(__file__).parent / "data"
         (["--quick", "--duration", "0"], "--duration must be > 0 and at most"),
         (["--duration", "1e12"], "--duration must be > 0 and at most 250000 s"),
         (["--layouts", "", "--quick"], "--layouts: unknown layout "),
-        (["--seed", "-1"], "--seed must be >= 0, got -1"),
+        (["--seed", "-1"], "--seed: expected an integer >= 0, got '-1'"),
+        (["sweep", "--seed", "-1"], "--seed: expected an integer >= 0, got '-1'"),
+        (["tune", "--seed", "-1"], "--seed: expected an integer >= 0, got '-1'"),
         (["--speeds", "1e308"], "--speeds: a peak ratio must be a number > 0 and at most 10"),
         (["--dt", "0"], "--dt must be a number > 0 and at most 60 [s], got 0.0"),
         (["--dt", "inf"], "--dt must be a number > 0 and at most 60 [s], got inf"),
@@ -413,3 +415,52 @@ def test_motor_plant_and_a_choreo_robot_are_refused_up_front(
     assert main(["--trajectory", str(path), "--plant", "motor",
                  "--out", str(tmp_path / "out")]) == 2
     assert f"the robot of {str(path)!r} has none (use --plant ideal" in capsys.readouterr().err
+
+
+def test_an_out_folder_that_cannot_be_written_is_refused_before_the_work(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--out`` under a file cannot be made: one line, exit 2, before any run (the results
+    were lost after the whole run when only the files' existence was checked)."""
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    started = time.perf_counter()
+    assert main(["--quick", "--controllers", "ff-p-clip", "--out", str(blocker / "out")]) == 2
+    assert "cannot be written" in capsys.readouterr().err
+    assert time.perf_counter() - started < 5.0  # nothing simulated
+
+
+def test_bad_options_leave_no_output_folder(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    for argv in (["--workers", "0", "--quick"], ["tune", "--robot", "foo"]):
+        out = tmp_path / argv[1]
+        assert main([*argv, "--out", str(out)]) == 2
+        assert not out.exists(), argv
+    capsys.readouterr()
+
+
+def test_names_are_taken_once_and_by_their_prose_names(tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]
+                                                       ) -> None:
+    """``--controllers a,a`` runs ``a`` once; ``figure-eight`` (the README's word) is
+    ``figure8``; ``--version`` prints the package version."""
+    assert main(["--quick", "--layouts", "mecanum", "--trajectories", "figure-eight",
+                 "--controllers", "ff-p-clip,ff-p-clip", "--speeds", "inside",
+                 "--no-report", "--out", str(tmp_path)]) == 0
+    runs = json.loads((tmp_path / "results.json").read_text())["runs"]
+    assert [(run["trajectory"], run["controller"]) for run in runs] == [
+        ("figure8", "ff-p-clip")]
+    capsys.readouterr()
+    assert main(["--version"]) == 0
+    assert re.fullmatch(r"mpc-bench \d+\.\d+\.\d+.*\n", capsys.readouterr().out)
+
+
+def test_a_skip_without_a_duration_is_kept_whole(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """Without --duration a run lasts its laps after the skip: the skip is not halved
+    (it was: --skip 100 scored from 62 s on, while the settings said 100)."""
+    assert main(["--layouts", "mecanum", "--trajectories", "circle", "--heading", "fixed",
+                 "--controllers", "ff-p-clip", "--speeds", "inside", "--skip", "12",
+                 "--no-report", "--out", str(tmp_path)]) == 0
+    run = json.loads((tmp_path / "results.json").read_text())["runs"][0]
+    assert run["skip"] == 12.0
+    capsys.readouterr()

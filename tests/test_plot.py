@@ -266,7 +266,7 @@ def test_report_rejects_other_inputs(tmp_path: Path) -> None:
 def test_report_of_one_run(simulated: SimResult, tmp_path: Path) -> None:
     index = mpc.plot.report(simulated, tmp_path, skip=SKIP)
     page = index.read_text()
-    assert "In every scenario, mpc has the lowest RMS position error in 1 of 1 scenario." in page
+    assert "Across all scenarios, mpc has the lowest RMS position error in 1 of 1 scenario." in page
     assert "skip 1 s" in page and "dt 0.05 s" in page
     run = mpc.plot.load_results(tmp_path / "results.json")["runs"][0]
     assert (tmp_path / "figures" / f"{mpc.plot.run_id(run)}.png").is_file()
@@ -293,7 +293,7 @@ def test_headline_speaks_of_beyond_the_limits() -> None:
     assert lead.sentence == ("Beyond the wheel limits, a has the lowest RMS position error "
                              "in 1 of 2 scenarios; b in 1.")
     inside = headline(runs[:2])
-    assert inside.focus == "in every scenario" and inside.wins == (("a", 1),)
+    assert inside.focus == "across all scenarios" and inside.wins == (("a", 1),)
 
 
 def test_every_benchmark_setting_has_a_unit() -> None:
@@ -412,3 +412,11 @@ def test_headline_ranks_clock_keepers_and_states_path_followers_apart() -> None:
         "Beyond the wheel limits, mpc has the lowest RMS position error in 1 of 1 scenario "
         "(keeping the reference's clock). Following the path instead: mpc-path at "
         "1.01-1.01\u00d7 the fastest possible lap, at most 2.1 mm off the path.")
+
+
+def test_a_missing_or_undefined_value_is_a_dash_in_the_tables() -> None:
+    """NaN (a lap time with no lap) reads as the terminal table shows it, ``-``, not nan."""
+    from mpc.plot.results import format_value
+
+    assert format_value(math.nan) == "-" and format_value(None) == "-"
+    assert format_value(math.inf) == "inf" and format_value(0.0123456) == "0.0123"

@@ -245,3 +245,83 @@ def test_nav2_controller_at_constant_speed_and_its_errors() -> None:
     assert follower.trajectory.end_time == pytest.approx(6.0)  # from t = 0 at a third
     follower.set_plan(path_message(np.array([[0.0, 0.0, 0.0], [0.6, 0.0, 0.0]])))
     assert follower.trajectory.end_time == pytest.approx(6.0)  # new plans within the limit
+
+
+def straight_poses(start: float, end: float = 6.0) -> np.ndarray:
+    count = max(2, int(round((end - start) / 0.05)) + 1)
+    return np.stack([np.linspace(start, end, count), np.zeros(count), np.zeros(count)], axis=1)
+
+
+@pytest.mark.parametrize("mode", ["time", "path"])
+def test_plans_again_every_second_keep_the_robot_at_speed(mode: str) -> None:
+    """nav2 plans again about once a second from a robot pose a moment old: each new plan
+    starts at the pose nearest the robot and at its speed along it, so the robot keeps its
+    pace (it fell to 0.40 m/s after each plan when every plan was timed from rest, and
+    arrived 1.8 s late on 6 m)."""
+    robot = preset("mecanum")
+    follower = Nav2Controller(robot, dt=DT, max_speed=1.0, mode=mode)
+    plant = Plant(robot, DT, np.zeros(3), PlantConfig(), np.random.default_rng(0))
+    follower.set_plan(path_message(straight_poses(0.0)))
+    seen: list[np.ndarray] = []
+    speeds: list[float] = []
+    for k in range(140):
+        if k and k % 20 == 0 and len(seen) > 4:  # a plan from the pose 4 ticks (0.2 s) old
+            follower.set_plan(path_message(straight_poses(float(seen[-5][0]))))
+        pose = plant.pose
+        seen.append(pose)
+        x, y, theta = (float(v) for v in pose)
+        follower.compute_velocity_commands(pose_stamped(x, y, theta, EPOCH + k * 50_000_000))
+        assert follower.last_command is not None
+        plant.apply(follower.last_command)
+        speeds.append(float(follower.last_command.twist[0]))
+    assert min(speeds[30:110]) > 0.97  # at the cap between the first second and the goal
+    assert plant.pose[0] == pytest.approx(6.0, abs=0.01)  # there by 7 s (6.5 s from rest)
+
+
+def test_raising_a_speed_limit_speeds_up_a_plan_timed_under_it() -> None:
+    """A plan timed within a limit is timed again, from where its reference is, when the
+    limit is raised or removed: nav2's speed zones end."""
+    robot = preset("mecanum")
+    follower = Nav2Controller(robot, dt=DT, max_speed=1.0)
+    follower.set_speed_limit(0.3, percentage=False)
+    follower.set_plan(path_message(straight_poses(0.0)))
+    assert path_speeds(follower.trajectory, 0.0).max() == pytest.approx(0.3, rel=1e-3)
+    plant, _, _ = drive(follower, np.zeros(3), 40)
+    now = follower.clock.at(time_message(EPOCH + 39 * 50_000_000))
+    where = follower.trajectory.sample(now)
+    follower.set_speed_limit(0.0, percentage=False)
+    faster = follower.trajectory
+    assert faster.start_time == 0.0  # timed again, from the reference's pose and speed
+    np.testing.assert_allclose(faster.sample(0.0).pose, where.pose, atol=1e-9)
+    assert float(np.hypot(*faster.sample(0.0).velocity[:2])) == pytest.approx(
+        float(np.hypot(*where.velocity[:2])), rel=1e-3)
+    assert path_speeds(faster, 0.0).max() == pytest.approx(1.0, rel=1e-3)
+    _, errors, _ = drive(follower, plant.pose, 60, first_tick=40)
+    assert max(errors) < 0.02
+
+
+def test_copy_message_fills_messages_with_slots_only() -> None:
+    """rclpy messages have slots for their own fields: rosbags' ``__msgtype__`` is not one,
+    and a ``float64[]`` takes a sequence, not a NumPy array."""
+
+    def slotted(name: str, fields: dict[str, Any]) -> Any:
+        cls = type(name, (), {"__slots__": list(fields)})
+        item = cls()
+        for field, value in fields.items():
+            setattr(item, field, value)
+        return item
+
+    time = slotted("Time", {"sec": 0, "nanosec": 0})
+    header = slotted("Header", {"stamp": time, "frame_id": ""})
+    vector = [slotted("Vector3", {"x": 0.0, "y": 0.0, "z": 0.0}) for _ in range(2)]
+    twist = slotted("Twist", {"linear": vector[0], "angular": vector[1]})
+    target = copy_message(twist_stamped([0.3, -0.1, 0.7], time_message(EPOCH)),
+                          slotted("TwistStamped", {"header": header, "twist": twist}))
+    assert (target.twist.linear.x, target.twist.angular.z) == (0.3, 0.7)
+    assert target.header.frame_id == "base_link" and target.header.stamp.sec == EPOCH // 10**9
+    array = slotted("Float64MultiArray", {
+        "layout": slotted("MultiArrayLayout", {"dim": [], "data_offset": 0}), "data": []})
+    copied = copy_message(joint_group_command([1.0, 2.0, 3.0, 4.0]), array)
+    assert copied.data == [1.0, 2.0, 3.0, 4.0] and isinstance(copied.data, list)
+    with pytest.raises(ControllerError, match="twist must have shape"):
+        twist_message([1.0, 2.0])

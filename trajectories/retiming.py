@@ -122,6 +122,7 @@ def time_optimal(
     max_speed: float | None = None,
     max_heading_rate: float | None = None,
     samples: int = DEFAULT_SAMPLES,
+    start_speed: float = 0.0,
 ) -> RetimedTrajectory:
     """The fastest timing of the geometry of ``path`` within the robot's exact wheel limits
     and, for steered modules (swerve, casters), their steering rate
@@ -142,6 +143,9 @@ def time_optimal(
         max_heading_rate: optional cap on |dtheta/dt| [rad/s].
         samples: grid cells along the path (>= ``MIN_SAMPLES``); the lap time
             converges as the grid is refined (the cost grows about linearly).
+        start_speed: one pass only: the path speed [m/s] the robot has at the start (a
+            new plan for a robot under way); the timing starts at most that fast (slower
+            where the limits or a path too short to stop in ask it). 0: from rest.
 
     Returns:
         A :class:`RetimedTrajectory` within every limit between grid points
@@ -167,10 +171,14 @@ def time_optimal(
         )
     coarse = PathGeometry(*(array[::refine] for array in fine))
     bound = speed_bound(limits, coarse)
-    solution = solve_lap(coarse, limits, bound, steady)
+    start_b = _start_b(start_speed, steady, coarse)
+    solution = solve_lap(coarse, limits, bound, steady, start_b)
     b = solution.b
     # the solver meets its equality rows to its tolerance: make the ends exact
-    b[0] = b[-1] = min(b[0], b[-1]) if steady else 0.0
+    if steady:
+        b[0] = b[-1] = min(b[0], b[-1])
+    else:
+        b[0], b[-1] = min(b[0], start_b), 0.0
     solver_lap = lap_time(coarse.s, b)
     speed, accel, steer = peak_demand(fine, limits, b)
     # all scale with b: speed and steering with sqrt(b), acceleration with b (a module that
@@ -219,6 +227,23 @@ def _checked_path(path: Any, periodic: Any) -> tuple[Trajectory, bool, float, fl
     if span is None or not span > 0.0:
         raise TrajectoryError(f"path must last a positive time, got {shown(span)} s for {path!r}")
     return path, steady, path.start_time, float(span)
+
+
+def _start_b(start_speed: Any, steady: bool, coarse: PathGeometry) -> float:
+    """b_0 = sdot^2 at which the path's first point is passed at ``start_speed`` [m/s] (0:
+    from rest; also where the path starts by turning in place, without a speed)."""
+    if isinstance(start_speed, bool) or not (
+            isinstance(start_speed, (int, float, np.floating, np.integer))
+            and math.isfinite(start_speed) and start_speed >= 0.0):
+        raise TrajectoryError(f"start_speed must be a finite number >= 0 [m/s], got "
+                              f"{shown(start_speed)}")
+    if start_speed == 0.0:
+        return 0.0
+    if steady:
+        raise TrajectoryError("start_speed applies to one pass (periodic=False): steady laps "
+                              "start at their own lap speed")
+    planar = math.hypot(float(coarse.twist[0, 0]), float(coarse.twist[0, 1]))
+    return (float(start_speed) / planar) ** 2 if planar > _STILL_TWIST else 0.0
 
 
 def _checked_samples(samples: Any) -> int:

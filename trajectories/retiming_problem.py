@@ -162,9 +162,11 @@ class _Rows:
 
 
 def solve_lap(
-    geometry: PathGeometry, limits: Limits, bound: FloatArray, periodic: bool
+    geometry: PathGeometry, limits: Limits, bound: FloatArray, periodic: bool,
+    start: float = 0.0,
 ) -> ConeSolution:
-    """The fastest b = sdot^2 on the (uniform) grid of ``geometry``, b <= ``bound``.
+    """The fastest b = sdot^2 on the (uniform) grid of ``geometry``, b <= ``bound``; one
+    pass (not ``periodic``) starts at b_0 <= ``start`` (0: from rest) and ends at rest.
 
     Solved in scaled variables so that every number clarabel sees is of order 1:
     sigma = (s - s_0) / S in [0, 1] and b~ = b / B0, a~ = a S / B0 (B0 the
@@ -180,9 +182,12 @@ def solve_lap(
     offsets = {"b": 0, "a": m, "c": m + cells, "d": 2 * m + cells}
     width = 2 * m + 2 * cells
     zero, nonnegative, cones = _Rows(), _Rows(), _Rows()
-    _dynamics_rows(zero, offsets, cells, periodic)
+    _dynamics_rows(zero, offsets, cells, periodic, start > 0.0)
     points = np.arange(m)
     nonnegative.add(points, offsets["b"] + points, np.ones(m), bound / scale)
+    if not periodic and start > 0.0:  # b_0 <= start: at most the speed the robot has now
+        nonnegative.add(np.zeros(1, dtype=int), np.array([offsets["b"]]), np.ones(1),
+                        np.array([min(start, float(bound[0])) / scale]))
     if limits.wheel_accel is not None:
         _accel_rows(nonnegative, cones, geometry, limits.wheel_blocks,
                     limits.wheel_accel / scale, span, offsets)
@@ -212,8 +217,10 @@ def solve_lap(
     return ConeSolution(b, status, int(solution.iterations), float(solution.solve_time), built)
 
 
-def _dynamics_rows(zero: _Rows, offsets: dict[str, int], cells: int, periodic: bool) -> None:
-    """b~_{k+1} - b~_k - 2 dsigma a~_k = 0, then b~_N = b~_0 (periodic) or b~_0 = b~_N = 0."""
+def _dynamics_rows(zero: _Rows, offsets: dict[str, int], cells: int, periodic: bool,
+                   moving_start: bool = False) -> None:
+    """b~_{k+1} - b~_k - 2 dsigma a~_k = 0, then b~_N = b~_0 (periodic) or b~_0 = b~_N = 0
+    (b~_N = 0 alone with a ``moving_start``: its bound is a row of its own)."""
     k = np.arange(cells)
     rows = np.repeat(k, 3)
     cols = np.stack([offsets["b"] + k + 1, offsets["b"] + k, offsets["a"] + k], axis=1)
@@ -223,6 +230,8 @@ def _dynamics_rows(zero: _Rows, offsets: dict[str, int], cells: int, periodic: b
     if periodic:
         zero.add(np.array([0, 0]), np.array([last, offsets["b"]]), np.array([1.0, -1.0]),
                  np.zeros(1))
+    elif moving_start:
+        zero.add(np.array([0]), np.array([last]), np.ones(1), np.zeros(1))
     else:
         zero.add(np.array([0, 1]), np.array([offsets["b"], last]), np.ones(2), np.zeros(2))
 

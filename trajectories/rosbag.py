@@ -117,13 +117,15 @@ def twist_from_message(message: Any) -> FloatArray:
 def path_reference(poses: npt.ArrayLike, *, robot: RetimingRobot | None = None,
                    speed: float | None = None, heading: HeadingSpec | None = None,
                    max_speed: float | None = None, turn_length: float = TURN_LENGTH,
-                   samples: int = DEFAULT_SAMPLES) -> Trajectory:
+                   samples: int = DEFAULT_SAMPLES, start_speed: float = 0.0) -> Trajectory:
     """A timed reference through poses (n, 3) (x, y, yaw) [m, m, rad] (module docstring).
 
     Give exactly one of ``robot`` (time-optimal within its wheel limits; ``max_speed``
-    [m/s] caps the path speed, ``samples`` is the retiming grid) or ``speed`` [m/s]
-    (constant rate of the path parameter). Consecutive duplicate poses are dropped; at
-    least two distinct poses are needed.
+    [m/s] caps the path speed, ``samples`` is the retiming grid, ``start_speed`` [m/s] the
+    speed the robot has at the first pose: a new plan for a robot under way, see
+    :func:`~trajectories.time_optimal`) or ``speed`` [m/s] (constant rate of the path
+    parameter). Consecutive duplicate poses are dropped; at least two distinct poses are
+    needed.
     """
     if (robot is None) == (speed is None):
         raise TrajectoryError("give exactly one of robot= (time-optimal timing within its "
@@ -134,7 +136,8 @@ def path_reference(poses: npt.ArrayLike, *, robot: RetimingRobot | None = None,
                                                             turn_length), heading)
     if robot is None:
         return geometry
-    return time_optimal(geometry, robot, periodic=False, max_speed=max_speed, samples=samples)
+    return time_optimal(geometry, robot, periodic=False, max_speed=max_speed, samples=samples,
+                        start_speed=start_speed)
 
 
 def _spline_through(poses: npt.ArrayLike, speed: float, turn_length: float,

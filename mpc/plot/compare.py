@@ -229,7 +229,7 @@ def write_pace_figure(runs: Sequence[Run], path: Path) -> bool:
     handles = [Line2D([], [], marker="o", ls="", color=colour(controllers, name), label=name)
                for name in controllers]
     figure.legend(handles=handles, loc="outside lower center", ncols=min(len(controllers), 7))
-    figure.suptitle("Pace and path error of every run: left of 1 is faster than the path "
-                    "allows (it cuts corners), high is off the path", fontsize="medium")
+    figure.suptitle("Pace and path error of every run\nleft of 1: faster than the path allows "
+                    "(it cuts corners); high: off the path", fontsize="medium")
     save(figure, path)
     return True

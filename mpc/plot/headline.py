@@ -94,7 +94,7 @@ class Headline:
     """The report's opening: which scenarios it speaks of and who won them.
 
     Attributes:
-        focus: ``"beyond the wheel limits"`` or ``"in every scenario"``.
+        focus: ``"beyond the wheel limits"`` or ``"across all scenarios"``.
         rankings: the scenarios in focus.
         wins: per controller, the scenarios in focus where it has the lowest RMS
             position error, most first.
@@ -143,7 +143,7 @@ def headline(runs: Sequence[Run]) -> Headline:
     every = rankings(runs)
     beyond = any(_is_beyond(run) for run in runs)
     chosen = [ranking for ranking in every if ranking.beyond] if beyond else every
-    focus = "beyond the wheel limits" if beyond else "in every scenario"
+    focus = "beyond the wheel limits" if beyond else "across all scenarios"
     wins = Counter(ranking.winner for ranking in chosen if ranking.winner is not None)
     order = {name: index for index, name in enumerate(dict.fromkeys(
         str(run["controller"]) for run in runs))}

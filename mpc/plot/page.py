@@ -13,6 +13,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from .headline import Headline, Ranking
 from .results import Run, format_value, run_title, scenario_title
 from .tables import CONTROLLER_CELL, RMS_CELL, TABLE_HEADERS, Row, failures_text
@@ -75,8 +77,7 @@ def _wins_table(headline: Headline, runs: Sequence[Run]) -> str:
     for name in sorted(controllers, key=lambda n: -wins.get(n, 0)):
         errors = [1e3 * rms for ranking in headline.rankings for c, rms, _ in ranking.entries
                   if c == name and math.isfinite(rms)]
-        errors.sort()
-        median = errors[len(errors) // 2] if errors else math.nan
+        median = float(np.median(errors)) if errors else math.nan
         rows.append(f"<tr><td class=\"text\">{_e(name)}</td><td>{wins.get(name, 0)}</td>"
                     f"<td>{_e(format_value(median))}</td></tr>")
     return (f'<table class="wins"><caption>{_e(headline.focus)}, after the settling time'

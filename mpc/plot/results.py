@@ -121,7 +121,8 @@ def metric_value(run: Run, key: str) -> float:
 def format_value(value: object, scale: float = 1.0) -> str:
     """Format a number for the tables: ints as is, floats to 3 significant digits.
 
-    ``value * scale`` is shown; infinities as ``inf``, missing values as ``-``.
+    ``value * scale`` is shown; infinities as ``inf``, missing values (and NaN: a lap time
+    with no lap, say) as ``-``.
     """
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return "-"
@@ -129,7 +130,7 @@ def format_value(value: object, scale: float = 1.0) -> str:
         return str(value)
     shown = float(value) * scale
     if math.isnan(shown):
-        return "nan"
+        return "-"
     if math.isinf(shown):
         return "inf" if shown > 0 else "-inf"
     if shown == 0.0:

@@ -91,6 +91,8 @@ def _draw_errors(ax: Axes, data: Series) -> None:
         lines.append(ax.vlines(fallback_times, 0, 1, transform=ax.get_xaxis_transform(),
                                color="C3", alpha=0.3, lw=0.8,
                                label=f"fallback ticks ({len(fallback_times)})"))
+    _headroom(ax)  # the legend sits above the traces, not on them
+    _headroom(twin)
     ax.legend(lines, [str(line.get_label()) for line in lines], loc="upper right",
               fontsize="small")
 
@@ -122,6 +124,7 @@ def _draw_wheels(ax: Axes, data: Series) -> None:
     ax.set_ylabel("commanded wheel speed [rad/s]")
     ax.grid(True, alpha=0.4)
     if ax.get_legend_handles_labels()[0]:
+        _headroom(ax)  # above the +limit line and the traces that reach it
         ax.legend(loc="upper right", fontsize="small", ncol=2)
 
 
@@ -171,3 +174,15 @@ def run_figure(run: Run, data: Series) -> Figure:
 def write_run_figure(run: Run, data: Series, path: Path) -> None:
     """:func:`run_figure` saved as a PNG at ``path``."""
     save(run_figure(run, data), path)
+
+
+#: Of an axes' height, the part kept free above its data for the legend.
+_LEGEND_ROOM = 0.35
+
+
+def _headroom(ax: Axes) -> None:
+    """Raise the top of ``ax`` so that its data fill the lower part and the legend
+    (upper right) covers none of it."""
+    low, high = ax.get_ylim()
+    if ax.get_yscale() == "linear" and np.isfinite(low) and np.isfinite(high) and high > low:
+        ax.set_ylim(low, high + (high - low) * _LEGEND_ROOM / (1.0 - _LEGEND_ROOM))

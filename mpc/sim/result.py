@@ -121,20 +121,48 @@ class SimResult:
         """Distance to the nearest point of the reference path (K,) [m].
 
         The path is a polyline through ``resolution`` samples over the run
-        (one period more for periodic references); the distance is to its
-        nearest segment, so it is exact up to the polyline's chord error.
+        (one period more for periodic references): each pose's nearest segment gives the
+        time of its nearest path point, which Newton steps on the reference itself then
+        refine (the polyline's chord error, microns on these paths, would otherwise
+        exceed the distance of a robot that tracks closer than that; the distance never
+        exceeds the polyline's).
         """
         end = float(self.time[-1]) + self.dt + (self.trajectory.period or 0.0)
-        path = self.trajectory.sample(np.linspace(0.0, end, resolution)).pose[:, :2]
+        times = np.linspace(0.0, end, resolution)
+        path = self.trajectory.sample(times).pose[:, :2]
         start, step = path[:-1], np.diff(path, axis=0)  # segments start + s step, s in [0, 1]
         length2 = np.maximum((step * step).sum(axis=1), 1e-300)
         out = np.empty(len(self.pose))
+        nearest = np.empty(len(self.pose))  # the time of each pose's nearest polyline point
         for first in range(0, len(self.pose), 64):
             points = self.pose[first : first + 64, None, :2]
             along = np.clip(((points - start) * step).sum(-1) / length2, 0.0, 1.0)
             gap = points - (start + along[..., None] * step)
-            out[first : first + 64] = np.sqrt((gap * gap).sum(-1).min(axis=1))
-        return out
+            distance2 = (gap * gap).sum(-1)
+            segment = distance2.argmin(axis=1)
+            rows = np.arange(len(segment))
+            out[first : first + 64] = np.sqrt(distance2[rows, segment])
+            nearest[first : first + 64] = (times[segment]
+                                           + along[rows, segment] * (times[1] - times[0]))
+        return np.minimum(out, self._refined_distance(nearest, times[1] - times[0], end))
+
+    def _refined_distance(self, guess: FloatArray, spacing: float, end: float) -> FloatArray:
+        """Distance from each pose to the reference at the time that minimises it near
+        ``guess`` (K,) [s]: Newton steps on ``(p(t) - x) . v(t) = 0``, kept within a
+        polyline spacing of the guess and within [0, ``end``]."""
+        points = self.pose[:, :2]
+        t = guess.copy()
+        for _ in range(3):
+            sample = self.trajectory.sample(t)
+            offset = sample.pose[:, :2] - points
+            velocity, accel = sample.velocity[:, :2], sample.acceleration[:, :2]
+            slope = (velocity * velocity).sum(-1) + (offset * accel).sum(-1)
+            change = np.where(slope > 0.0, -(offset * velocity).sum(-1)
+                              / np.where(slope > 0.0, slope, 1.0), 0.0)
+            t = np.clip(t + change, np.maximum(guess - spacing, 0.0),
+                        np.minimum(guess + spacing, end))
+        gap = self.trajectory.sample(t).pose[:, :2] - points
+        return np.sqrt((gap * gap).sum(-1))
 
     def metrics(self, skip: float = 0.0) -> dict[str, Any]:
         """Summary numbers; tracking errors only after ``skip`` seconds.

@@ -34,13 +34,21 @@ A node (not run here)::
     publisher = node.create_publisher(TwistStamped, "cmd_vel", 10)
     node.create_subscription(Path, "plan", follower.set_plan, 1)
 
-    def on_odometry(odometry: Odometry) -> None:  # in the plan's frame
+    def on_odometry(odometry: Odometry) -> None:
+        # nav2's plans are in "map", odometry in "odom": the pose must be in the plan's
+        # frame (here a localisation that publishes Odometry in "map", e.g. robot_localization
+        # with world_frame map; or look up map -> base_link in tf2 and stamp it)
         if follower.has_plan:
             command = follower.compute_velocity_commands(odometry, odometry.twist.twist)
             publisher.publish(copy_message(command, TwistStamped()))
 
-    node.create_subscription(Odometry, "odom", on_odometry, 10)
+    node.create_subscription(Odometry, "odometry/global", on_odometry, 10)
     rclpy.spin(node)
+
+Re-planning (nav2 plans again about once a second, from where the robot is): a new plan
+starts at the pose nearest the robot and at the speed the robot has along it. The clock
+runs on the poses' stamps: give each pose its measurement's stamp (a stamp that does not
+move holds the reference where it is).
 
 The modules: :mod:`.messages` (messages out, wheel order), :mod:`.clock`
 (:class:`ReferenceClock`), :mod:`.nav2` (:class:`Nav2Controller`).

@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
-from mpc.validation import shown
+from mpc.validation import finite_vector, real_array, shown
 from trajectories.rosbag import require_rosbags, stamp_nanoseconds
 
 require_rosbags()
@@ -32,7 +32,8 @@ def time_message(nanoseconds: int) -> Any:
 
 def twist_message(twist: ArrayLike) -> Any:
     """A ``geometry_msgs/Twist`` from ``(vx, vy, omega)``."""
-    vx, vy, omega = (float(v) for v in np.asarray(twist, dtype=float).reshape(3))
+    vx, vy, omega = (float(v) for v in finite_vector(
+        "twist", twist, 3, "(vx, vy, omega) [m/s, m/s, rad/s]", ControllerError))
     return _types.geometry_msgs__msg__Twist(
         linear=_types.geometry_msgs__msg__Vector3(x=vx, y=vy, z=0.0),
         angular=_types.geometry_msgs__msg__Vector3(x=0.0, y=0.0, z=omega))
@@ -66,7 +67,10 @@ def joint_group_command(wheel_speeds: ArrayLike, order: Sequence[int] | None = N
     """A ``std_msgs/Float64MultiArray`` [rad/s] for a ``JointGroupVelocityController``: entry j
     is our wheel ``order[j]`` (default our order; ``ROS2_MECANUM_ORDER`` for the joints
     listed as ros2_controllers lists Mecanum wheels)."""
-    speeds = np.asarray(wheel_speeds, dtype=float)
+    speeds = real_array("wheel_speeds", wheel_speeds, "wheel speeds [rad/s]", ControllerError)
+    if speeds.ndim != 1 or not np.isfinite(speeds).all():
+        raise ControllerError(f"wheel_speeds must be one finite speed a wheel [rad/s], got "
+                              f"{shown(wheel_speeds)}")
     if order is not None:
         if sorted(order) != list(range(len(speeds))):
             raise ControllerError(f"order must be a permutation of 0..{len(speeds) - 1}, "
@@ -78,11 +82,16 @@ def joint_group_command(wheel_speeds: ArrayLike, order: Sequence[int] | None = N
 
 def copy_message(source: Any, target: Any) -> Any:
     """Copy a rosbags message dataclass field by field into ``target`` (e.g. a fresh rclpy
-    message of the same type) and return ``target``."""
+    message of the same type) and return ``target``. rosbags' own ``__msgtype__`` is not a
+    message field (rclpy messages have slots for their fields only); a NumPy array goes in
+    as a list (rclpy's ``float64[]`` takes sequences and ``array.array``)."""
     for item in dataclasses.fields(source):
+        if item.name.startswith("__"):
+            continue
         value = getattr(source, item.name)
         if dataclasses.is_dataclass(value):
             copy_message(value, getattr(target, item.name))
         else:
-            setattr(target, item.name, value)
+            setattr(target, item.name, value.tolist() if isinstance(value, np.ndarray)
+                    else value)
     return target

@@ -15,6 +15,7 @@ from mpc.arrays import FloatArray
 from mpc.control import Command, Controller
 from mpc.control.settings import check_step
 from mpc.errors import ControllerError
+from mpc.model.se2 import integrate_unchecked as integrate
 from mpc.robots import Robot
 from mpc.validation import MAX_HORIZON, integer_in, non_negative, positive, shown
 from trajectories import FunctionHeading, HeadingSpec, Trajectory
@@ -60,6 +61,9 @@ class _Slowed(Trajectory):
         return PathDerivatives(p.position, r * p.velocity, r * r * p.acceleration,
                                r**3 * p.jerk)
 
+
+#: How far along a new plan [m] its start may be moved to the pose nearest the robot.
+CATCH_UP = 1.0
 
 #: The Controller's own options a Nav2Controller passes through (``**options``).
 _CONTROLLER_OPTIONS = frozenset(inspect.signature(Controller.__init__).parameters) - {
@@ -108,6 +112,9 @@ class Nav2Controller:
         self._plan: Trajectory | None = None  # as timed by set_plan
         self._peak_speed = 0.0  # [m/s] its peak path speed
         self._now: float | None = None  # [s] reference time of the last command
+        self._pose: FloatArray | None = None  # the last pose commanded from [m, m, rad]
+        self._poses: FloatArray | None = None  # the present plan's poses (n, 3)
+        self._plan_cap: float | None = None  # [m/s] the cap it was timed within
         self._velocity_pending = True
         self.last_command: Command | None = None
 
@@ -125,16 +132,60 @@ class Nav2Controller:
 
     def set_plan(self, path: Any) -> None:
         """Follow a ``nav_msgs/Path`` from the next :meth:`compute_velocity_commands` on,
-        timed within ``max_speed`` and the present speed limit."""
-        poses = poses_from_path(path)
-        cap = min((c for c in (self.max_speed, self.speed_limit) if c is not None),
-                  default=None)
+        timed within ``max_speed`` and the present speed limit. A robot already under way
+        (nav2 plans again every second or so, from where the robot is) starts the new plan
+        at the speed it has along it, not from rest."""
+        poses = self._from_robot(poses_from_path(path))
+        self._install(poses, str(path.header.frame_id), self._speed_along(poses))
+
+    def _from_robot(self, poses: FloatArray) -> FloatArray:
+        """The path from its pose nearest where the robot will be at the next command (its
+        last pose moved one tick by its last command; within the path's first
+        :data:`CATCH_UP` metres): a plan made from a pose a moment old starts behind a
+        robot under way, and the reference would hold it back to there."""
+        if self._pose is None or self.last_command is None or len(poses) < 3:
+            return poses
+        ahead = integrate(self._pose, self.last_command.twist, self.dt)
+        along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))))
+        near = np.flatnonzero(along <= CATCH_UP)
+        nearest = int(near[np.argmin(np.hypot(*(poses[near, :2] - ahead[:2]).T))])
+        return poses[min(nearest, len(poses) - 2):]
+
+    def _cap(self) -> float | None:
+        """The path speed cap [m/s] plans are timed within: ``max_speed`` and the limit."""
+        return min((c for c in (self.max_speed, self.speed_limit) if c is not None),
+                   default=None)
+
+    def _speed_along(self, poses: FloatArray) -> float:
+        """The speed [m/s] of the last command along the path's first direction (0 before
+        any command, or for a path that starts by turning in place)."""
+        if self.last_command is None or self._pose is None or len(poses) < 2:
+            return 0.0
+        steps = np.diff(poses[:, :2], axis=0)
+        lengths = np.hypot(steps[:, 0], steps[:, 1])
+        moving = np.flatnonzero(lengths > 1e-9)
+        if moving.size == 0:
+            return 0.0
+        direction = steps[moving[0]] / lengths[moving[0]]
+        vx, vy = self.last_command.twist[:2]
+        c, s = np.cos(self._pose[2]), np.sin(self._pose[2])
+        return max(0.0, float(direction @ np.array([c * vx - s * vy, s * vx + c * vy])))
+
+    def _install(self, poses: FloatArray, frame: str, start_speed: float) -> None:
+        """Time ``poses`` (n, 3) from ``start_speed`` [m/s] and follow them from the next
+        command on (the clock starts again at the next stamp)."""
+        cap = self._cap()
         if self.speed is None:
+            # a retiming grid of 2 cells a pose (nav2 paths: a pose every few cm) within
+            # 128..1000: set_plan runs on the control thread
+            samples = int(np.clip(2 * len(poses), 128, 1000))
             reference = path_reference(poses, robot=self.robot, heading=self.heading,
-                                       max_speed=cap)
+                                       max_speed=cap, samples=samples,
+                                       start_speed=min(start_speed, cap or start_speed))
         else:
             reference = path_reference(poses, speed=min(self.speed, cap or self.speed),
                                        heading=self.heading)
+        self._poses, self._plan_cap = poses, cap
         if self.controller is None:
             self.controller = Controller(self.robot, reference, horizon=self.horizon,
                                          dt=self.dt, **self._options)
@@ -144,7 +195,7 @@ class Nav2Controller:
         end = reference.end_time or reference.start_time
         velocity = reference.sample(np.linspace(reference.start_time, end, 2001)).velocity
         self._peak_speed = float(np.hypot(velocity[:, 0], velocity[:, 1]).max())
-        self._frame = str(path.header.frame_id)
+        self._frame = frame
         self.clock.restart()
         self._velocity_pending = True
 
@@ -162,11 +213,14 @@ class Nav2Controller:
         if frame and self._frame and frame != self._frame:
             raise ControllerError(f"the pose is in frame {shown(frame)} but the plan in "
                                   f"{shown(self._frame)}: transform one into the other first")
-        if self._velocity_pending and velocity is not None:
-            self.controller.reset(last_twist=twist_from_message(velocity))
+        measured = pose_from_message(pose)  # bad messages fail here, before the clock starts
+        twist = None if velocity is None else twist_from_message(velocity)
+        if self._velocity_pending and twist is not None:
+            self.controller.reset(last_twist=twist)
         self._velocity_pending = False
         self._now = self.clock(pose.header.stamp)
-        self.last_command = self.controller.step(pose_from_message(pose), self._now)
+        self.last_command = self.controller.step(measured, self._now)
+        self._pose = measured
         return twist_stamped(self.last_command.twist, pose.header.stamp, self.base_frame)
 
     def set_speed_limit(self, speed_limit: float, percentage: bool) -> None:
@@ -183,12 +237,37 @@ class Nav2Controller:
         self.speed_limit = limit if limit > 0.0 else None
         if self.controller is None or self._plan is None:
             return
+        if self._raised_above_plan():  # a plan timed under a lower cap: time the rest again
+            self._retime_rest()
+            return
         rate = 1.0 if limit == 0.0 or self._peak_speed <= limit else limit / self._peak_speed
         now = self._now if self._now is not None else self._plan.start_time
         current = self.controller.trajectory
         pivot = float(current.source_time(np.array(now))) if isinstance(current, _Slowed) \
             else now
         self.controller.trajectory = _Slowed(self._plan, rate, now, pivot)
+
+    def _raised_above_plan(self) -> bool:
+        """Whether the cap now is above the one the present plan was timed within."""
+        if self.speed is not None or self._plan_cap is None:
+            return False
+        cap = self._cap()
+        return cap is None or cap > self._plan_cap * (1.0 + 1e-9)
+
+    def _retime_rest(self) -> None:
+        """Time the present plan again from where its reference is now (its pose and
+        speed there) to its end, within the cap now."""
+        assert self._poses is not None and self.controller is not None
+        trajectory = self.controller.trajectory  # slowed by a limit or not: as driven now
+        sample = trajectory.sample(self._now if self._now is not None
+                                   else trajectory.start_time)
+        poses = self._poses
+        nearest = int(np.argmin(np.hypot(*(poses[:, :2] - sample.pose[:2]).T)))
+        rest = np.vstack([sample.pose[None, :], poses[nearest + 1:]])
+        speed = float(np.hypot(*sample.velocity[:2]))
+        if len(rest) < 2:  # at the end already: nothing left to speed up
+            return
+        self._install(rest, self._frame, speed)
 
     def is_finished(self, stamp: Any) -> bool:
         """Whether the reference time at ``stamp`` has reached the plan's end."""
