@@ -669,3 +669,32 @@ def test_retimed_steered_modules_turn_within_their_steering_rate(name: str, path
     assert limits is not None
     assert (rates[counted] <= np.broadcast_to(limits, rates.shape)[counted]
             * (1.0 + 2e-3)).all()
+
+
+@pytest.mark.parametrize(("length", "start"), [(2.0, 0.3), (2.0, 0.5), (0.004, 0.5)])
+def test_a_pass_from_a_moving_start_is_the_trapezoid_from_that_speed(length: float,
+                                                                      start: float) -> None:
+    """``start_speed``: a new plan for a robot under way. On the straight line at a cap the
+    pass starts at the robot's speed, speeds up to the cap and brakes to rest: (cap - v0) /
+    A + (L - (cap^2 - v0^2) / 2A - cap^2 / 2A) / cap + cap / A; a line too short to brake
+    from v0 starts slower (never a plan that cannot stop)."""
+    robot = preset("omni4")
+    direction, cap = 0.3, 0.5
+    alphas = math.pi / 4.0 + 0.5 * math.pi * np.arange(4)
+    accel = 40.0 * 0.05 / np.abs(np.sin(direction - alphas)).max()  # [m/s^2], as above
+    retimed = time_optimal(_Line(length, direction), robot, max_speed=cap, periodic=False,
+                           start_speed=start)
+    first = float(np.hypot(*retimed.sample(0.0).velocity[:2]))
+    if start * start / (2.0 * accel) <= length:  # it can stop from the robot's speed
+        cruise = length - (cap**2 - start**2) / (2 * accel) - cap**2 / (2 * accel)
+        expected = (cap - start) / accel + cruise / cap + cap / accel
+        assert first == pytest.approx(start, rel=1e-3)
+        assert retimed.lap_time == pytest.approx(expected, rel=2e-3)
+    else:
+        assert first <= math.sqrt(2.0 * accel * length) * FEASIBLE  # slower: it stops in time
+    sample = retimed.sample(np.linspace(0.0, retimed.lap_time, 8001))
+    path_accel = np.hypot(sample.acceleration[:, 0], sample.acceleration[:, 1])
+    assert path_accel.max() <= accel * FEASIBLE
+    assert float(np.hypot(*retimed.sample(retimed.lap_time).velocity[:2])) < 1e-12  # at rest
+    with pytest.raises(TrajectoryError, match="start_speed applies to one pass"):
+        time_optimal(Circle(1.0, 3.0), robot, start_speed=0.5)
