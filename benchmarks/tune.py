@@ -352,7 +352,8 @@ def _parser() -> Parser:
                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--robot", default="omni3",
                         help=f"a preset ({', '.join(PRESETS)}) or a robot TOML file (omni3)")
-    parser.add_argument("--mode", choices=("time", "path"), default="time")
+    parser.add_argument("--mode", choices=("time", "path"), default="time",
+                        help="the controller mode tuned (time)")
     parser.add_argument("--objective", choices=("pose", "baseline"), default="pose",
                         help="pose: the pose error in one metric; baseline: against the best "
                              "baseline per scenario (time mode; see below)")
