@@ -266,3 +266,21 @@ def test_sag_rows_against_finite_differences() -> None:
         numeric = (scale(guess, previous + step) - scale(guess, previous - step)) / (2 * h)
         np.testing.assert_allclose(numeric, sag.slope * sag.grad_before[:, j], rtol=1e-4,
                                    atol=1e-9)
+
+
+def test_a_first_tick_from_rest_under_a_reference_at_speed_is_solved() -> None:
+    """The first guess is the reference's twists; the omni-3 motor preset at rest under a
+    circle at 100 % of its motor model linearised its rows there into an empty set (daqp:
+    infeasible, a feedforward tick). It is solved again from the last command held: a plan,
+    within every limit, from the first tick on."""
+    from benchmarks.motors import motor_reference
+
+    robot = motor_preset("omni3")
+    reference = motor_reference("circle", robot, 1.0, 1.0, "fixed")
+    controller = Controller(robot, reference, horizon=20, dt=0.05)
+    command = controller.step(reference.sample(0.0).pose, 0.0)
+    assert command.status is Status.SOLVED, command.solver_status
+    assert (np.abs(command.wheel_speeds) <= robot.max_wheel_speed * (1 + 1e-9)).all()
+    # within a time budget there is no second solve: the fallback, as before
+    budgeted = Controller(robot, reference, horizon=20, dt=0.05, time_limit=0.5)
+    assert budgeted.step(reference.sample(0.0).pose, 0.0).status is Status.FEEDFORWARD

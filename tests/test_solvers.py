@@ -299,12 +299,18 @@ def test_daqp_refusing_the_set_up_is_a_failed_tick_and_the_next_tick_sets_up_aga
 
     monkeypatch.setattr(dense, "daqp", types.SimpleNamespace(Model=RefusesOnce))
     robot = preset("mecanum")
-    controller = Controller(robot, FigureEight(1.0, 12.0))
+    # with a time budget a failed first tick is not solved again: the fallback
+    controller = Controller(robot, FigureEight(1.0, 12.0), time_limit=10.0)
     first = controller.step(controller.trajectory.sample(0.0).pose, 0.0)
     assert first.status is not Status.SOLVED and first.solver_status == "daqp set-up failed"
     assert np.all(np.abs(first.wheel_speeds) <= robot.max_wheel_speed)
     second = controller.step(controller.trajectory.sample(0.05).pose, 0.05)
     assert second.status is Status.SOLVED and RefusesOnce.refused == 1
+    # without one, the first tick (its guess the reference's) is solved again at once
+    RefusesOnce.refused = 0
+    again = Controller(robot, FigureEight(1.0, 12.0))
+    assert again.step(again.trajectory.sample(0.0).pose, 0.0).status is Status.SOLVED
+    assert RefusesOnce.refused == 1
 
 
 def test_sparse_rows_times_a_matrix_as_the_dense_product() -> None:

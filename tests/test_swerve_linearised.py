@@ -178,8 +178,9 @@ def test_a_guarded_solve_daqp_cannot_set_up_is_a_failed_tick_with_a_safe_command
     """The second solve's own model refused (its set-up failing): the tick fails with its
     own status, and the controller's fallback sends a command within the limits."""
     robot = preset("swerve")
+    # (a time budget: no second solve of the failed first tick from the held command)
     controller = Controller(robot, reference("circle", "fixed", robot, SPEEDS["beyond"]),
-                            horizon=20, dt=DT, solver="daqp")
+                            horizon=20, dt=DT, solver="daqp", time_limit=10.0)
     solver = controller.solver
     assert isinstance(solver, DenseSolver)
     set_up = DenseSolver._set_up

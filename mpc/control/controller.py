@@ -156,6 +156,7 @@ class Controller:
         try:
             self.solver = make_solver(self.model, solver, polygon_sides, max_iter, time_limit,
                                       jit)
+            self._time_limit = float(time_limit)  # (checked) a retry would spend two budgets
             self._reference_terms = (jitted(self.model.reference_terms) if jit
                                      else self.model.reference_terms)
         except JitError as error:
@@ -320,6 +321,13 @@ class Controller:
         if profile is not None:
             profile.mark("warm start")
         result = self.solver.solve(tick)
+        if not result.success and self._warm.from_reference and not self._time_limit:
+            # The first guess is the reference's twists: far from a robot at rest under a
+            # reference at full speed, the limits linearised there can be an empty set (the
+            # omni-3 motor preset's first tick). Solve again from the last command held.
+            self._warm.hold(self._last)
+            self.solver.reset()
+            result = self.solver.solve(tick)
         while result.success and self._timing.refine(result.progress, float(x0[2])):
             self._warm.store(result.poses, result.twists)  # solve again from this plan
             self._warm.fill(x0, shift=False)

@@ -29,6 +29,16 @@ class WarmStart:
         """Forget the plan: the next guess is the reference."""
         self._plan = None
 
+    @property
+    def from_reference(self) -> bool:
+        """Whether the guess is the reference's (no plan kept)."""
+        return self._plan is None
+
+    def hold(self, twist: FloatArray) -> None:
+        """Make the guess's twists ``twist`` (3,) at every stage (its poses stay): a guess
+        at the robot's own motion, for a solve that failed from the reference's."""
+        self.tick.guess_twists[:] = twist
+
     def store(self, poses: FloatArray, twists: FloatArray) -> None:
         """Keep a successful plan (poses (N+1, 3), twists (N, 3)); a solver result's arrays
         are never written to again, so they are kept as they are."""
