@@ -84,15 +84,20 @@ class ScenarioError(MpcError):
     """An unknown name or an unusable file among the benchmark's options."""
 
 
+#: The largest ``--seed`` (Optuna's samplers take 32-bit seeds).
+MAX_SEED = 2**32 - 1
+
+
 def seed(text: str) -> int:
-    """A ``--seed`` (argparse type): an integer >= 0, as NumPy's and Optuna's generators
-    take (a negative one failed deep inside them, after the work had begun)."""
+    """A ``--seed`` (argparse type): an integer in [0, 2^32 - 1], as NumPy's and Optuna's
+    generators take (one outside failed deep inside them, after the work had begun)."""
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+        value = -1
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"expected an integer from 0 to {MAX_SEED}, got "
+                                         f"{text!r}")
     return value
 
 

@@ -5,6 +5,7 @@ Closed-loop tracking (acceptance) is in test_acceptance.py.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import os
@@ -462,3 +463,38 @@ def test_jit_errors_say_what_was_expected(monkeypatch: pytest.MonkeyPatch) -> No
     left = {name for name in set(os.listdir(tempfile.gettempdir())) - before
             if name.startswith("mpc-jit-")}
     assert not left
+
+
+def test_reset_keeps_a_measured_twist_that_a_failed_wheel_reads_as_rounding() -> None:
+    """A twist that leaves a failed wheel at rest up to rounding is kept (it was scaled to
+    zero: the failed wheel's infinite speed ratio)."""
+    robot = preset("mecanum").derated({0: 0.0})
+    assert robot.rest_projector is not None
+    moving = robot.rest_projector @ np.array([0.5, 0.0, 0.0])
+    noisy = moving + np.linalg.pinv(robot.wheel_blocks[0].reshape(-1, 3))[:, 0] * 5e-10
+    controller = Controller(robot, Circle(0.5, 10.0))
+    controller.reset(last_twist=noisy)
+    np.testing.assert_allclose(controller._last, moving, atol=1e-9)
+    assert np.linalg.norm(controller._last) > 0.1
+
+
+def test_only_the_first_tick_is_solved_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A failed first tick (its guess the reference's) is solved once more from the held
+    command; later failed ticks are not (each a single solve, the work per tick bounded)."""
+    controller = Controller(preset("mecanum"), Circle(0.5, 10.0))
+    calls: list[int] = []
+    solve = controller.solver.solve
+
+    def failing(tick: Any) -> Any:
+        calls.append(1)
+        return dataclasses.replace(solve(tick), success=False, status="injected")
+
+    monkeypatch.setattr(controller.solver, "solve", failing)
+    pose = controller.trajectory.sample(0.0).pose
+    for k in range(5):
+        controller.step(pose, 0.05 * k)
+    assert len(calls) == 6  # the first tick twice, the next four once each
+    controller.reset()
+    calls.clear()
+    controller.step(pose, 0.0)
+    assert len(calls) == 2  # first again after reset()

@@ -698,3 +698,29 @@ def test_a_pass_from_a_moving_start_is_the_trapezoid_from_that_speed(length: flo
     assert float(np.hypot(*retimed.sample(retimed.lap_time).velocity[:2])) < 1e-12  # at rest
     with pytest.raises(TrajectoryError, match="start_speed applies to one pass"):
         time_optimal(Circle(1.0, 3.0), robot, start_speed=0.5)
+
+
+def test_a_spinning_heading_does_not_stretch_the_lap_at_the_steering_floor() -> None:
+    """The steering demand is continuous at the floor (``min(rate / limit, speed /
+    floor)``): a module just over its floor between grid points used to count its whole
+    turn rate, and that one spike scaled a caster's spinning figure-eight to 11x its solver
+    lap (49.8 against 4.39 s)."""
+    from trajectories import SpinHeading
+
+    retimed = time_optimal(FigureEight(0.5, 10.0, heading=SpinHeading(0.75)), preset("caster4"))
+    assert retimed.info is not None
+    assert retimed.info.stretch < 1.3
+    assert retimed.info.steer_demand <= 1.0 + 1e-9
+
+
+def test_a_failed_module_is_not_held_to_its_steering_rate() -> None:
+    """A swerve module with speed limit 0 is held at rest: its direction (rounding) has no
+    steering demand. Pivoting about it takes as long as about a module derated to 1e-6."""
+    from trajectories import TangentHeading
+
+    robot = preset("swerve")
+    pivot = Circle(math.hypot(0.3, 0.3), 5.0, heading=TangentHeading(math.pi / 4))
+    failed = robot.derated({0: 0.0})
+    assert feasibility(pivot, failed).steer_ratio < 1e-9
+    assert time_optimal(pivot, failed).lap_time == pytest.approx(
+        time_optimal(pivot, robot.derated({0: 1e-6})).lap_time, rel=1e-6)

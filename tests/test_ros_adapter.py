@@ -325,3 +325,20 @@ def test_copy_message_fills_messages_with_slots_only() -> None:
     assert copied.data == [1.0, 2.0, 3.0, 4.0] and isinstance(copied.data, list)
     with pytest.raises(ControllerError, match="twist must have shape"):
         twist_message([1.0, 2.0])
+
+
+def test_a_plan_after_a_pause_starts_from_rest(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A command older than STALE_TICKS periods (a cancelled goal: the robot stopped) says
+    nothing of the robot now: the next plan starts from rest at its own first pose."""
+    import mpc.adapters.ros.nav2 as nav2
+
+    robot = preset("mecanum")
+    follower = Nav2Controller(robot, dt=DT, max_speed=1.0)
+    follower.set_plan(path_message(straight_poses(0.0)))
+    drive(follower, np.zeros(3), 40)  # under way at ~1 m/s
+    now = nav2.time.monotonic()
+    monkeypatch.setattr(nav2.time, "monotonic", lambda: now + nav2.STALE_TICKS * DT + 1.0)
+    follower.set_plan(path_message(straight_poses(1.0)))
+    start = follower.trajectory.sample(0.0)
+    assert float(np.hypot(*start.velocity[:2])) == 0.0
+    np.testing.assert_allclose(start.pose, [1.0, 0.0, 0.0], atol=1e-12)

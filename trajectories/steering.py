@@ -14,7 +14,11 @@ that of ``g`` and ``h = dg/ds`` times ``sdot``: a bound on ``sdot`` alone.
 Where a module's velocity passes close to zero its direction sweeps fast (half a turn as
 it passes); a module that slow can lag its direction at little cost, and the controller's
 clamp lets one wait at rest while it turns. So a module slower than :data:`STEER_FLOOR`
-of its speed limit is not held to the steering rate here.
+of its speed limit is not held to the steering rate here, and a failed one (speed limit
+0, held at rest) not at all. A module's steering demand is ``min(turn rate / limit,
+speed / floor)``: at most 1 exactly where it turns within its limit or is below the
+floor, continuous, and proportional to the path rate (so a timing scaled by its peak
+demand keeps within it).
 """
 
 from __future__ import annotations
@@ -44,24 +48,27 @@ def direction_rates(blocks: FloatArray, twists: FloatArray,
 
 def steer_demand(blocks: FloatArray, speed_limits: FloatArray, steer_limits: FloatArray,
                  twists: FloatArray, twist_rates: FloatArray) -> FloatArray:
-    """Peak direction rate / steering limit over the modules, (m,) (1 = at the limit), for
-    body twists and their rates (m, 3); modules below :data:`STEER_FLOOR` of their speed
-    limit (``speed_limits`` (n,) [rad/s]) count 0."""
+    """Peak steering demand over the modules, (m,) (1 = at the limit; see the module), for
+    body twists and their rates (m, 3): ``min(rate / steer limit, speed / floor)`` with
+    the floor :data:`STEER_FLOOR` of the speed limit ``speed_limits`` (n,) [rad/s]; a
+    failed module (limit 0) counts 0."""
     rates, speeds = direction_rates(blocks, twists, twist_rates)
-    counted = speeds > STEER_FLOOR * speed_limits
-    ratio: FloatArray = np.where(counted, rates / steer_limits, 0.0).max(axis=1)
+    floor = STEER_FLOOR * speed_limits
+    working = floor > 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        demand = np.minimum(rates / steer_limits, speeds / np.where(working, floor, 1.0))
+    ratio: FloatArray = np.where(working, demand, 0.0).max(axis=1)
     return ratio
 
 
 def steer_bound(blocks: FloatArray, speed_limits: FloatArray, steer_limits: FloatArray,
                 twists: FloatArray, twist_rates: FloatArray) -> FloatArray:
-    """The largest ``sdot^2`` at each point (m,) at which every module turns within its
-    steering limit or is slower than :data:`STEER_FLOOR` of its speed limit, for the path's
-    ``g`` (``twists``) and ``h`` (``twist_rates``) (m, 3); inf where none bounds it."""
-    rates, speeds = direction_rates(blocks, twists, twist_rates)
+    """The largest ``sdot^2`` at each point (m,) at which every module's steering demand is
+    at most 1 (it turns within its limit, or is slower than :data:`STEER_FLOOR` of its speed
+    limit), for the path's ``g`` (``twists``) and ``h`` (``twist_rates``) (m, 3); inf where
+    none bounds it (failed modules never do)."""
+    demand = steer_demand(blocks, speed_limits, steer_limits, twists, twist_rates)
     with np.errstate(divide="ignore"):
-        turning = np.where(rates > 0.0, steer_limits / rates, np.inf)  # sdot that turns at it
-        slow = np.where(speeds > 0.0, STEER_FLOOR * speed_limits / speeds, np.inf)
-    root = np.maximum(turning, slow).min(axis=1)
-    bound: FloatArray = root * root
+        bound: FloatArray = np.where(demand > 0.0, 1.0 / np.where(demand > 0.0, demand, 1.0)
+                                     ** 2, np.inf)
     return bound

@@ -156,7 +156,8 @@ class Controller:
         try:
             self.solver = make_solver(self.model, solver, polygon_sides, max_iter, time_limit,
                                       jit)
-            self._time_limit = float(time_limit)  # (checked) a retry would spend two budgets
+            # (both checked) a first tick solved again would spend two budgets
+            self._budgeted = float(time_limit) > 0.0 or max_iter is not None
             self._reference_terms = (jitted(self.model.reference_terms) if jit
                                      else self.model.reference_terms)
         except JitError as error:
@@ -165,6 +166,7 @@ class Controller:
         self._profile: TickProfile | None = None
         self._tick = TickInput(self.model.layouts)
         self._warm = WarmStart(self._tick, self.model.offsets, self.dt)
+        self._first = True  # the first tick after construction or reset()
         self._fallback = FallbackPolicy(robot, self.model.offsets, self.dt)
         self._delay = DelayCompensator(self.delay_ticks, self.dt)
         self._last = np.zeros(3)  # the last command's twist; reset() sets these
@@ -228,7 +230,11 @@ class Controller:
                 f"{MEASURED_SLACK:.0%}: the twist the robot is executing must be one its "
                 "wheels can drive")
         if not self.robot.steer_states:
-            last = self.robot.desaturate(last)  # noise at top speed: into the limits
+            # Noise at top speed: into the limits. Failed wheels are put at rest first: the
+            # rounding they may read would scale the whole twist to 0.
+            if self.robot.rest_projector is not None:
+                last = self.robot.rest_projector @ last
+            last = self.robot.desaturate(last)
         self._last = last
         steer = self._steer if self._steer is not None else self.robot.initial_steer_angles()
         if steer_angles is not None:
@@ -245,6 +251,7 @@ class Controller:
         self._fallback.reset()
         self._timing.reset()
         self.solver.reset()
+        self._first = True
 
     @checked_arguments(ControllerError)
     def step(self, pose: ArrayLike, t: float, steer_angles: ArrayLike | None = None) -> Command:
@@ -321,10 +328,13 @@ class Controller:
         if profile is not None:
             profile.mark("warm start")
         result = self.solver.solve(tick)
-        if not result.success and self._warm.from_reference and not self._time_limit:
-            # The first guess is the reference's twists: far from a robot at rest under a
-            # reference at full speed, the limits linearised there can be an empty set (the
-            # omni-3 motor preset's first tick). Solve again from the last command held.
+        first, self._first = self._first, False
+        if not result.success and first and not self._budgeted:
+            # The first tick's guess is the reference's twists: far from a robot at rest
+            # under a reference at full speed, the limits linearised there can be an empty
+            # set (the omni-3 motor preset's first tick). Solve it again from the last
+            # command held (once: the first tick after construction or reset() only, and
+            # not with a time or iteration budget, which it would spend twice).
             self._warm.hold(self._last)
             self.solver.reset()
             result = self.solver.solve(tick)

@@ -4,6 +4,8 @@
 from __future__ import annotations
 
 import inspect
+import math
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -65,6 +67,10 @@ class _Slowed(Trajectory):
 #: How far along a new plan [m] its start may be moved to the pose nearest the robot.
 CATCH_UP = 1.0
 
+#: A command older than this many control periods (wall clock) says nothing of where the
+#: robot is or how fast it goes (a cancelled goal, a pause): a new plan starts from rest.
+STALE_TICKS = 5
+
 #: The Controller's own options a Nav2Controller passes through (``**options``).
 _CONTROLLER_OPTIONS = frozenset(inspect.signature(Controller.__init__).parameters) - {
     "self", "robot", "trajectory", "horizon", "dt"}
@@ -113,6 +119,8 @@ class Nav2Controller:
         self._peak_speed = 0.0  # [m/s] its peak path speed
         self._now: float | None = None  # [s] reference time of the last command
         self._pose: FloatArray | None = None  # the last pose commanded from [m, m, rad]
+        self._moving: FloatArray | None = None  # the twist it moved with then (body frame)
+        self._commanded_at = -math.inf  # [s] wall clock (time.monotonic) of that command
         self._poses: FloatArray | None = None  # the present plan's poses (n, 3)
         self._plan_cap: float | None = None  # [m/s] the cap it was timed within
         self._velocity_pending = True
@@ -143,8 +151,9 @@ class Nav2Controller:
         last pose moved one tick by its last command; within the path's first
         :data:`CATCH_UP` metres): a plan made from a pose a moment old starts behind a
         robot under way, and the reference would hold it back to there."""
-        if self._pose is None or self.last_command is None or len(poses) < 3:
+        if not self._recent() or self.last_command is None or len(poses) < 3:
             return poses
+        assert self._pose is not None
         ahead = integrate(self._pose, self.last_command.twist, self.dt)
         along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))))
         near = np.flatnonzero(along <= CATCH_UP)
@@ -156,18 +165,26 @@ class Nav2Controller:
         return min((c for c in (self.max_speed, self.speed_limit) if c is not None),
                    default=None)
 
+    def _recent(self) -> bool:
+        """Whether the last command is recent enough to say where the robot is and how
+        fast it moves (:data:`STALE_TICKS`)."""
+        return (self._pose is not None and self._moving is not None
+                and time.monotonic() - self._commanded_at <= STALE_TICKS * self.dt)
+
     def _speed_along(self, poses: FloatArray) -> float:
-        """The speed [m/s] of the last command along the path's first direction (0 before
-        any command, or for a path that starts by turning in place)."""
-        if self.last_command is None or self._pose is None or len(poses) < 2:
+        """The robot's speed [m/s] along the path's first direction: its measured twist at
+        the last command if one came with it, else that command's (0 with no recent
+        command, or for a path that starts by turning in place)."""
+        if not self._recent() or len(poses) < 2:
             return 0.0
+        assert self._pose is not None and self._moving is not None
         steps = np.diff(poses[:, :2], axis=0)
         lengths = np.hypot(steps[:, 0], steps[:, 1])
         moving = np.flatnonzero(lengths > 1e-9)
         if moving.size == 0:
             return 0.0
         direction = steps[moving[0]] / lengths[moving[0]]
-        vx, vy = self.last_command.twist[:2]
+        vx, vy = self._moving[:2]
         c, s = np.cos(self._pose[2]), np.sin(self._pose[2])
         return max(0.0, float(direction @ np.array([c * vx - s * vy, s * vx + c * vy])))
 
@@ -221,6 +238,8 @@ class Nav2Controller:
         self._now = self.clock(pose.header.stamp)
         self.last_command = self.controller.step(measured, self._now)
         self._pose = measured
+        self._moving = self.last_command.twist if twist is None else twist
+        self._commanded_at = time.monotonic()
         return twist_stamped(self.last_command.twist, pose.header.stamp, self.base_frame)
 
     def set_speed_limit(self, speed_limit: float, percentage: bool) -> None:
