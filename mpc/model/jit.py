@@ -5,7 +5,7 @@ for it, compiles that with the system's C compiler (CasADi's ``shell`` compiler:
 unless ``$CC`` names another) and loads the library. Same inputs, outputs and numbers
 (tested bit for bit against the virtual machine). Measured on this project's machine
 (2-core EPYC, Mecanum, N = 20): the tick's terms 9.4 -> 1.3 us a call (timeit), the whole tick
-0.74-0.96x at the median in runs alternating with the default (README, "Performance");
+0.67-0.97x at the median in runs alternating with the default (README, "Performance");
 it costs about 1.5 s of compiling when the controller is built. ``Controller(jit=True)``
 compiles the tick's terms, the plan's poses and the reference terms of windows sampled
 on their own (windows read from the lookahead's grid take the grid's terms, evaluated in
