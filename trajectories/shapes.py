@@ -30,7 +30,8 @@ class _SinusoidPath:
         order = np.arange(4.0)[:, np.newaxis]
         self._rates = np.broadcast_to(rates, (4, 2)).copy()  # [rad/s]
         self._phases = phases + order * (0.5 * math.pi)  # [rad]
-        self._gains = amplitudes * rates**order  # [m/s^k]
+        with np.errstate(over="ignore"):  # a gain that overflows is named when sampled
+            self._gains = amplitudes * rates**order  # [m/s^k]
         self._offsets = np.zeros((4, 2))
         self._offsets[0] = center
 
