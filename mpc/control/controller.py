@@ -104,7 +104,9 @@ class Controller:
             16 sides). IPOPT uses the exact disks.
         max_iter: solver iterations per tick at most (default 1000 daqp, 500 OSQP,
             100 IPOPT).
-        time_limit: solver time per tick at most [s]; 0 for none.
+        time_limit: solver time per tick at most [s]; 0 for none. Without either, the
+            first tick (after construction or :meth:`reset`), if it fails from its guess
+            (the reference's twists), is solved once more from the last command held.
         delay_ticks: known command latency in whole ticks; the controller
             predicts the pose forward through the commands already sent.
         mode: ``"time"`` or ``"path"`` (see above).
