@@ -420,3 +420,26 @@ def test_a_missing_or_undefined_value_is_a_dash_in_the_tables() -> None:
 
     assert format_value(math.nan) == "-" and format_value(None) == "-"
     assert format_value(math.inf) == "inf" and format_value(0.0123456) == "0.0123"
+
+
+def test_a_steered_run_has_its_steering_rates_against_the_limit() -> None:
+    """Swerve: a fifth panel, each module's steering rate [rad/s] with the +-limit lines
+    (the figure a third of a row taller); a Swedish robot keeps its four panels."""
+    robot = preset("swerve")
+    result = simulate(Controller(robot, Circle(1.0, 8.0, heading="tangent")), 2.0)
+    figure = mpc.plot.plot_run(result)
+    steering = [ax for ax in figure.axes if ax.get_title().startswith("(e) steering rates")]
+    assert len(steering) == 1
+    lines = {str(line.get_label()): line for line in steering[0].get_lines()}
+    rates = result.steer_rates()
+    assert rates is not None
+    drawn = np.asarray(lines["wheel 0"].get_ydata(), dtype=float)
+    np.testing.assert_allclose(drawn, rates[:, 0], rtol=0,
+                               atol=1e-7)  # (run records round to 7 decimals)
+    limit = float(np.asarray(result.steer_rate_limit).max())
+    dashed = [np.asarray(line.get_ydata(), dtype=float) for line in steering[0].get_lines()
+              if line.get_linestyle() == "--"]
+    assert sorted({float(y) for ys in dashed for y in ys}) == [-limit, limit]
+    assert figure.get_size_inches()[1] == pytest.approx(12.0)
+    plain = mpc.plot.plot_run(simulate(Controller(preset("mecanum"), Circle(1.0, 8.0)), 1.0))
+    assert not [ax for ax in plain.axes if ax.get_title().startswith("(e)")]

@@ -186,10 +186,13 @@ def _run_section(run: Run, rid: str) -> str:
         f"{_e(format_value(metrics.get('solve_time_p99'), 1e3))} ms; tick max: "
         f"{_e(format_value(metrics.get('tick_time_max'), 1e3))} ms"
     )
+    series = run.get("series")
+    steered = isinstance(series, Mapping) and bool(series.get("steer_rate")) and bool(
+        series.get("steer_rate_limit"))  # the figure's steering row (run_figure)
     return (f'<section class="run" id="{_e(rid)}"><h3>{_e(run_title(run))}</h3>'
             f'<p>{details} &middot; <a href="#row-{_e(rid)}">back to the table</a></p>'
             f'<img src="figures/{_e(rid)}.png" loading="lazy" alt="{_e(run_title(run))}" '
-            'width="1200" height="900"></section>')
+            f'width="1200" height="{1200 if steered else 900}"></section>')
 
 
 def html_page(results: Mapping[str, Any], ids: Sequence[str], table: str, headline: Headline,

@@ -192,6 +192,8 @@ class Series:
     path_error: np.ndarray | None = None  # (K,) [m] distance to the reference's path
     predicted_tick: np.ndarray | None = None  # (M,) ticks whose plan was kept
     predicted_pose: np.ndarray | None = None  # (M, P, 3) [m, m, rad] those plans
+    steer_rate: np.ndarray | None = None  # (K, n) [rad/s] steered wheels' turn rates
+    steer_rate_limit: np.ndarray | None = None  # (n,) [rad/s] their limits
 
     @property
     def position_error(self) -> np.ndarray:
@@ -306,6 +308,10 @@ def read_series(run: Run, name: str, default_dt: float, default_skip: float = 0.
                               f"poses (M, P, 3), got {ticks.shape} and {plans.shape}")
         keep = (ticks >= 0) & (ticks < count)
         ticks, plans = ticks[keep], plans[keep]
+    steer_rate = _float_array(series, "steer_rate", 0, name)[:count]
+    steer_limit = _float_array(series, "steer_rate_limit", None, name)
+    steered = (len(steer_rate) == count and count > 0 and steer_rate.shape[1] > 0
+               and steer_limit.size == steer_rate.shape[1])
     return Series(
         time=time[:count],
         pose=pose[:count],
@@ -319,4 +325,6 @@ def read_series(run: Run, name: str, default_dt: float, default_skip: float = 0.
         path_error=path_error if len(path_error) == count and count else None,
         predicted_tick=ticks,
         predicted_pose=plans,
+        steer_rate=steer_rate if steered else None,
+        steer_rate_limit=steer_limit if steered else None,
     )

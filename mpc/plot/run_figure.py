@@ -128,6 +128,35 @@ def _draw_wheels(ax: Axes, data: Series) -> None:
         ax.legend(loc="upper right", fontsize="small", ncol=2)
 
 
+def _draw_steering(ax: Axes, data: Series) -> None:
+    """(e) each steered wheel's turn rate [rad/s] against its limit."""
+    rates, limits = data.steer_rate, data.steer_rate_limit
+    assert rates is not None and limits is not None
+    time = data.time[:len(rates)]
+    finite = np.isfinite(limits) & (limits > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.abs(rates[:, finite]) / limits[finite] if finite.any() else np.zeros(0)
+    scored = ratio[data.scored[:len(rates)]] if ratio.size else ratio
+    peak = float(np.nanmax(scored)) if scored.size and np.isfinite(scored).any() else np.nan
+    after = f" after {data.skip:g} s" if data.skip > 0 else ""
+    shown = f"{peak:.2f}" if np.isfinite(peak) else format_value(peak)
+    ax.set_title(f"(e) steering rates (peak {shown}\u00d7 limit{after})")
+    if len(time):
+        shade_skip(ax, float(time[0]), data.skip)
+    for wheel in range(rates.shape[1]):
+        ax.plot(time, rates[:, wheel], color=f"C{wheel % 10}", lw=1.0, label=f"wheel {wheel}")
+    for index, limit in enumerate(np.unique(limits[finite])):
+        label = f"\u00b1 limit ({limit:g} rad/s)" if index == 0 else None
+        ax.axhline(limit, color="k", ls="--", lw=1.0, label=label)
+        ax.axhline(-limit, color="k", ls="--", lw=1.0)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("steering rate [rad/s]")
+    ax.grid(True, alpha=0.4)
+    if ax.get_legend_handles_labels()[0]:
+        _headroom(ax)
+        ax.legend(loc="upper right", fontsize="small", ncol=3)
+
+
 def _draw_tick_histogram(ax: Axes, data: Series, run: Run) -> None:
     ax.set_title("(d) tick time")
     tick_ms = 1e3 * data.tick_time[np.isfinite(data.tick_time)]
@@ -157,16 +186,24 @@ def _draw_tick_histogram(ax: Axes, data: Series, run: Run) -> None:
 
 
 def run_figure(run: Run, data: Series) -> Figure:
-    """The 2x2 figure of one run (a run record and its series as arrays), 1200 x 900 px."""
-    figure = new_figure(12.0, 9.0, constrained=False)
-    figure.subplots_adjust(left=0.065, right=0.93, bottom=0.065, top=0.925, wspace=0.28,
-                           hspace=0.27)
-    axes = figure.subplots(2, 2)
+    """The 2x2 figure of one run (a run record and its series as arrays), 1200 x 900 px;
+    with steered wheels a third row, (e) their steering rates against the limit (1200 x
+    1200 px)."""
+    steered = data.steer_rate is not None
+    figure = new_figure(12.0, 12.0 if steered else 9.0, constrained=False)
+    figure.subplots_adjust(left=0.065, right=0.93, bottom=0.05 if steered else 0.065,
+                           top=0.94 if steered else 0.925, wspace=0.28,
+                           hspace=0.32 if steered else 0.27)
+    grid = figure.add_gridspec(3 if steered else 2, 2)
+    axes = np.array([[figure.add_subplot(grid[row, column]) for column in range(2)]
+                     for row in range(2)])
     robot = run.get("robot")
     draw_path(axes[0, 0], data, robot if isinstance(robot, Mapping) else {})
     _draw_errors(axes[0, 1], data)
     _draw_wheels(axes[1, 0], data)
     _draw_tick_histogram(axes[1, 1], data, run)
+    if steered:
+        _draw_steering(figure.add_subplot(grid[2, :]), data)
     figure.suptitle(run_title(run), fontsize="large")
     return figure
 
