@@ -45,9 +45,9 @@ class FeasibilityReport:
     wheels (1.0 = exactly at the limit); ``time`` [s] and ``wheel`` (index
     into the robot's wheel order) say where it occurs; ``ratios`` (k,) is the
     peak ratio over wheels at each sample time ``times`` (k,) [s]. ``steer_ratio`` is
-    the peak steering rate / limit over steered modules (each turning with its velocity's
-    direction; 0 for robots without steering limits, and for modules slower than
-    :data:`~trajectories.steering.STEER_FLOOR` of their speed limit), at ``steer_time``.
+    the peak steering demand over steered modules (:func:`~trajectories.steering.steer_demand`:
+    the turn rate / limit, or the speed / :data:`~trajectories.steering.STEER_FLOOR` of the
+    speed limit where that is lower; 0 without steering limits), at ``steer_time``.
     """
 
     peak_ratio: float
@@ -150,7 +150,7 @@ def feasibility(
 
 def _steer_ratios(trajectory: Trajectory, robot: object, times: FloatArray,
                   speed_limits: FloatArray) -> FloatArray | None:
-    """Peak steering rate / limit at each of ``times`` (k,) for a robot with steered
+    """Peak steering demand at each of ``times`` (k,) for a robot with steered
     modules (``max_steer_rates`` not None and ``wheel_blocks`` (n, 2, 3)), else None."""
     rates = getattr(robot, "max_steer_rates", None)
     blocks = getattr(robot, "wheel_blocks", None)

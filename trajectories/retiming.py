@@ -181,8 +181,7 @@ def time_optimal(
         b[0], b[-1] = min(b[0], start_b), 0.0
     solver_lap = lap_time(coarse.s, b)
     speed, accel, steer = peak_demand(fine, limits, b)
-    # all scale with b: speed and steering with sqrt(b), acceleration with b (a module that
-    # slows below the steering floor leaves the steering demand: scaling down stays within)
+    # all scale with b: speed and steering with sqrt(b), acceleration with b
     demand = max(speed * speed, accel, steer * steer)
     if not (demand > 0.0 and math.isfinite(demand)):
         raise TrajectoryError(f"the retiming cone program returned an unusable timing (peak "
@@ -190,7 +189,6 @@ def time_optimal(
                               f", steering demand {shown(steer)})")
     factor = (1.0 - MARGIN) / demand
     b *= factor
-    steer = peak_demand(fine, limits, b)[2] if limits.steer_rate is not None else 0.0
     info = RetimingInfo(
         status=solution.status,
         iterations=solution.iterations,
@@ -200,7 +198,7 @@ def time_optimal(
         stretch=1.0 / math.sqrt(factor),
         speed_demand=speed * math.sqrt(factor),
         accel_demand=accel * factor,
-        steer_demand=steer,
+        steer_demand=steer * math.sqrt(factor),
     )
     return RetimedTrajectory(source, coarse.s, np.sqrt(b), periodic=steady, info=info)
 

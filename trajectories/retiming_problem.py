@@ -23,7 +23,7 @@ from mpc.validation import shown
 from ._validation import FloatArray
 from .base import Trajectory
 from .errors import TrajectoryError
-from .steering import steer_bound, steer_demand
+from .steering import steer_demand
 
 #: Statuses of clarabel whose solution is used (the check afterwards makes it feasible).
 _ACCEPTED_STATUSES = ("Solved", "AlmostSolved")
@@ -87,21 +87,13 @@ class Limits:
     heading_rate: float | None
     steer_rate: FloatArray | None = None
 
-    def steer_bound(self, geometry: PathGeometry) -> FloatArray:
-        """The largest b = sdot^2 at each point within the steering limits, (m,); inf where
-        they do not bound it (no steered modules, or none turning)."""
+    def steer_demand(self, geometry: PathGeometry) -> FloatArray:
+        """Peak steering demand over the steered modules at sdot = 1, shape (m,); 0 if none.
+        Like the speed demand it scales with sdot (:mod:`trajectories.steering`)."""
         if self.steer_rate is None:
-            return np.full(geometry.s.shape, np.inf)
-        return steer_bound(self.wheel_blocks, self.wheel_speed, self.steer_rate,
-                           geometry.twist, geometry.twist_rate)
-
-    def steer_demand(self, geometry: PathGeometry, b: FloatArray) -> FloatArray:
-        """Peak steering rate / limit at sdot = sqrt(b) per row, shape (m,); 0 if none."""
-        if self.steer_rate is None:
-            return np.zeros(b.shape)
-        root = np.sqrt(b)[:, np.newaxis]
+            return np.zeros(geometry.s.shape)
         return steer_demand(self.wheel_blocks, self.wheel_speed, self.steer_rate,
-                            geometry.twist * root, geometry.twist_rate * root * root)
+                            geometry.twist, geometry.twist_rate)
 
     def speed_demand(self, twist: FloatArray) -> FloatArray:
         """Peak speed / limit over every speed limit at sdot = 1, shape (m,); inf: cannot move."""
@@ -312,11 +304,11 @@ def peak_demand(fine: PathGeometry, limits: Limits,
     b_inside = b[:-1, np.newaxis] + np.diff(b)[:, np.newaxis] * fraction  # (cells, refine + 1)
     index = np.arange(cells)[:, np.newaxis] * refine + np.arange(refine + 1)
     speed = limits.speed_demand(fine.twist)[index] * np.sqrt(b_inside)
+    steer = limits.steer_demand(fine)[index] * np.sqrt(b_inside)
     a = np.repeat(np.diff(b) / (2.0 * step), refine + 1)
     inside = PathGeometry(fine.s[index].ravel(), fine.twist[index].reshape(-1, 3),
                           fine.twist_rate[index].reshape(-1, 3))
     accel = limits.accel_demand(inside, b_inside.ravel(), a)
-    steer = limits.steer_demand(inside, b_inside.ravel())
     return float(speed.max()), float(accel.max()), float(steer.max())
 
 def lap_time(s: FloatArray, b: FloatArray) -> float:
@@ -328,11 +320,10 @@ def lap_time(s: FloatArray, b: FloatArray) -> float:
 def speed_bound(limits: Limits, geometry: PathGeometry) -> FloatArray:
     """Upper bound on b = sdot^2 at each grid point from every speed limit and the steering
     limits; raises if 0 twice."""
-    demand = limits.speed_demand(geometry.twist)
+    demand = np.maximum(limits.speed_demand(geometry.twist), limits.steer_demand(geometry))
     moving = demand > 0.0
     with np.errstate(divide="ignore"):
         bound = np.where(moving, 1.0 / np.where(moving, demand, 1.0) ** 2, np.inf)
-    bound = np.minimum(bound, limits.steer_bound(geometry))
     finite = bound[np.isfinite(bound) & (bound > 0.0)]
     if finite.size == 0:
         raise TrajectoryError("the robot cannot drive this path at all: every point of it "

@@ -59,16 +59,3 @@ def steer_demand(blocks: FloatArray, speed_limits: FloatArray, steer_limits: Flo
         demand = np.minimum(rates / steer_limits, speeds / np.where(working, floor, 1.0))
     ratio: FloatArray = np.where(working, demand, 0.0).max(axis=1)
     return ratio
-
-
-def steer_bound(blocks: FloatArray, speed_limits: FloatArray, steer_limits: FloatArray,
-                twists: FloatArray, twist_rates: FloatArray) -> FloatArray:
-    """The largest ``sdot^2`` at each point (m,) at which every module's steering demand is
-    at most 1 (it turns within its limit, or is slower than :data:`STEER_FLOOR` of its speed
-    limit), for the path's ``g`` (``twists``) and ``h`` (``twist_rates``) (m, 3); inf where
-    none bounds it (failed modules never do)."""
-    demand = steer_demand(blocks, speed_limits, steer_limits, twists, twist_rates)
-    with np.errstate(divide="ignore"):
-        bound: FloatArray = np.where(demand > 0.0, 1.0 / np.where(demand > 0.0, demand, 1.0)
-                                     ** 2, np.inf)
-    return bound
