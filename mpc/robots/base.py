@@ -113,18 +113,14 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         flat = self.wheel_blocks.reshape(-1, 3)
         check_holonomic(flat, f"robot {self.name!r}")
         object.__setattr__(self, "_flat_pinv", readonly(np.linalg.pinv(flat)))
-        object.__setattr__(self, "speed_slack", _speed_slack(self.nominal_max_wheel_speed,
-                                                             self.nominal_max_wheel_speed))
-        if self.derating is None:
-            self._check_dynamics()
-            return
-        derating = check_derating(self.derating, self.n_wheels)
-        object.__setattr__(self, "derating", derating)
+        if self.derating is not None:
+            derating = check_derating(self.derating, self.n_wheels)
+            object.__setattr__(self, "derating", derating)
+            projector = rest_projector(self.wheel_blocks, derating)
+            if projector is not None:
+                object.__setattr__(self, "rest_projector", projector)
         object.__setattr__(self, "speed_slack", _speed_slack(self.max_wheel_speed,
                                                              self.nominal_max_wheel_speed))
-        projector = rest_projector(self.wheel_blocks, derating)
-        if projector is not None:
-            object.__setattr__(self, "rest_projector", projector)
         self._check_dynamics()
 
     def _check_rates(self) -> None:
