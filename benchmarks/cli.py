@@ -59,6 +59,7 @@ from benchmarks.scenarios import (
     seed,
 )
 from mpc.errors import MpcError, ReportError
+from mpc.plot.results import counted
 from mpc.robots import motor_preset
 from mpc.sim import PLANT_PRESETS
 from mpc.validation import MAX_HORIZON, MAX_POLYGON_SIDES, MAX_SIMULATION_TICKS, MAX_STEP
@@ -244,8 +245,8 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     started = time.perf_counter()
     failed: list[dict[str, Any]] = []
     with RunPool(args.workers, args.scheduler) as pool, Progress(total, "runs") as progress:
-        progress.print(f"mpc-bench: {_count(len(scenarios), 'scenario')} x "
-                       f"{_count(len(controllers), 'controller')} "
+        progress.print(f"mpc-bench: {counted(len(scenarios), 'scenario')} x "
+                       f"{counted(len(controllers), 'controller')} "
                        f"({total} runs), plant {args.plant}, horizon {args.horizon}, "
                        f"dt {args.dt} s, on {pool.description}")
         for note in pool.notes:
@@ -360,11 +361,6 @@ COMMANDS: dict[str, Command] = {
     "sweep": Command("Monte-Carlo over random robots, starts and plant faults",
                      "benchmarks.sweep"),
 }
-
-
-def _count(number: int, noun: str) -> str:
-    """``"1 scenario"``, ``"2 scenarios"``."""
-    return f"{number} {noun}" + ("" if number == 1 else "s")
 
 
 def command_parser() -> Parser:

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from .headline import Headline, Ranking
-from .results import Run, format_value, run_title, scenario_title
+from .results import Run, counted, format_value, run_title, scenario_title
 from .tables import CONTROLLER_CELL, RMS_CELL, TABLE_HEADERS, Row, failures_text
 from .terms import TERMS_PARAGRAPH, setting_rows, settings_line
 
@@ -51,10 +51,6 @@ code { background: #f4f4f4; padding: 0 0.2em; }
 
 def _e(value: object) -> str:
     return html.escape(str(value))
-
-
-def _count(number: int, noun: str) -> str:
-    return f"{number} {noun}" + ("" if number == 1 else "s")
 
 
 @dataclass(frozen=True)
@@ -221,7 +217,7 @@ def html_page(results: Mapping[str, Any], ids: Sequence[str], table: str, headli
 </style>
 </head>
 <body>
-<h1>Tracking report: {_count(len(runs), "run")}, {_count(len(scenarios), "scenario")}</h1>
+<h1>Tracking report: {counted(len(runs), "run")}, {counted(len(scenarios), "scenario")}</h1>
 {_headline(headline, runs, settings or {}, overlay)}
 <h2 id="terms">Terms</h2>
 <p>{_e(TERMS_PARAGRAPH)}</p>

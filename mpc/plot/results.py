@@ -118,6 +118,11 @@ def metric_value(run: Run, key: str) -> float:
     return float(value)
 
 
+def counted(number: int, noun: str) -> str:
+    """``"1 scenario"``, ``"2 scenarios"``."""
+    return f"{number} {noun}" + ("" if number == 1 else "s")
+
+
 def format_value(value: object, scale: float = 1.0) -> str:
     """Format a number for the tables: ints as is, floats to 3 significant digits.
 

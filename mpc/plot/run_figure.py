@@ -100,12 +100,7 @@ def _draw_errors(ax: Axes, data: Series) -> None:
 def _draw_wheels(ax: Axes, data: Series) -> None:
     count = len(data.wheel_command)
     time = data.time[:count]
-    ratio = data.wheel_ratio
-    scored = ratio[data.scored[:count]] if count else ratio
-    peak = float(np.nanmax(scored)) if scored.size and np.isfinite(scored).any() else np.nan
-    after = f" after {data.skip:g} s" if data.skip > 0 else ""
-    shown = f"{peak:.2f}" if np.isfinite(peak) else format_value(peak)
-    ax.set_title(f"(c) wheel commands (peak {shown}\u00d7 limit{after})")
+    ax.set_title(f"(c) wheel commands ({_peak_text(data.wheel_ratio, data)})")
     if count:
         shade_skip(ax, float(time[0]), data.skip)
     for wheel in range(data.wheel_command.shape[1]):
@@ -134,13 +129,9 @@ def _draw_steering(ax: Axes, data: Series) -> None:
     assert rates is not None and limits is not None
     time = data.time[:len(rates)]
     finite = np.isfinite(limits) & (limits > 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.abs(rates[:, finite]) / limits[finite] if finite.any() else np.zeros(0)
-    scored = ratio[data.scored[:len(rates)]] if ratio.size else ratio
-    peak = float(np.nanmax(scored)) if scored.size and np.isfinite(scored).any() else np.nan
-    after = f" after {data.skip:g} s" if data.skip > 0 else ""
-    shown = f"{peak:.2f}" if np.isfinite(peak) else format_value(peak)
-    ax.set_title(f"(e) steering rates (peak {shown}\u00d7 limit{after})")
+    ratio = (np.abs(rates[:, finite]) / limits[finite]).max(axis=1) if finite.any() else (
+        np.full(len(rates), np.nan))
+    ax.set_title(f"(e) steering rates ({_peak_text(ratio, data)})")
     if len(time):
         shade_skip(ax, float(time[0]), data.skip)
     for wheel in range(rates.shape[1]):
@@ -211,6 +202,16 @@ def run_figure(run: Run, data: Series) -> Figure:
 def write_run_figure(run: Run, data: Series, path: Path) -> None:
     """:func:`run_figure` saved as a PNG at ``path``."""
     save(run_figure(run, data), path)
+
+
+def _peak_text(ratio: np.ndarray, data: Series) -> str:
+    """``"peak 1.00x limit after 2 s"``: the largest of a per-tick ratio (K,) to its limit
+    over the ticks the metrics cover."""
+    scored = ratio[data.scored[:len(ratio)]] if len(ratio) else ratio
+    peak = float(np.nanmax(scored)) if scored.size and np.isfinite(scored).any() else np.nan
+    after = f" after {data.skip:g} s" if data.skip > 0 else ""
+    shown = f"{peak:.2f}" if np.isfinite(peak) else format_value(peak)
+    return f"peak {shown}\u00d7 limit{after}"
 
 
 #: Of an axes' height, the part kept free above its data for the legend.
