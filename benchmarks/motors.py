@@ -27,6 +27,7 @@ violation (a wheel loop asked for more than the bus or the limit gives), slip ev
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import time
@@ -152,15 +153,18 @@ def motor_reference(name: str, robot: Robot, ratio: float = 1.0, size: float = 1
 
 
 def controller(name: str, robot: Robot, trajectory: Trajectory, dt: float,
-               horizon: int) -> TrackingController:
-    """A controller by name (:data:`CONTROLLERS`) for the motor robot ``robot``."""
+               horizon: int, command_ramp: bool = True) -> TrackingController:
+    """A controller by name (:data:`CONTROLLERS`) for the motor robot ``robot``; the MPCs
+    told that the wheel loops ramp each command over the tick (``command_ramp``), as the
+    motor plant's do."""
     if name.startswith("mpc-motors"):
         solver = {"mpc-motors": "daqp", "mpc-motors-osqp": "osqp",
                   "mpc-motors-ipopt": "ipopt"}[name]
-        return Controller(robot, trajectory, horizon, dt, solver=solver)
+        return Controller(robot, trajectory, horizon, dt, solver=solver,
+                          command_ramp=command_ramp)
     stand_in = kinematic_stand_in(robot)
     if name == "mpc-kinematic":
-        return Controller(stand_in, trajectory, horizon, dt)
+        return Controller(stand_in, trajectory, horizon, dt, command_ramp=command_ramp)
     if name == "ff-p-setpoint":
         return FeedforwardPSetpointController(stand_in, trajectory, dt)
     return FeedforwardPController(stand_in, trajectory, dt,
@@ -170,7 +174,7 @@ def controller(name: str, robot: Robot, trajectory: Trajectory, dt: float,
 def run(layouts: list[str], trajectories: list[str], controllers: list[str], *,
         ratio: float = 1.0, size: float = 1.0, heading: str = "fixed", dt: float = 0.05,
         horizon: int = 20, laps: float = 2.0, skip: float = 2.0, seed: int = 0,
-        log: Any = print) -> list[dict[str, Any]]:
+        command_ramp: bool = True, log: Any = print) -> list[dict[str, Any]]:
     """Every layout x trajectory x controller on the motor plant; one row per run."""
     rows = []
     for layout in layouts:
@@ -182,7 +186,7 @@ def run(layouts: list[str], trajectories: list[str], controllers: list[str], *,
                 if name == "ff-p-setpoint" and not robot.steered:
                     continue
                 started = time.perf_counter()
-                control = controller(name, robot, reference, dt, horizon)
+                control = controller(name, robot, reference, dt, horizon, command_ramp)
                 result = simulate(control, laps * period + skip, plant="motor", robot=robot,
                                   seed=seed)
                 m = result.metrics(skip=skip)
@@ -281,6 +285,10 @@ def _parser() -> Parser:
                         help="seconds left out of the errors (2.0)")
     parser.add_argument("--seed", type=seed, default=0,
                         help="seed of the motor plant's randomness (0)")
+    parser.add_argument("--command-ramp", action=argparse.BooleanOptionalAction, default=True,
+                        help="tell the MPCs that the wheel loops ramp each command over the "
+                             "tick, as the motor plant's do (Controller(command_ramp=True); "
+                             "default on)")
     parser.add_argument("--perf", action="store_true",
                         help="instead: tick times with and without the motor rows per layout "
                              "(mpc-bench perf's scenario, runs interleaved)")
@@ -305,6 +313,8 @@ def main(argv: list[str]) -> int:
     layouts = choose("--layouts", "layout", args.layouts, MOTOR_ROBOT_PRESETS)
     if not args.perf and (args.ticks != 400 or args.repeats != 3):
         raise ScenarioError("--ticks and --repeats apply to --perf only")
+    if args.perf and not args.command_ramp:
+        raise ScenarioError("--no-command-ramp applies to runs on the motor plant, not --perf")
     out = claim(args.out, ("motors-perf.json" if args.perf else "motors.json",), args.force)
     if args.perf:
         if args.ticks < 20 or args.repeats < 1:
@@ -323,7 +333,7 @@ def main(argv: list[str]) -> int:
     try:
         rows = run(layouts, trajectories, controllers, ratio=args.ratio, size=args.size,
                    heading=args.heading, laps=args.laps, skip=args.skip, seed=args.seed,
-                   log=lambda line: print(line, flush=True))
+                   command_ramp=args.command_ramp, log=lambda line: print(line, flush=True))
     except MpcError as error:  # e.g. a run too long: name the flags that set it
         raise ScenarioError(f"--size {args.size:g} m, --laps {args.laps:g}, --ratio "
                             f"{args.ratio:g}: {error}") from None
@@ -334,7 +344,8 @@ def main(argv: list[str]) -> int:
     (out / "motors.json").write_text(json.dumps(
         {"command": " ".join(["mpc-bench", "motors", *argv]), "machine": machine(),
          "settings": {"ratio": args.ratio, "size": args.size, "laps": args.laps,
-                      "skip": args.skip, "seed": args.seed, "heading": args.heading},
+                      "skip": args.skip, "seed": args.seed, "heading": args.heading,
+                      "command_ramp": args.command_ramp},
          "rows": rows}, indent=1))
     print(f"\nwrote {out / 'motors.json'} ({time.perf_counter() - started:.0f} s)")
     return 0

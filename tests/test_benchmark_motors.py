@@ -51,6 +51,8 @@ def test_motors_command_writes_its_table(tmp_path: Path, capsys: pytest.CaptureF
     assert [row["controller"] for row in document["rows"]] == ["mpc-motors", "ff-p-clip"]
     assert document["rows"][0]["voltage_violations"] == 0
     assert "| omni3 figure8 |" in capsys.readouterr().out
+    assert document["settings"]["command_ramp"] is True
+    assert main(["motors", "--perf", "--no-command-ramp"]) == 2
     assert main(["motors", "--layouts", "hexapod"]) == 2
 
 

@@ -150,6 +150,7 @@ TRAJECTORY = Circle(1.0, 12.0)
         ({"weights": {"pose": [1.0, 2.0]}}, r"weight 'pose' must be .* shape \(3,\).*\(2,\)"),
         ({"weights": {"twist": -1.0}}, "weight 'twist' must be finite and >= 0"),
         ({"delay_ticks": -1}, "delay_ticks must be an integer >= 0"),
+        ({"command_ramp": "yes"}, "command_ramp must be True or False, got 'yes'"),
         ({"trajectory": "circle"}, "trajectory must be a trajectories.Trajectory, got str"),
         ({"robot": "mecanum"}, "robot must be an mpc.robots.Robot, got str"),
     ],

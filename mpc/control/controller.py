@@ -43,6 +43,7 @@ from mpc.validation import (
     MAX_HORIZON,
     checked_arguments,
     finite_vector,
+    flag,
     integer_in,
 )
 from trajectories import Trajectory, TrajectoryError
@@ -109,6 +110,11 @@ class Controller:
             (the reference's twists), is solved once more from the last command held.
         delay_ticks: known command latency in whole ticks; the controller
             predicts the pose forward through the commands already sent.
+        command_ramp: the drive ramps each command from the last one over the tick (a
+            first-order hold: :class:`~mpc.sim.motor_plant.MotorPlant`'s wheel loops, a
+            motion-profiled velocity loop) instead of stepping to it. Such a drive is a
+            held one half a tick late: the controller plans from half a tick ahead
+            (:mod:`mpc.control.delay`). Default False: a command acts at once.
         mode: ``"time"`` or ``"path"`` (see above).
         max_progress_rate: path mode, how much faster than the reference the progress may
             run while catching up (>= 1).
@@ -135,6 +141,7 @@ class Controller:
         max_iter: int | None = None,
         time_limit: float = 0.0,
         delay_ticks: int = 0,
+        command_ramp: bool = False,
         mode: str = "time",
         max_progress_rate: float = 2.0,
         time_scaling: bool | None = None,
@@ -148,6 +155,7 @@ class Controller:
         self.dt = check_step("dt", dt)
         self.delay_ticks = integer_in("delay_ticks", delay_ticks, 0, MAX_DELAY_TICKS,
                                       ControllerError)
+        self.command_ramp = flag("command_ramp", command_ramp, ControllerError)
         self.mode = check_mode(mode, time_scaling)
         self.stage_dt = check_stage_dt(stage_dt, self.dt, self.mode)
         rate = check_progress_rate(max_progress_rate)
@@ -170,7 +178,7 @@ class Controller:
         self._warm = WarmStart(self._tick, self.model.offsets, self.dt)
         self._first = True  # the first tick after construction or reset()
         self._fallback = FallbackPolicy(robot, self.model.offsets, self.dt)
-        self._delay = DelayCompensator(self.delay_ticks, self.dt)
+        self._delay = DelayCompensator(self.delay_ticks, self.dt, self.command_ramp)
         self._last = np.zeros(3)  # the last command's twist; reset() sets these
         self._steer: FloatArray | None = None  # steered wheels' commanded angles [rad]
         self._set_reference(trajectory)
@@ -276,7 +284,7 @@ class Controller:
         if measured is not None:
             self._steer = measured
         tick = self._tick
-        t_plan = t_now + self.delay_ticks * self.dt
+        t_plan = t_now + self._delay.lead
         if profile is not None:
             profile.mark("check and predict")
         try:
