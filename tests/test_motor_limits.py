@@ -284,3 +284,36 @@ def test_a_first_tick_from_rest_under_a_reference_at_speed_is_solved() -> None:
     # within a time budget there is no second solve: the fallback, as before
     budgeted = Controller(robot, reference, horizon=20, dt=0.05, time_limit=0.5)
     assert budgeted.step(reference.sample(0.0).pose, 0.0).status is Status.FEEDFORWARD
+
+
+@pytest.mark.parametrize("heading", [0.0, 0.4, 2.0])
+def test_traction_polygon_is_exact_along_the_planned_force(heading: float) -> None:
+    """A 2-D contact's traction polygon, turned to the force the guess asks of it, lets the
+    plan push along that force exactly to the disk (headroom kept): the largest change
+    along the guess's direction that the stage's traction rows allow is, by hand,
+    ``(1 - headroom) mu N_c / |C_c e|`` over the contacts (no rotation: no Coriolis term)."""
+    robot = motor_preset("swerve")
+    dyn = robot.dynamics
+    assert dyn is not None
+    forces = force_map(robot)
+    dt = 0.05
+    limits = stage_limits(robot, np.full(2, dt), None)
+    assert isinstance(limits, MotorStageLimits) and limits.motor is not None
+    e = np.array([math.cos(heading), math.sin(heading), 0.0])
+    last = 1.0 * e
+    guess = np.array([last + 2.0 * dt * e, last + 4.0 * dt * e])  # 2 m/s^2 along e
+    update_stage_limits(robot, limits, guess, last, robot.initial_steer_angles())
+    traction = limits.kinematic.rows + np.flatnonzero(limits.motor.kind == 2)  # type: ignore[union-attr]
+
+    def within(accel: float) -> bool:
+        u0 = last + accel * dt * e
+        value = limits.now[0, traction] @ u0 + limits.before[0, traction] @ last
+        return bool(np.all(value <= limits.upper[0, traction])
+                    and np.all(value >= limits.lower[0, traction]))
+
+    friction = forces.friction_limits
+    assert friction is not None
+    by_hand = min((1.0 - dyn.headroom) * friction[c] / np.linalg.norm(forces.contact_maps[c] @ e)
+                  for c in range(forces.n_contacts))
+    assert within(by_hand * (1 - 1e-9))
+    assert not within(by_hand * (1 + 1e-6))

@@ -32,7 +32,8 @@ polygon (``|e . p| <= |p|``): exact when the module pushes along its wheel, and
 conservative by the lateral force's resistive voltage otherwise (about 1 % of the battery
 voltage at full cornering traction for the swerve preset), or, for the current, by the
 lateral force when the current limit is below the traction limit. The NLP uses the drive
-components along ``e = v / |v|`` exactly. Traction: a disk, a polygon in the QP.
+components along ``e = v / |v|`` exactly. Traction: a disk, a polygon in the QP
+(turned to the planned force, the edge facing it tangent to the disk).
 
 The rows themselves are built once in :mod:`mpc.robots.motor_rows`, the bus's sag in
 :mod:`mpc.robots.bus_sag`; this module lays them on the stages and refills them each tick.

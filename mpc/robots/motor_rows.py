@@ -17,6 +17,13 @@ from mpc.robots.force_map import ForceMap, apothem
 
 #: Sides of the polygon standing in for a 2-D contact's traction disk in the QP, turned
 #: each tick so that one edge faces the force the plan it starts from asks of the contact.
+#: That edge is the disk's tangent there (the disk linearised: a converged plan may use
+#: the whole traction along its force), the others midway between the inscribed and the
+#: circumscribed polygon. Against every edge midway (``mpc-bench motors``, 100 % of the
+#: motor model, RMS position error): swerve circle 97.1 -> 82.7 mm, figure-eight 24.7 ->
+#: 23.1; ball3 67.5 -> 58.9 and 10.9 -> 9.6; no voltage, current or slip events either way.
+#: The corners next to the tangent edge reach 2.7 % beyond the disk, within the headroom;
+#: the clamp keeps the command sent within the disk itself.
 TRACTION_SIDES = 12
 
 #: How a row's direction is chosen each tick (:attr:`MotorRows.direction`): fixed, a steered
@@ -76,7 +83,7 @@ class _RowTable:
         self.parts: dict[str, list[FloatArray]] = {key: [] for key in _FIELDS}
 
     def add(self, s_now: FloatArray, s_before: FloatArray, q: FloatArray, g: FloatArray,
-            bound: float, voltage: bool, kind: int, index: npt.NDArray[np.intp],
+            bound: float | FloatArray, voltage: bool, kind: int, index: npt.NDArray[np.intp],
             direction: int, angle: FloatArray, ends: tuple[bool, ...] = (True, False)
             ) -> None:
         """One block of rows (matrices (r, d, 3)), once for each of ``ends``."""
@@ -142,7 +149,8 @@ def motor_rows(forces: ForceMap) -> MotorRows:
 
 def _add_traction_rows(table: _RowTable, forces: ForceMap, keep: float) -> None:
     """Each contact's traction at both ends of a change: its one direction's row exactly, or
-    a :data:`TRACTION_SIDES`-gon for a 2-D contact (turned each tick to its planned force)."""
+    a :data:`TRACTION_SIDES`-gon for a 2-D contact (turned each tick to its planned force,
+    the edge facing it tangent to the disk)."""
     traction = forces.friction_limits
     if traction is None:
         return
@@ -157,5 +165,8 @@ def _add_traction_rows(table: _RowTable, forces: ForceMap, keep: float) -> None:
         sides = TRACTION_SIDES
         angles = 2.0 * math.pi * np.arange(sides // 2) / sides
         many = np.repeat(contact[None], sides // 2, axis=0)
-        table.add(np.zeros_like(many), np.zeros_like(many), many, many, keep * apothem(sides),
+        # the edge facing the planned force tangent to the disk (exact at a converged plan),
+        # the others midway between the inscribed and the circumscribed polygon
+        bound = keep * np.where(angles == 0.0, 1.0, apothem(sides))
+        table.add(np.zeros_like(many), np.zeros_like(many), many, many, bound,
                   False, 2, np.full(sides // 2, c), FORCE, angles)
