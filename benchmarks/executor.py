@@ -45,7 +45,13 @@ from benchmarks.scenarios import (
     shape,
 )
 from mpc.robots import Robot, from_dict, motor_preset, preset
-from mpc.sim import PlantConfig, TrackingController, simulate
+from mpc.sim import (
+    PLANT_PRESETS,
+    MotorPlantConfig,
+    PlantConfig,
+    TrackingController,
+    simulate,
+)
 from trajectories import (
     SampledTrajectory,
     Trajectory,
@@ -129,13 +135,19 @@ def build_trajectory(spec: Mapping[str, Any], robot: Robot) -> Trajectory:
 
 
 def build_controller(spec: RunSpec, robot: Robot, trajectory: Trajectory) -> TrackingController:
-    """The controller of a run: by benchmark name, with the spec's weights and latency."""
+    """The controller of a run: by benchmark name, with the spec's weights and latency; an
+    MPC on the motor plant is told that its wheel loops ramp each command over the tick
+    (``Controller(command_ramp=True)``)."""
     name, settings = spec.controller, spec.settings
     if name not in MPC_CONTROLLERS:
         if spec.weights is not None or spec.delay_ticks:
             raise ScenarioError(f"weights and delay_ticks apply to MPC controllers, not {name}")
         return controller(name, robot, trajectory, settings)
-    return mpc_controller(name, robot, trajectory, settings, spec.weights, spec.delay_ticks)
+    plant = _plant(spec.plant)
+    ramp = isinstance(PLANT_PRESETS.get(plant) if isinstance(plant, str) else plant,
+                      MotorPlantConfig)
+    return mpc_controller(name, robot, trajectory, settings, spec.weights, spec.delay_ticks,
+                          command_ramp=ramp)
 
 
 def _plant(spec: str | Mapping[str, Any]) -> str | PlantConfig:

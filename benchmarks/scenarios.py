@@ -230,7 +230,8 @@ _MPC: dict[str, tuple[str, str]] = {
 
 
 def mpc_controller(name: str, robot: Robot, trajectory: Trajectory, settings: Settings,
-                   weights: Mapping[str, Any] | None = None, delay_ticks: int = 0) -> Controller:
+                   weights: Mapping[str, Any] | None = None, delay_ticks: int = 0,
+                   command_ramp: bool = False) -> Controller:
     """The MPC controller ``name`` (a key of ``_MPC``); ``weights`` override its own."""
     solver, mode = _MPC[name]
     sides = settings.polygon_sides if robot.kind == "swerve" and solver != "ipopt" else None
@@ -238,7 +239,8 @@ def mpc_controller(name: str, robot: Robot, trajectory: Trajectory, settings: Se
     if chosen is None and name == "mpc-tuned":
         chosen = tuned_weights(robot.name)
     return Controller(robot, trajectory, settings.horizon, settings.dt, solver=solver,
-                      weights=chosen, mode=mode, polygon_sides=sides, delay_ticks=delay_ticks)
+                      weights=chosen, mode=mode, polygon_sides=sides, delay_ticks=delay_ticks,
+                      command_ramp=command_ramp)
 
 
 def check_plan_sizes(robots: Mapping[str, Robot], controllers: list[str],

@@ -207,3 +207,18 @@ def test_out_and_back_runs_on_worker_processes() -> None:
     result, _ = execute(spec)
     assert "error" not in result, result.get("error")
     assert result["metrics"]["limit_violations"] == 0
+
+
+def test_mpcs_on_the_motor_plant_are_told_the_wheel_loops_ramp() -> None:
+    """The motor plant ramps each command over the tick: a benchmark MPC there plans for
+    it (``command_ramp``); on the other plants it does not."""
+    from benchmarks.executor import build_controller, build_robot, build_trajectory
+
+    shape = {"shape": "circle", "heading": "fixed", "period": 8.0}
+    for plant, ramp in (("motor", True), ("ideal", False), ("realistic", False),
+                        ({"motor_lag": 0.03}, False)):
+        spec = RunSpec(robot={"motor_preset": "omni3"}, trajectory=shape,
+                       controller="mpc-daqp", plant=plant)
+        robot = build_robot(spec.robot)
+        control = build_controller(spec, robot, build_trajectory(shape, robot))
+        assert isinstance(control, Controller) and control.command_ramp is ramp
