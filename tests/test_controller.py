@@ -479,23 +479,37 @@ def test_reset_keeps_a_measured_twist_that_a_failed_wheel_reads_as_rounding() ->
     assert np.linalg.norm(controller._last) > 0.1
 
 
-def test_only_the_first_tick_is_solved_again(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A failed first tick (its guess the reference's) is solved once more from the held
-    command; later failed ticks are not (each a single solve, the work per tick bounded)."""
+def test_only_ticks_from_a_cold_guess_are_solved_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A tick that fails from a cold guess (the reference's: the first tick, every tick
+    after a failed one) is solved once more from the held command; a tick that fails from
+    the last plan is not (at most two solves a tick, one from a warm guess)."""
     controller = Controller(preset("mecanum"), Circle(0.5, 10.0))
-    calls: list[int] = []
+    calls: list[bool] = []
+    fail: set[int] = set()
     solve = controller.solver.solve
 
     def failing(tick: Any) -> Any:
-        calls.append(1)
-        return dataclasses.replace(solve(tick), success=False, status="injected")
+        calls.append(True)
+        result = solve(tick)
+        if len(calls) - 1 in fail:
+            return dataclasses.replace(result, success=False, status="injected")
+        return result
 
     monkeypatch.setattr(controller.solver, "solve", failing)
     pose = controller.trajectory.sample(0.0).pose
+    fail.update(range(100))  # every solve fails: each tick is cold, each solved twice
     for k in range(5):
         controller.step(pose, 0.05 * k)
-    assert len(calls) == 6  # the first tick twice, the next four once each
+    assert len(calls) == 10
     controller.reset()
     calls.clear()
-    controller.step(pose, 0.0)
-    assert len(calls) == 2  # first again after reset()
+    fail.clear()
+    fail.add(2)  # tick 0 cold and solved, tick 1 warm, tick 2 warm and fails: no second solve
+    statuses = [controller.step(pose, 0.05 * k).status for k in range(4)]
+    assert statuses[:2] == [Status.SOLVED, Status.SOLVED] and statuses[2] is not Status.SOLVED
+    assert statuses[3] is Status.SOLVED and len(calls) == 4  # tick 3 cold, solved at once
+    fail.clear()
+    calls.clear()
+    controller.reset()
+    fail.add(0)  # after reset() the first tick is cold: failed, then solved again
+    assert controller.step(pose, 0.0).status is Status.SOLVED and len(calls) == 2

@@ -317,3 +317,21 @@ def test_traction_polygon_is_exact_along_the_planned_force(heading: float) -> No
                   for c in range(forces.n_contacts))
     assert within(by_hand * (1 - 1e-9))
     assert not within(by_hand * (1 + 1e-6))
+
+
+def test_a_tick_after_a_failure_is_solved_from_the_robots_own_motion() -> None:
+    """After a failed tick the guess is the reference's twists. A swerve robot behind a
+    3 m circle at 100 % of its motor model: a guess that jumps from the robot's speed to
+    the reference's draws more power than the battery has, the bus read off it is half the
+    battery's and the voltage rows exclude the robot's own speed (infeasible, tick after
+    tick: 169 fallback ticks of 202 measured). Solved again from the last command held,
+    the run keeps planning (1 fallback tick) within every motor limit."""
+    from benchmarks.motors import motor_reference
+
+    robot = motor_preset("swerve")
+    reference = motor_reference("circle", robot, 1.0, 3.0, "fixed")
+    result = simulate(Controller(robot, reference, horizon=20, dt=0.05, command_ramp=True),
+                      4.0, plant="motor")
+    metrics = result.metrics()
+    assert metrics["failures"] <= 3
+    assert metrics["voltage_violations"] == 0

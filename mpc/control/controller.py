@@ -105,9 +105,10 @@ class Controller:
             16 sides). IPOPT uses the exact disks.
         max_iter: solver iterations per tick at most (default 1000 daqp, 500 OSQP,
             100 IPOPT).
-        time_limit: solver time per tick at most [s]; 0 for none. Without either, the
-            first tick (after construction or :meth:`reset`), if it fails from its guess
-            (the reference's twists), is solved once more from the last command held.
+        time_limit: solver time per tick at most [s]; 0 for none. Without either, a tick
+            that fails from a cold guess (the reference's twists: the first tick after
+            construction or :meth:`reset`, and every tick after a failed one) is solved
+            once more from the last command held.
         delay_ticks: known command latency in whole ticks; the controller
             predicts the pose forward through the commands already sent.
         command_ramp: the drive ramps each command from the last one over the tick (a
@@ -176,7 +177,6 @@ class Controller:
         self._profile: TickProfile | None = None
         self._tick = TickInput(self.model.layouts)
         self._warm = WarmStart(self._tick, self.model.offsets, self.dt)
-        self._first = True  # the first tick after construction or reset()
         self._fallback = FallbackPolicy(robot, self.model.offsets, self.dt)
         self._delay = DelayCompensator(self.delay_ticks, self.dt, self.command_ramp)
         self._last = np.zeros(3)  # the last command's twist; reset() sets these
@@ -261,7 +261,6 @@ class Controller:
         self._fallback.reset()
         self._timing.reset()
         self.solver.reset()
-        self._first = True
 
     @checked_arguments(ControllerError)
     def step(self, pose: ArrayLike, t: float, steer_angles: ArrayLike | None = None) -> Command:
@@ -334,17 +333,19 @@ class Controller:
             tick.steer_angles[:] = self._steer
         if profile is not None:
             profile.mark("reference")
+        cold = self._warm.cold
         self._warm.fill(x0)
         if profile is not None:
             profile.mark("warm start")
         result = self.solver.solve(tick)
-        first, self._first = self._first, False
-        if not result.success and first and not self._budgeted:
-            # The first tick's guess is the reference's twists: far from a robot at rest
-            # under a reference at full speed, the limits linearised there can be an empty
-            # set (the omni-3 motor preset's first tick). Solve it again from the last
-            # command held (once: the first tick after construction or reset() only, and
-            # not with a time or iteration budget, which it would spend twice).
+        if not result.success and cold and not self._budgeted:
+            # A cold guess is the reference's twists: far from a robot that lags the
+            # reference (at rest at the first tick, or behind it after a failure), the
+            # limits linearised there can be an empty set (the omni-3 motor preset's first
+            # tick; a motor plan whose guess jumps to the reference draws more power than
+            # the battery has, and its voltage rows then exclude the robot's own speed).
+            # Solve it again from the last command held (not with a time or iteration
+            # budget, which it would spend twice).
             self._warm.hold(self._last)
             self.solver.reset()
             result = self.solver.solve(tick)

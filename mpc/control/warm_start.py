@@ -29,6 +29,11 @@ class WarmStart:
         """Forget the plan: the next guess is the reference."""
         self._plan = None
 
+    @property
+    def cold(self) -> bool:
+        """Whether the next guess is the reference (no plan kept)."""
+        return self._plan is None
+
     def hold(self, twist: FloatArray) -> None:
         """Make the guess's twists ``twist`` (3,) at every stage (its poses stay): a guess
         at the robot's own motion, for a solve that failed from the reference's."""

@@ -3,8 +3,9 @@
 Each wheel's motor controller runs a velocity loop on the command: the setpoint ramps
 from the last commanded wheel speed to this one over the tick (a constant acceleration,
 as the motor-aware rows plan it; a first-order hold, which a controller built with
-``Controller(command_ramp=True)`` plans from half a tick ahead for), and the voltage is the feedforward for the setpoint's
-speed and the tick's torque plus proportional feedback::
+``Controller(command_ramp=True)`` plans for from half a tick ahead), and the voltage is
+the feedforward for the setpoint's speed and the tick's torque plus proportional
+feedback::
 
     V_demand = w_set / kv + R T_ff / kt + velocity_gain (w_set - w)
 
