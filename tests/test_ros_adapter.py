@@ -342,3 +342,33 @@ def test_a_plan_after_a_pause_starts_from_rest(monkeypatch: pytest.MonkeyPatch) 
     start = follower.trajectory.sample(0.0)
     assert float(np.hypot(*start.velocity[:2])) == 0.0
     np.testing.assert_allclose(start.pose, [1.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_a_first_plan_for_a_robot_under_way_takes_its_measured_speed() -> None:
+    """A Nav2Controller switched in while the robot moves: its first plan has no command to
+    read the speed from and is timed from rest; the first measured velocity along it times
+    it again from that speed, so the robot keeps its pace (with no velocity given, the plan
+    stays timed from rest and the robot is braked to its start)."""
+    robot = preset("mecanum")
+    speeds: dict[bool, list[float]] = {}
+    for given in (True, False):
+        follower = Nav2Controller(robot, dt=DT, max_speed=1.0)
+        plant = Plant(robot, DT, np.zeros(3), PlantConfig(), np.random.default_rng(0))
+        follower.set_plan(path_message(straight_poses(0.0)))
+        assert float(np.hypot(*follower.trajectory.sample(0.0).velocity[:2])) == 0.0
+        speeds[given] = []
+        twist = np.array([1.0, 0.0, 0.0])  # under way at 1 m/s along the path
+        for k in range(30):
+            x, y, theta = (float(v) for v in plant.pose)
+            moving = twist_message(twist) if given else None
+            follower.compute_velocity_commands(pose_stamped(x, y, theta, EPOCH + k * 50_000_000),
+                                               moving)
+            assert follower.last_command is not None
+            plant.apply(follower.last_command)  # the ideal plant: at the command at once
+            twist = follower.last_command.twist
+            speeds[given].append(float(twist[0]))
+        if given:
+            start = follower.trajectory.sample(0.0)
+            assert float(np.hypot(*start.velocity[:2])) == pytest.approx(1.0, rel=1e-3)
+    assert min(speeds[True]) > 0.97
+    assert min(speeds[False]) < 0.5
