@@ -660,7 +660,8 @@ def test_retimed_steered_modules_turn_within_their_steering_rate(name: str, path
                                 max_wheel_speed=robot.max_wheel_speed,
                                 max_wheel_accel=robot.max_wheel_accel)  # no steering limits
     unlimited = time_optimal(source, unsteered, samples=400)
-    assert retimed.lap_time > 1.02 * unlimited.lap_time  # the steering limits bind
+    # the steering limits bind (measured 1.018x on the swerve, 1.16x and 1.26x on casters)
+    assert retimed.lap_time > 1.01 * unlimited.lap_time
     assert feasibility(unlimited, robot).steer_ratio > 1.3  # ... which ignoring them breaks
     times = np.linspace(0.0, retimed.lap_time, 40001)
     rates, speeds = _module_turn_rates(retimed, robot, times)
@@ -704,12 +705,47 @@ def test_a_spinning_heading_does_not_stretch_the_lap_at_the_steering_floor() -> 
     """The steering demand is continuous at the floor (``min(rate / limit, speed /
     floor)``): a module just over its floor between grid points used to count its whole
     turn rate, and that one spike scaled a caster's spinning figure-eight to 11x its solver
-    lap (49.8 against 4.39 s)."""
+    lap (49.8 against 4.39 s). What the check still finds between grid points is repaired
+    where it is (1.17x the solver lap when the whole lap was scaled for it; 1.007x)."""
     from trajectories import SpinHeading
 
     retimed = time_optimal(FigureEight(0.5, 10.0, heading=SpinHeading(0.75)), preset("caster4"))
     assert retimed.info is not None
-    assert retimed.info.stretch < 1.3
+    assert retimed.info.stretch < 1.02
+
+
+def test_a_knot_inside_a_cell_is_repaired_where_it_is(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A monotone (PCHIP) interpolant through a 3 m line that ends by turning in place: its
+    curvature jumps at the knot where the turn begins (x'' about -80 before, 0 after),
+    inside a grid cell, and the cell's acceleration between grid points is 3x the limit.
+    Scaling the whole lap for it doubled the lap (8.94 against 4.48 s); bounding that
+    cell's speeds and solving again costs 0.9 %, and the timing stays within every limit
+    (checked by :func:`feasibility` on its own samples)."""
+    from scipy.interpolate import PchipInterpolator
+
+    import trajectories.retiming as retiming
+    from trajectories import SampledTrajectory
+
+    robot = preset("mecanum")
+    poses = np.stack([np.linspace(0.0, 3.0, 61), np.zeros(61), np.zeros(61)], axis=1)
+    poses = np.vstack([poses, [3.0, 0.0, math.pi / 2]])
+    steps = np.diff(poses, axis=0)
+    lengths = np.hypot(np.hypot(steps[:, 0], steps[:, 1]), 0.3 * steps[:, 2])
+    times = np.concatenate(([0.0], np.cumsum(lengths)))
+    path = SampledTrajectory(times, poses, PchipInterpolator(times, poses, axis=0)(times, 1))
+    retimed = time_optimal(path, robot, periodic=False, max_speed=1.0)
+    assert retimed.info is not None and retimed.info.repairs >= 1
+    assert retimed.info.stretch < 1.02
+    assert feasibility(retimed, robot, samples=20001).peak_ratio <= 1.0 + 1e-6
+    times = np.linspace(0.0, retimed.lap_time, 40001)  # wheel accelerations by differences
+    wheels = retimed.body_twist(times) @ robot.wheel_blocks[:, 0].T
+    accel = np.abs(np.diff(wheels, axis=0)) / np.diff(times)[:, None]
+    assert robot.max_wheel_accel is not None
+    assert (accel <= robot.max_wheel_accel * 1.01).all()
+    monkeypatch.setattr(retiming, "MAX_REPAIRS", 0)
+    scaled = time_optimal(path, robot, periodic=False, max_speed=1.0)
+    assert scaled.info is not None and scaled.info.repairs == 0
+    assert scaled.lap_time > 1.5 * retimed.lap_time
     assert retimed.info.steer_demand <= 1.0 + 1e-9
 
 
@@ -724,3 +760,25 @@ def test_a_failed_module_is_not_held_to_its_steering_rate() -> None:
     assert feasibility(pivot, failed).steer_ratio < 1e-9
     assert time_optimal(pivot, failed).lap_time == pytest.approx(
         time_optimal(pivot, robot.derated({0: 1e-6})).lap_time, rel=1e-6)
+
+
+@pytest.mark.parametrize("name", ["mecanum", "swerve"])
+def test_a_sampled_path_without_accelerations_is_checked_at_its_knots(name: str) -> None:
+    """Samples joined by cubic Hermite pieces (no accelerations given: C1) have an
+    acceleration that jumps at every sample; the check takes each knot from both sides, so
+    the timing keeps the wheel accelerations within their limits there too (finite
+    differences of the retimed wheel velocities; measured 1.0016x and 1.0026x the limit
+    when the uniform check grid straddled the knots)."""
+    from trajectories import SampledTrajectory
+
+    source = FigureEight(1.0, 10.0, heading="tangent")
+    times = np.linspace(0.0, 10.0, 21)
+    sample = source.sample(times)
+    path = SampledTrajectory(times, sample.pose, sample.velocity)
+    robot = preset(name)
+    retimed = time_optimal(path, robot, periodic=False)
+    t = np.linspace(0.0, retimed.lap_time, 200001)
+    velocities = np.einsum("ndj,kj->knd", robot.wheel_blocks, retimed.body_twist(t))
+    accel = np.linalg.norm(np.diff(velocities, axis=0), axis=2) / np.diff(t)[:, None]
+    assert robot.max_wheel_accel is not None
+    assert (accel / robot.max_wheel_accel).max() <= 1.0 + 2e-4

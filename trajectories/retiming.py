@@ -28,9 +28,12 @@ a convex second-order cone program (Verscheure et al., IEEE TAC 2009) whose
 objective is exactly the lap time of the piecewise-constant-sddot timing;
 :mod:`trajectories.retiming_problem` solves it with clarabel. Between grid
 points the limits are then measured on a grid ``REFINEMENT`` times finer (at
-least ``MIN_CHECK_POINTS`` points a lap), and b and a are scaled by one factor
-lambda (time stretched by 1 / sqrt(lambda)) so that every limit holds there,
-less a relative margin ``MARGIN``.
+least ``MIN_CHECK_POINTS`` points a lap; a sampled path without accelerations also at
+each knot, from both sides). A cell asked for more than ``REPAIR_ABOVE`` times a limit
+there (a knot where the path's curvature jumps, inside a cell) gets its ends' b bounded
+to what brings it within, and the program is solved again (at most ``MAX_REPAIRS``
+times); then b and a are scaled by one factor lambda (time stretched by
+1 / sqrt(lambda)) so that every limit holds, less a relative margin ``MARGIN``.
 
 In cell k, from its start time t_k: sddot = a_k, sdot = sqrt(b_k) + a_k tau and
 s = s_k + sqrt(b_k) tau + a_k tau^2 / 2 (tau = t - t_k), and the cell lasts
@@ -54,13 +57,14 @@ from .errors import TrajectoryError
 from .retiming_problem import (
     Limits,
     PathGeometry,
+    cell_demands,
     lap_time,
     path_geometry,
-    peak_demand,
     solve_lap,
     speed_bound,
 )
 from .retiming_trajectory import PhaseGrid, RetimedTrajectory, RetimingInfo
+from .sampled import SampledTrajectory
 
 __all__ = [
     "DEFAULT_SAMPLES",
@@ -89,6 +93,14 @@ MIN_CHECK_POINTS = 16384
 #: Relative margin left below every limit on the check grid (rounding, and the
 #: second-order excess between its points).
 MARGIN = 1e-7
+#: A cell whose demand between grid points exceeds this (a knot of a piecewise path, where
+#: its curvature jumps, inside a cell) has its ends' speeds bounded to bring it within
+#: the limits and the cone program solved again (at most ``MAX_REPAIRS`` times); what is
+#: left over is taken off the whole lap by one factor.
+REPAIR_ABOVE = 1.01
+MAX_REPAIRS = 4
+#: A sampled path's knots are also checked this far (relative to its span) to each side.
+KNOT_SIDE = 1e-9
 _STILL_TWIST = 1e-12  # [m per s of the source] below this the path does not move
 
 
@@ -170,37 +182,79 @@ def time_optimal(
             f"{start + span!r}] s: a path of zero length has no time-optimal timing"
         )
     coarse = PathGeometry(*(array[::refine] for array in fine))
+    knots = _knot_points(source, start, span)
     bound = speed_bound(limits, coarse)
     start_b = _start_b(start_speed, steady, coarse)
     solution = solve_lap(coarse, limits, bound, steady, start_b)
-    b = solution.b
-    # the solver meets its equality rows to its tolerance: make the ends exact
-    if steady:
-        b[0] = b[-1] = min(b[0], b[-1])
-    else:
-        b[0], b[-1] = min(b[0], start_b), 0.0
+    b = _exact_ends(solution.b, steady, start_b)
     solver_lap = lap_time(coarse.s, b)
-    speed, accel, steer = peak_demand(fine, limits, b)
-    # all scale with b: speed and steering with sqrt(b), acceleration with b
-    demand = max(speed * speed, accel, steer * steer)
+    iterations, solve_time, build_time = (solution.iterations, solution.solve_time,
+                                          solution.build_time)
+    repairs = 0
+    while True:
+        speed, accel, steer = cell_demands(fine, limits, b, knots)
+        # all scale with b: speed and steering with sqrt(b), acceleration with b
+        cells_demand = np.maximum(np.maximum(speed * speed, accel), steer * steer)
+        over = np.flatnonzero(cells_demand > REPAIR_ABOVE)
+        if over.size == 0 or repairs == MAX_REPAIRS or not np.isfinite(cells_demand).all():
+            break
+        # the cells over their limits between grid points (a curvature that jumps inside a
+        # cell): their ends' b bounded by what would bring them to the limit, solved again
+        bound = bound.copy()
+        np.minimum.at(bound, over, b[over] / cells_demand[over])
+        np.minimum.at(bound, over + 1, b[over + 1] / cells_demand[over])
+        solution = solve_lap(coarse, limits, bound, steady, start_b)
+        b = _exact_ends(solution.b, steady, start_b)
+        iterations += solution.iterations
+        solve_time += solution.solve_time
+        build_time += solution.build_time
+        repairs += 1
+    peak_speed, peak_accel, peak_steer = (float(speed.max()), float(accel.max()),
+                                          float(steer.max()))
+    demand = max(peak_speed * peak_speed, peak_accel, peak_steer * peak_steer)
     if not (demand > 0.0 and math.isfinite(demand)):
         raise TrajectoryError(f"the retiming cone program returned an unusable timing (peak "
-                              f"speed demand {shown(speed)}, acceleration demand {shown(accel)}"
-                              f", steering demand {shown(steer)})")
+                              f"speed demand {shown(peak_speed)}, acceleration demand "
+                              f"{shown(peak_accel)}, steering demand {shown(peak_steer)})")
     factor = (1.0 - MARGIN) / demand
     b *= factor
     info = RetimingInfo(
         status=solution.status,
-        iterations=solution.iterations,
-        solve_time=solution.solve_time,
-        build_time=solution.build_time,
+        iterations=iterations,
+        solve_time=solve_time,
+        build_time=build_time,
         solver_lap_time=solver_lap,
-        stretch=1.0 / math.sqrt(factor),
-        speed_demand=speed * math.sqrt(factor),
-        accel_demand=accel * factor,
-        steer_demand=steer * math.sqrt(factor),
+        stretch=lap_time(coarse.s, b) / solver_lap,
+        speed_demand=peak_speed * math.sqrt(factor),
+        accel_demand=peak_accel * factor,
+        steer_demand=peak_steer * math.sqrt(factor),
+        repairs=repairs,
     )
     return RetimedTrajectory(source, coarse.s, np.sqrt(b), periodic=steady, info=info)
+
+
+def _knot_points(source: Trajectory, start: float, span: float) -> PathGeometry | None:
+    """The geometry just before and just after each knot inside the path of a sampled
+    trajectory without accelerations (cubic Hermite pieces: C1, its acceleration jumps at
+    the samples, which the uniform check grid would straddle), or None."""
+    if not isinstance(source, SampledTrajectory) or source.accelerations is not None:
+        return None
+    knots = source.times[(source.times > start) & (source.times < start + span)]
+    if knots.size == 0:
+        return None
+    side = KNOT_SIDE * span
+    both = np.concatenate([knots - side, knots + side])
+    return path_geometry(source, np.sort(np.clip(both, start, start + span)))
+
+
+def _exact_ends(b: FloatArray, steady: bool, start_b: float) -> FloatArray:
+    """``b`` with its ends exact (the solver meets its equality rows to its tolerance):
+    steady laps the same at both ends, one pass at most ``start_b`` and at rest at its end."""
+    if steady:
+        b[0] = b[-1] = min(b[0], b[-1])
+    else:
+        b[0], b[-1] = min(b[0], start_b), 0.0
+    return b
 
 
 def _checked_path(path: Any, periodic: Any) -> tuple[Trajectory, bool, float, float]:

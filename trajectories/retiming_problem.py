@@ -4,7 +4,7 @@ The math is stated once, in :mod:`trajectories.retiming`. Here, in its symbols:
 :func:`path_geometry` gives g(s) and h(s) = dg/ds on a grid, :class:`Limits`
 measures demands against the robot's limits, :func:`solve_lap` solves the
 second-order cone program for b = sdot^2 on the grid (with clarabel) and
-:func:`peak_demand` measures the interpolated timing between grid points.
+:func:`cell_demands` measures the interpolated timing between grid points.
 """
 
 from __future__ import annotations
@@ -285,17 +285,19 @@ def _time_cones(cones: _Rows, offsets: dict[str, int], m: int) -> None:
     cones.cones += [clarabel.SecondOrderConeT(3)] * (2 * m - 1)
 
 
-def peak_demand(fine: PathGeometry, limits: Limits,
-                b: FloatArray) -> tuple[float, float, float]:
-    """Peak speed, acceleration and steering demand (1 = at a limit) of the timing ``b``
-    between grid points.
+def cell_demands(fine: PathGeometry, limits: Limits, b: FloatArray,
+                 points: PathGeometry | None = None
+                 ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Each coarse cell's peak speed, acceleration and steering demand (cells,) (1 = at a
+    limit) of the timing ``b`` between grid points.
 
     ``b`` is sdot^2 on a coarse grid whose points are every r-th point of
     ``fine`` (r = refinement); inside each cell b is linear in s (constant
     sddot = a_k), as the retimed trajectory interpolates it. The speed demand
     is the largest ratio at sdot = sqrt(b); the acceleration demand uses the
     cell's own a_k at both of its ends, so a grid point is checked with both
-    neighbouring cells.
+    neighbouring cells. ``points``: more places to check, anywhere in the span (a
+    piecewise path's knots, from both sides: its acceleration may jump there).
     """
     cells = b.size - 1
     refine = (fine.s.size - 1) // cells
@@ -308,8 +310,19 @@ def peak_demand(fine: PathGeometry, limits: Limits,
     a = np.repeat(np.diff(b) / (2.0 * step), refine + 1)
     inside = PathGeometry(fine.s[index].ravel(), fine.twist[index].reshape(-1, 3),
                           fine.twist_rate[index].reshape(-1, 3))
-    accel = limits.accel_demand(inside, b_inside.ravel(), a)
-    return float(speed.max()), float(accel.max()), float(steer.max())
+    accel = limits.accel_demand(inside, b_inside.ravel(), a).reshape(cells, refine + 1)
+    peaks = speed.max(axis=1), accel.max(axis=1), steer.max(axis=1)
+    if points is not None and points.s.size:
+        where = (points.s - fine.s[0]) / step
+        cell = np.clip(np.floor(where).astype(np.intp), 0, cells - 1)
+        b_at = b[cell] + (b[cell + 1] - b[cell]) * np.clip(where - cell, 0.0, 1.0)
+        rate = np.sqrt(b_at)
+        at_points = (limits.speed_demand(points.twist) * rate,
+                     limits.accel_demand(points, b_at, (b[cell + 1] - b[cell]) / (2.0 * step)),
+                     limits.steer_demand(points) * rate)
+        for peak, value in zip(peaks, at_points, strict=True):
+            np.maximum.at(peak, cell, value)
+    return peaks
 
 def lap_time(s: FloatArray, b: FloatArray) -> float:
     """Lap time [s] of b = sdot^2 on the grid s: sum 2 ds / (sqrt(b_k) + sqrt(b_k+1))."""

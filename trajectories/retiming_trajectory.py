@@ -39,11 +39,13 @@ class RetimingInfo:
 
     ``status`` and ``iterations`` are clarabel's; ``solve_time`` [s] its own
     timer, ``build_time`` [s] assembling the problem; ``solver_lap_time`` [s]
-    the cone program's lap; ``stretch`` = lap time / solver lap time (>= 1 when
-    the check between grid points slowed the timing down); ``speed_demand``,
-    ``accel_demand`` and ``steer_demand`` (steered modules' turn rate,
-    :mod:`trajectories.steering`; 0 without) the peaks (1 = at a limit) on the check
-    grid after it.
+    the cone program's lap (its first solve); ``stretch`` = lap time / solver lap time
+    (>= 1 when the check between grid points slowed the timing down); ``repairs``: how
+    often the cone program was solved again with its speeds bounded in cells the check
+    found over their limits (``iterations``, ``solve_time`` and ``build_time`` count
+    every solve); ``speed_demand``, ``accel_demand`` and ``steer_demand`` (steered
+    modules' turn rate, :mod:`trajectories.steering`; 0 without) the peaks (1 = at a
+    limit) on the check grid after it.
     """
 
     status: str
@@ -55,6 +57,7 @@ class RetimingInfo:
     speed_demand: float
     accel_demand: float
     steer_demand: float = 0.0
+    repairs: int = 0
 
 
 class _PhaseTiming:
