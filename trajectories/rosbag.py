@@ -6,7 +6,9 @@ sqlite3 or MCAP storage; no ROS install), an optional extra: ``pip install
 
 - A **Path** holds poses only. :func:`path_reference` joins them by natural cubic splines
   of x, y and the unwrapped yaw in the path parameter ``s`` [m] (chord length, a turn
-  counting ``turn_length`` metres per radian, so turning in place takes time too) and
+  counting ``turn_length`` metres per radian, so turning in place takes time too; where
+  two poses differ in yaw only, the position is held between them, and the yaw along a
+  run of poses with one yaw: the splines would swing past them there) and
   times them: with ``robot=`` by :func:`~trajectories.time_optimal` (rest to rest, the
   fastest timing inside the robot's exact wheel limits, optionally capped at
   ``max_speed``), or with ``speed=`` at that constant rate of ``s`` [m/s] (no limits
@@ -158,8 +160,22 @@ def _spline_through(poses: npt.ArrayLike, speed: float, turn_length: float,
         raise TrajectoryError(f"a path needs at least 2 distinct poses, got {keep.sum()} "
                               f"distinct of {len(table)}")
     times = np.concatenate(([0.0], np.cumsum(lengths[keep[1:]]))) / speed
-    spline = CubicSpline(times, table[keep], bc_type="natural", axis=0)
-    return SampledTrajectory(times, table[keep], spline(times, 1), heading=heading)
+    kept = table[keep]
+    slopes = CubicSpline(times, kept, bc_type="natural", axis=0)(times, 1)
+    # Where the robot turns in place the position stays put in between, and along a run of
+    # poses with one yaw the yaw does: the splines would swing past the poses there (14 cm
+    # beyond a goal that ends by turning). One interval of equal yaw is not a run: the two
+    # sides of a symmetric turn.
+    steps = np.diff(kept, axis=0)
+    turning = np.flatnonzero(np.hypot(steps[:, 0], steps[:, 1]) <= _SAME_POSE)
+    slopes[turning, :2] = 0.0
+    slopes[turning + 1, :2] = 0.0
+    level = np.abs(steps[:, 2]) <= _SAME_POSE
+    run = np.flatnonzero(level & (np.concatenate(([False], level[:-1]))
+                                  | np.concatenate((level[1:], [False]))))
+    slopes[run, 2] = 0.0
+    slopes[run + 1, 2] = 0.0
+    return SampledTrajectory(times, kept, slopes, heading=heading)
 
 
 def odometry_reference(messages: Sequence[Any], *, use_twist: bool = True) -> SampledTrajectory:
