@@ -204,11 +204,13 @@ def test_path_at_constant_speed_and_heading_choice(tmp_path: Path) -> None:
     assert tangent.sample(1.0).pose[2] == pytest.approx(math.atan2(velocity[1], velocity[0]))
 
 
-def test_a_path_that_ends_by_turning_in_place_stops_at_its_goal() -> None:
-    """nav2's last pose often only turns to the goal's yaw. The splines through a 3 m line
-    and that turn swung 14 cm past the goal and back (measured); the position is held
-    where two poses differ in yaw only, so the robot stops at the goal and turns there."""
-    line = np.stack([np.linspace(0.0, 3.0, 61), np.zeros(61), np.zeros(61)], axis=1)
+@pytest.mark.parametrize("gap", [0.0, 1e-6, 0.05])
+def test_a_path_that_ends_by_turning_in_place_stops_at_its_goal(gap: float) -> None:
+    """nav2's last pose often only turns to the goal's yaw (at the last pose, or a little
+    past it). The splines through a 3 m line and that turn swung 14 cm past the goal and
+    back (measured); the position is held where a step mostly turns, so the robot stops at
+    the goal and turns there."""
+    line = np.stack([np.linspace(0.0, 3.0 - gap, 61), np.zeros(61), np.zeros(61)], axis=1)
     poses = np.vstack([line, [3.0, 0.0, math.pi / 2]])
     robot = preset("mecanum")
     reference = path_reference(poses, robot=robot, max_speed=1.0, samples=128)
@@ -218,7 +220,7 @@ def test_a_path_that_ends_by_turning_in_place_stops_at_its_goal() -> None:
     np.testing.assert_allclose(dense.pose[-1], [3.0, 0.0, math.pi / 2], atol=1e-12)
     assert feasibility(reference, robot, samples=4001).peak_ratio <= 1.0 + 1e-6
     turning = dense.pose[:, 2] > 1e-6  # from where the yaw moves, the position holds
-    np.testing.assert_allclose(dense.pose[turning, 0], 3.0, atol=1e-12)
+    assert dense.pose[turning, 0].min() >= 3.0 - gap - 1e-12
 
 
 def test_odometry_stream_becomes_a_timed_reference(tmp_path: Path, run: SimResult) -> None:

@@ -712,9 +712,10 @@ def test_a_spinning_heading_does_not_stretch_the_lap_at_the_steering_floor() -> 
     retimed = time_optimal(FigureEight(0.5, 10.0, heading=SpinHeading(0.75)), preset("caster4"))
     assert retimed.info is not None
     assert retimed.info.stretch < 1.02
+    assert retimed.info.steer_demand <= 1.0 + 1e-9
 
 
-def test_a_knot_inside_a_cell_is_repaired_where_it_is(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_knot_inside_a_cell_is_repaired_where_it_is() -> None:
     """A monotone (PCHIP) interpolant through a 3 m line that ends by turning in place: its
     curvature jumps at the knot where the turn begins (x'' about -80 before, 0 after),
     inside a grid cell, and the cell's acceleration between grid points is 3x the limit.
@@ -723,7 +724,6 @@ def test_a_knot_inside_a_cell_is_repaired_where_it_is(monkeypatch: pytest.Monkey
     (checked by :func:`feasibility` on its own samples)."""
     from scipy.interpolate import PchipInterpolator
 
-    import trajectories.retiming as retiming
     from trajectories import SampledTrajectory
 
     robot = preset("mecanum")
@@ -742,11 +742,12 @@ def test_a_knot_inside_a_cell_is_repaired_where_it_is(monkeypatch: pytest.Monkey
     accel = np.abs(np.diff(wheels, axis=0)) / np.diff(times)[:, None]
     assert robot.max_wheel_accel is not None
     assert (accel <= robot.max_wheel_accel * 1.01).all()
-    monkeypatch.setattr(retiming, "MAX_REPAIRS", 0)
-    scaled = time_optimal(path, robot, periodic=False, max_speed=1.0)
+    scaled = time_optimal(path, robot, periodic=False, max_speed=1.0, max_repairs=0)
     assert scaled.info is not None and scaled.info.repairs == 0
     assert scaled.lap_time > 1.5 * retimed.lap_time
-    assert retimed.info.steer_demand <= 1.0 + 1e-9
+    for bad in (-1, 21, 1.5, True):
+        with pytest.raises(TrajectoryError, match="max_repairs must be an integer from 0 to 20"):
+            time_optimal(path, robot, periodic=False, max_repairs=bad)  # type: ignore[arg-type]
 
 
 def test_a_failed_module_is_not_held_to_its_steering_rate() -> None:

@@ -372,3 +372,8 @@ def test_a_first_plan_for_a_robot_under_way_takes_its_measured_speed() -> None:
             assert float(np.hypot(*start.velocity[:2])) == pytest.approx(1.0, rel=1e-3)
     assert min(speeds[True]) > 0.97
     assert min(speeds[False]) < 0.5
+    backwards = Nav2Controller(robot, dt=DT, max_speed=1.0)  # moving away from the path
+    backwards.set_plan(path_message(straight_poses(0.0)))
+    backwards.compute_velocity_commands(pose_stamped(0.0, 0.0, 0.0, EPOCH),
+                                        twist_message([-0.5, 0.0, 0.0]))
+    assert float(np.hypot(*backwards.trajectory.sample(0.0).velocity[:2])) == 0.0

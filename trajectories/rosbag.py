@@ -42,7 +42,7 @@ from ._validation import FloatArray, positive_number, shown
 from .base import Trajectory
 from .errors import TrajectoryError
 from .heading import HeadingSpec
-from .retiming import DEFAULT_SAMPLES, RetimingRobot, time_optimal
+from .retiming import DEFAULT_SAMPLES, MAX_REPAIRS, RetimingRobot, time_optimal
 from .sampled import SampledTrajectory
 
 #: How to install what bag reading and writing need.
@@ -52,6 +52,9 @@ ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
 #: [m/rad] a turn in place counts this much path length per radian.
 TURN_LENGTH = 0.5
 _SAME_POSE = 1e-9  # [m] consecutive poses closer than this (turn included) are one
+#: A step between two poses whose move is under this share of its length (the turn
+#: counting ``turn_length`` per radian), alone among its neighbours, is a turn in place.
+TURN_SHARE = 0.1
 
 
 def require_rosbags() -> None:
@@ -119,15 +122,16 @@ def twist_from_message(message: Any) -> FloatArray:
 def path_reference(poses: npt.ArrayLike, *, robot: RetimingRobot | None = None,
                    speed: float | None = None, heading: HeadingSpec | None = None,
                    max_speed: float | None = None, turn_length: float = TURN_LENGTH,
-                   samples: int = DEFAULT_SAMPLES, start_speed: float = 0.0) -> Trajectory:
+                   samples: int = DEFAULT_SAMPLES, start_speed: float = 0.0,
+                   max_repairs: int = MAX_REPAIRS) -> Trajectory:
     """A timed reference through poses (n, 3) (x, y, yaw) [m, m, rad] (module docstring).
 
     Give exactly one of ``robot`` (time-optimal within its wheel limits; ``max_speed``
     [m/s] caps the path speed, ``samples`` is the retiming grid, ``start_speed`` [m/s] the
-    speed the robot has at the first pose: a new plan for a robot under way, see
-    :func:`~trajectories.time_optimal`) or ``speed`` [m/s] (constant rate of the path
-    parameter). Consecutive duplicate poses are dropped; at least two distinct poses are
-    needed.
+    speed the robot has at the first pose: a new plan for a robot under way, and
+    ``max_repairs`` bounds its re-solves, see :func:`~trajectories.time_optimal`) or
+    ``speed`` [m/s] (constant rate of the path parameter). Consecutive duplicate poses are
+    dropped; at least two distinct poses are needed.
     """
     if (robot is None) == (speed is None):
         raise TrajectoryError("give exactly one of robot= (time-optimal timing within its "
@@ -139,7 +143,7 @@ def path_reference(poses: npt.ArrayLike, *, robot: RetimingRobot | None = None,
     if robot is None:
         return geometry
     return time_optimal(geometry, robot, periodic=False, max_speed=max_speed, samples=samples,
-                        start_speed=start_speed)
+                        start_speed=start_speed, max_repairs=max_repairs)
 
 
 def _spline_through(poses: npt.ArrayLike, speed: float, turn_length: float,
@@ -162,12 +166,19 @@ def _spline_through(poses: npt.ArrayLike, speed: float, turn_length: float,
     times = np.concatenate(([0.0], np.cumsum(lengths[keep[1:]]))) / speed
     kept = table[keep]
     slopes = CubicSpline(times, kept, bc_type="natural", axis=0)(times, 1)
-    # Where the robot turns in place the position stays put in between, and along a run of
-    # poses with one yaw the yaw does: the splines would swing past the poses there (14 cm
-    # beyond a goal that ends by turning). One interval of equal yaw is not a run: the two
-    # sides of a symmetric turn.
+    # Where the robot turns in place the position stays put in between (the position's
+    # slopes 0 at both poses: a monotone piece), and along a run of poses with one yaw the
+    # yaw does: the splines would swing past the poses there (14 cm beyond a goal that ends
+    # by turning). A step that mostly turns (its move under TURN_SHARE of its length) and
+    # stands alone counts as a turn in place (a goal pose a little off the last one); a
+    # run of them is a robot that creeps while it turns, left smooth. One interval of equal
+    # yaw is not a run: the two sides of a symmetric turn.
     steps = np.diff(kept, axis=0)
-    turning = np.flatnonzero(np.hypot(steps[:, 0], steps[:, 1]) <= _SAME_POSE)
+    moves = np.hypot(steps[:, 0], steps[:, 1])
+    mostly = moves < TURN_SHARE * lengths[keep[1:]]
+    alone = mostly & ~np.concatenate(([False], mostly[:-1])) & ~np.concatenate(
+        (mostly[1:], [False]))
+    turning = np.flatnonzero((moves <= _SAME_POSE) | alone)
     slopes[turning, :2] = 0.0
     slopes[turning + 1, :2] = 0.0
     level = np.abs(steps[:, 2]) <= _SAME_POSE

@@ -45,9 +45,10 @@ class Command:
         consecutive_failures: solver failures in a row, this tick included.
         clamped: whether the safety clamp had to change the twist.
         reference_time: the time on the reference the plan starts from [s]: ``t``
-            (plus the known delay) in time mode, the progress along the path in path mode.
-        lag: how far ``reference_time`` trails ``t`` plus the known delay [s] (0 in time
-            mode; in path mode, > 0 while the robot is behind the reference's timing).
+            (plus the known delay, and half a tick with ``command_ramp``) in time mode, the
+            progress along the path in path mode.
+        lag: how far ``reference_time`` trails ``t`` plus that lead [s] (0 in time mode;
+            in path mode, > 0 while the robot is behind the reference's timing).
         steer_rates: casters (robots whose steer angles are states): the steer rates to
             send [rad/s], shape (n,), within their limits; else None.
         predicted_steer_angles: casters: the steer angles along the plan (N+1, n) [rad],

@@ -108,7 +108,8 @@ class Controller:
         time_limit: solver time per tick at most [s]; 0 for none. Without either, a tick
             that fails from a cold guess (the reference's twists: the first tick after
             construction or :meth:`reset`, and every tick after a failed one) is solved
-            once more from the last command held.
+            once more from the last command held: at most two solves a tick, each within
+            the solver's default iterations.
         delay_ticks: known command latency in whole ticks; the controller
             predicts the pose forward through the commands already sent.
         command_ramp: the drive ramps each command from the last one over the tick (a

@@ -11,8 +11,9 @@ Two kinds, both as a shift of where and when the plan starts:
   is the held one half a tick late. So the plan starts half a tick ahead, from the pose
   the robot reaches in half a tick at the twist it moves at now, and on the reference
   half a tick later; its pose at each stage's end is then the robot's at the tick's end
-  plus half a tick (exact for the positions while the heading rate is constant, to second
-  order in ``dt`` otherwise).
+  plus half a tick (exact while the robot does not turn; turning at omega, the ramped
+  position differs by about ``omega |dv| dt^2 / 24``: 0.8 mm at 2 rad/s, a 1 m/s change
+  and dt = 0.1 s).
 """
 
 from __future__ import annotations
