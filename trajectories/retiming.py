@@ -166,7 +166,7 @@ def time_optimal(
         max_repairs: how often at most the cone program is solved again with the speeds
             of cells found over a limit between grid points bounded (0 to 20; 0: the whole
             lap is slowed for them instead). Each costs as long as the first solve; a
-            path snapped to a 5 cm grid took 1.2-1.5x its first solution's lap with one,
+            path snapped to a 5 cm grid took 1.3-1.5x its first solution's lap with one,
             2.0-2.4x with none.
 
     Returns:

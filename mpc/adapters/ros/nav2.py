@@ -248,9 +248,9 @@ class Nav2Controller:
                 the plan was timed from rest for want of a recent command (the first plan,
                 one after a pause) while the robot moves along it faster than
                 :data:`START_SPEED`, to time it again from that speed (not with ``speed=``,
-                whose plans are not timed by the limits; on this call: as
-                long as ``set_plan``: 0.15-0.2 s for 400-1000 poses, up to 0.5 s snapped to a
-                5 cm grid).
+                whose plans are not timed by the limits). That retiming runs in this call
+                and lasts as long as ``set_plan``: 0.15-0.2 s for 400-1000 poses, up to
+                0.5 s for poses snapped to a 5 cm grid.
         """
         if self.controller is None:
             raise ControllerError("no plan yet: call set_plan(path) first")
