@@ -176,18 +176,22 @@ def _spline_through(poses: npt.ArrayLike, speed: float, turn_length: float,
     steps = np.diff(kept, axis=0)
     moves = np.hypot(steps[:, 0], steps[:, 1])
     mostly = moves < TURN_SHARE * lengths[keep[1:]]
-    alone = mostly & ~np.concatenate(([False], mostly[:-1])) & ~np.concatenate(
-        (mostly[1:], [False]))
-    turning = np.flatnonzero((moves <= _SAME_POSE) | alone)
+    turning = np.flatnonzero((moves <= _SAME_POSE) | (mostly & ~_beside(mostly)))
     slopes[turning, :2] = 0.0
     slopes[turning + 1, :2] = 0.0
     level = np.abs(steps[:, 2]) <= _SAME_POSE
-    run = np.flatnonzero(level & (np.concatenate(([False], level[:-1]))
-                                  | np.concatenate((level[1:], [False]))))
+    run = np.flatnonzero(level & _beside(level))
     slopes[run, 2] = 0.0
     slopes[run + 1, 2] = 0.0
     return SampledTrajectory(times, kept, slopes, heading=heading)
 
+
+
+def _beside(mask: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
+    """Whether the step before or after each one is set in ``mask``."""
+    before = np.concatenate(([False], mask[:-1]))
+    after = np.concatenate((mask[1:], [False]))
+    return before | after
 
 def odometry_reference(messages: Sequence[Any], *, use_twist: bool = True) -> SampledTrajectory:
     """A timed reference through ``nav_msgs/Odometry`` messages, clock 0 at the first stamp.
