@@ -783,3 +783,18 @@ def test_a_sampled_path_without_accelerations_is_checked_at_its_knots(name: str)
     accel = np.linalg.norm(np.diff(velocities, axis=0), axis=2) / np.diff(t)[:, None]
     assert robot.max_wheel_accel is not None
     assert (accel / robot.max_wheel_accel).max() <= 1.0 + 2e-4
+
+
+def test_the_retiming_cases_script_measures_what_the_readme_quotes() -> None:
+    """``python -m benchmarks.retiming_cases``: its cheap parts by themselves (the goal
+    overshoot of the plain splines and of path_reference; the steering case), and it takes
+    no options."""
+    from benchmarks import retiming_cases
+
+    lines: list[str] = []
+    overshoot = retiming_cases.goal_overshoot(lines.append)
+    assert overshoot["natural splines"] > 0.1 and overshoot["path_reference"] < 1e-9
+    steered, unsteered, demand = retiming_cases.steering(lines.append)
+    assert steered > 1.2 * unsteered and demand > 2.0
+    assert len(lines) == 3
+    assert retiming_cases.main(["--bogus"]) == 2

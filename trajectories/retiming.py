@@ -167,7 +167,7 @@ def time_optimal(
             of cells found over a limit between grid points bounded (0 to 20; 0: the whole
             lap is slowed for them instead). Each costs as long as the first solve; a
             path snapped to a 5 cm grid took 1.3-1.5x its first solution's lap with one,
-            2.0-2.4x with none.
+            2.0-2.6x with none (``python -m benchmarks.retiming_cases``).
 
     Returns:
         A :class:`RetimedTrajectory` within every limit between grid points

@@ -73,8 +73,8 @@ STALE_TICKS = 5
 
 #: Re-solves of a plan's timing where its check finds cells over a limit
 #: (:func:`~trajectories.time_optimal`'s ``max_repairs``): one, as a plan is timed on the
-#: control thread (0.26-0.46 s for 400-1000 poses snapped to a 5 cm grid, laps 1.6x
-#: quicker than with none; smooth paths need none).
+#: control thread (0.25-0.36 s for 400-1000 poses snapped to a 5 cm grid, laps 1.6-1.8x
+#: quicker than with none; smooth paths need none: ``python -m benchmarks.retiming_cases``).
 PLAN_REPAIRS = 1
 
 #: [m/s] A plan timed from rest is timed again from the first measured velocity along it
@@ -249,8 +249,7 @@ class Nav2Controller:
                 one after a pause) while the robot moves along it faster than
                 :data:`START_SPEED`, to time it again from that speed (not with ``speed=``,
                 whose plans are not timed by the limits). That retiming runs in this call
-                and lasts as long as ``set_plan``: 0.15-0.2 s for 400-1000 poses, up to
-                0.5 s for poses snapped to a 5 cm grid.
+                and lasts as long as ``set_plan`` (see :data:`PLAN_REPAIRS`).
         """
         if self.controller is None:
             raise ControllerError("no plan yet: call set_plan(path) first")
