@@ -150,7 +150,7 @@ DATA = Path(__file__).parent / "data"
         (["--horizon", "400", "--quick"], "--horizon 400: mpc-daqp on "
                                           "robot 'mecanum': horizon must be at most 300"),
         (["--layouts", "swerve", "--horizon", "250", "--polygon-sides", "256"],
-         "--horizon 250 (--polygon-sides 256): mpc-daqp on robot 'swerve': horizon 250 x 1024"),
+         "--horizon 250 (--polygon-sides 256): mpc-daqp on robot 'swerve': horizon 250 x 512"),
         (["tune", "--robot", "nope", "--trials", "2", "--workers", "1"],
          "--robot: unknown robot preset 'nope'"),
         (["sweep", "--runs", "1", "--kinds", "hover"], "--kinds: unknown robot kind hover"),

@@ -466,9 +466,9 @@ def test_retiming_and_feasibility_samples_are_bounded() -> None:
     ({"stage_dt": 1e300}, r"stage_dt must be at most 60 s"),
     ({"horizon": 1000}, r"horizon must be at most 300 with solver='daqp'"),
     ({"horizon": 250, "polygon_sides": 256, "robot": "swerve"},
-     r"horizon 250 x 1024 limit rows a stage \(polygon_sides 256\) makes a dense QP"),
+     r"horizon 250 x 512 limit rows a stage \(polygon_sides 256\) makes a dense QP"),
     ({"horizon": 1000, "polygon_sides": 256, "robot": "swerve", "solver": "osqp"},
-     r"horizon 1000 x 1024 limit rows .* a QP plan has at most 262144"),
+     r"horizon 1000 x 512 limit rows .* a QP plan has at most 262144"),
 ])
 def test_tick_lengths_and_plan_sizes_are_bounded(options: dict[str, Any], message: str) -> None:
     """dt = 1e300 crashed daqp; horizon 1000 on daqp took 87 s for its first tick."""

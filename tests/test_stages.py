@@ -17,6 +17,7 @@ from mpc.model import TickInput, TrackingModel, Weights
 from mpc.model.grid import shift_maps
 from mpc.model.se2 import integrate
 from mpc.robots import preset
+from mpc.robots.limits import outermost
 from mpc.solvers import SolveResult
 from trajectories import Circle, FigureEight
 
@@ -69,9 +70,10 @@ def test_acceleration_limits_allow_each_change_its_own_time(robot_name: str) -> 
     robot = model.robot
     assert robot.max_wheel_accel is not None
     limits = robot.stage_limits(model.change_times, 16)
-    speed_rows = robot.qp_speed_rows(16)
+    speed_rows = outermost(robot.qp_speed_rows(16), robot.max_wheel_speed)
+    accel_rows = outermost(robot.qp_speed_rows(16), robot.max_wheel_accel)
     accel = limits.upper[:, speed_rows.rows.shape[0]:]
-    expected = (speed_rows.scale * robot.max_wheel_accel[speed_rows.wheel])[None, :] \
+    expected = (accel_rows.scale * robot.max_wheel_accel[accel_rows.wheel])[None, :] \
         * model.change_times[:, None]
     np.testing.assert_allclose(accel, expected, rtol=1e-12)
     twists, last = ca.SX.sym("u", 3, HORIZON), ca.SX.sym("last", 3)

@@ -12,6 +12,7 @@ import pytest
 from benchmarks.perf import SPEEDS, reference
 from mpc import Controller
 from mpc.robots import SwerveRobot, preset
+from mpc.robots.limits import SpeedRows, outermost
 from mpc.robots.swerve_limits import (
     ACCEL_SIDES,
     FACE_ANGLES,
@@ -34,7 +35,8 @@ def test_the_middle_face_is_the_disk_tangent_at_the_guess_and_the_rows_are_two_s
     change_times = np.full(3, DT)
     limits = linearised_stage_limits(robot, change_times)
     faces = face_rows(n, limits.rows)  # (n, FACES): each face's row
-    assert limits.rows == FACES * n + ACCEL_SIDES // 2 * n and not limits.constant
+    # the 16-gon's rows a direction: the modules' two extreme moments (:func:`outermost`)
+    assert limits.rows == FACES * n + ACCEL_SIDES and not limits.constant
     kept = limits.moving
     assert kept is not None
     assert sorted(faces.ravel()) == [*range(kept), *range(limits.rows - limits.guards,
@@ -59,8 +61,9 @@ def test_the_middle_face_is_the_disk_tangent_at_the_guess_and_the_rows_are_two_s
     # along the body x axis).
     np.testing.assert_allclose(limits.now[2, faces[0, middle]], robot.wheel_blocks[0][0],
                                atol=1e-12)
-    # The acceleration rows: the constant polygon on u_k - u_{k-1}, every stage, every tick.
-    polygon = qp_speed_rows(robot, ACCEL_SIDES)
+    # The acceleration rows: the constant polygon on u_k - u_{k-1} (its outermost rows),
+    # every stage, every tick.
+    polygon = outermost(qp_speed_rows(robot, ACCEL_SIDES), robot.max_wheel_accel)
     np.testing.assert_allclose(limits.now[:, accel], np.tile(polygon.rows, (3, 1, 1)))
     np.testing.assert_allclose(limits.before[:, accel], -limits.now[:, accel])
     np.testing.assert_allclose(limits.before[:, faces.ravel()], 0.0)
@@ -232,3 +235,40 @@ def test_the_second_solve_starts_from_the_first_ones_active_rows_or_cold(
     assert warm_command.status.value == cold_command.status.value == "solved"
     assert warm_command.iterations < cold_command.iterations
     np.testing.assert_allclose(warm_command.twist, cold_command.twist, rtol=0.0, atol=1e-9)
+
+
+def test_outermost_keeps_each_directions_extreme_moments_by_hand() -> None:
+    """Rows alike but for the omega coefficient, with the same bound: the least and the
+    greatest hold the rest (a duplicate and a middle one go); other directions, and a
+    row with another bound (a derated wheel), stay; the order is kept."""
+    rows = np.array([[1.0, 0.0, 0.5], [1.0, 0.0, -2.0], [0.0, 1.0, 1.0], [1.0, 0.0, 2.0],
+                     [1.0, 0.0, 2.0], [1.0, 0.0, 3.0]])
+    wheel = np.array([0, 1, 0, 2, 3, 4])
+    limit = np.array([1.0, 1.0, 1.0, 1.0, 0.5])  # wheel 4 derated
+    kept = outermost(SpeedRows(rows, wheel, 0.9), limit)
+    np.testing.assert_array_equal(kept.rows, rows[[1, 2, 3, 5]])
+    np.testing.assert_array_equal(kept.wheel, [1, 0, 2, 4])
+    assert kept.scale == 0.9
+
+
+@pytest.mark.parametrize("name", ["swerve", "mpo700"])
+def test_outermost_rows_bound_every_twist_as_all_the_rows_do(name: str) -> None:
+    """On a swerve's 16-gon (the MPO-700's with its axle offset: rows +- L omega), derated
+    or not, for its speed and acceleration limits: for 2000 random changes of twist the
+    largest row value over its bound is the same with the rows kept as with all of them,
+    to rounding."""
+    rng = np.random.default_rng(11)
+
+    def worst(rows: SpeedRows, limit: np.ndarray, twists: np.ndarray) -> np.ndarray:
+        bounds = rows.scale * limit[rows.wheel]
+        return np.max(np.abs(twists @ rows.rows.T) / bounds, axis=1)
+
+    for robot in (preset(name), preset(name).derated({1: 0.6})):
+        polygon = robot.qp_speed_rows(16)
+        accel = () if robot.max_wheel_accel is None else (robot.max_wheel_accel,)
+        for limit in (robot.max_wheel_speed, *accel):
+            kept = outermost(polygon, limit)
+            assert len(kept.rows) < len(polygon.rows)
+            twists = rng.normal(size=(2000, 3))
+            np.testing.assert_allclose(worst(kept, limit, twists),
+                                       worst(polygon, limit, twists), rtol=1e-12)

@@ -32,7 +32,7 @@ import numpy.typing as npt
 
 from mpc.arrays import FloatArray, IntArray
 from mpc.errors import RobotError
-from mpc.robots.limits import SpeedRows, StageLimits
+from mpc.robots.limits import SpeedRows, StageLimits, outermost
 from mpc.validation import integer_at_least
 
 if TYPE_CHECKING:
@@ -316,7 +316,8 @@ FACES = len(FACE_ANGLES)
 #: 6 s runs of the benchmark's swerve circle and figure-eight, time and path mode, fixed
 #: and tangent heading, inside and 1.3x beyond the limits, the plans solved without them
 #: broke them on one tick in three of the 16 runs, so daqp solves with 44 rows a stage
-#: rather than 56, checks the plan against these and solves again with them when one
+#: rather than 56 (28 rather than 40 since the acceleration polygon keeps its outermost
+#: rows, :func:`~mpc.robots.limits.outermost`), checks the plan against these and solves again with them when one
 #: breaks: the same plans to daqp's tolerance (commands within 6e-12 of daqp given every
 #: face over those runs; after a second solve the kept model starts the next tick from the
 #: active set of the plan it gave, so later ticks may part at that tolerance), ticks
@@ -329,7 +330,8 @@ GUARD_FACES = tuple(j for j, angle in enumerate(FACE_ANGLES) if abs(angle) > mat
 #: 1 % of the disk). The same six faces turned to each stage's planned change of velocity
 #: tracked as well but cost daqp about 45 iterations a tick beyond the limits: the change's
 #: direction swings from tick to tick and the active faces with it. Measured with
-#: ``mpc-bench --layouts swerve --controllers mpc-daqp,mpc-path,mpc-ipopt --workers 1``,
+#: ``mpc-bench --layouts swerve --controllers mpc-daqp,mpc-path,mpc-ipopt --workers 1``
+#: (before :func:`~mpc.robots.limits.outermost` halved the polygon's rows),
 #: 1.3x beyond (circle fixed / tangent, figure-eight fixed / tangent), RMS position error
 #: [mm] and tick p99 [ms]: this polygon 234.5 / 340.5 / 79.7 / 34.9 and 1.49 / 1.46 /
 #: 1.38 / 1.04; turned faces 236.0 / 341.5 / 81.1 / 34.4 and 1.81 / 1.93 / 2.24 / 1.44;
@@ -354,8 +356,9 @@ def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> Sta
     iteration the planned module speed meets the disk exactly, not a polygon); the others
     keep a step that turns the module close to the disk. Rows a stage
     (:func:`face_rows` numbers the faces'): the faces within 30 deg of the direction,
-    module by module (``moving``); with an acceleration limit, ``ACCEL_SIDES / 2 n``
-    acceleration rows; last the guard faces (:data:`GUARD_FACES`). The faces point along
+    module by module (``moving``); with an acceleration limit, the acceleration polygon's
+    outermost rows (:func:`~mpc.robots.limits.outermost`: two a direction, ``ACCEL_SIDES``
+    in all, where the modules share one limit); last the guard faces (:data:`GUARD_FACES`). The faces point along
     the body x axis until the first tick turns them. Every face is a supporting line of the
     disk, so the disk satisfies the faces of any refill (``StageLimits.inside``): a plan
     within the disks with no face active is the answer whichever way they point.
@@ -365,7 +368,7 @@ def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> Sta
     kept_faces = _kept_faces()
     kept, guards = n * len(kept_faces), n * len(GUARD_FACES)
     accel = robot.max_wheel_accel
-    polygon = None if accel is None else qp_speed_rows(robot, ACCEL_SIDES)
+    polygon = None if accel is None else outermost(qp_speed_rows(robot, ACCEL_SIDES), accel)
     m = kept + guards + (0 if polygon is None else len(polygon.rows))
     bound = np.repeat(robot.max_wheel_speed[None, :], horizon, axis=0)  # (N, n)
     bounds = [np.repeat(bound, len(kept_faces), axis=1)]

@@ -567,7 +567,7 @@ class DenseSolver:
         went to 5-15 ms with threads on a loaded 2-core machine). ``moving_only``: ``out``
         holds the rest already, and only the rows a refill moves are done again
         (``limits.moving`` a stage, on ``u_k`` alone: a swerve module's speed faces, 12 of
-        the 44 rows a stage daqp solves with). With rows screened out (:mod:`.row_screen`),
+        the 28 rows a stage daqp solves with). With rows screened out (:mod:`.row_screen`),
         the rows in daqp's problem only."""
         limits = self.limits
         n, m = limits.horizon, limits.rows
