@@ -115,6 +115,10 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
                         help="simulated robot: ideal, realistic (motor lag, 1-tick delay, "
                              "pose noise, slip) or motor (the layouts' motor presets driven "
                              "through their DC motors; see also 'mpc-bench motors')")
+    parser.add_argument("--no-command-ramp", dest="command_ramp", action="store_false",
+                        help="with --plant motor: do not tell the MPCs that the motor "
+                             "plant's wheel loops ramp each command over the tick (they are "
+                             "told by default: Controller(command_ramp=True))")
     parser.add_argument("--robot", metavar="TOML", help="also run a robot from a TOML file")
     parser.add_argument("--trajectory", action="append", metavar="FILE",
                         help="run the reference in FILE: a Choreo .traj on the swerve robot it "
@@ -204,6 +208,9 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
             args.skip = min(args.skip, 0.5 * args.duration)
     layouts = choose("--layouts", "layout", args.layouts, PRESETS, DEFAULT_LAYOUTS)
     chosen_robots = robots(layouts, args.robot)
+    if not args.command_ramp and args.plant != "motor":
+        raise ScenarioError("--no-command-ramp applies to --plant motor (the other plants' "
+                            "wheels step to each command; their MPCs are not told of a ramp)")
     if args.plant == "motor":  # a motor plant drives robots with motors: the motor presets
         chosen_robots = {name: motor_preset(name) if name in layouts else robot
                          for name, robot in chosen_robots.items()}
@@ -254,13 +261,15 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
         if skipped:
             progress.print(f"mpc-bench: note: not run, as they do not apply: {', '.join(skipped)}")
         runs = run_all(scenarios, controllers, settings, args.duration, args.skip, args.plant,
-                       args.seed, progress.advance, pool, failed)
+                       args.seed, progress.advance, pool, failed,
+                       command_ramp=None if args.command_ramp else False)
     document = results_document(
         runs,
         command=" ".join(["mpc-bench", *argv]),
         settings={"horizon": args.horizon, "dt": args.dt, "polygon_sides": args.polygon_sides,
                   "duration": args.duration,
-                  "plant": args.plant, "skip": args.skip, "headings": headings,
+                  "plant": args.plant, "command_ramp": args.plant == "motor" and args.command_ramp,
+                  "skip": args.skip, "headings": headings,
                   "seed": args.seed,
                   "trajectory_files": [str(file.path) for file in files]},
     )

@@ -87,6 +87,8 @@ class RunSpec:
         weights: MPC cost weights (names of :class:`mpc.model.weights.Weights`).
         delay_ticks: MPC only, the command latency the controller compensates.
         plant: a plant preset name or the fields of :class:`mpc.sim.PlantConfig`.
+        command_ramp: MPC only, tell it that the wheel loops ramp each command over the tick
+            (``Controller(command_ramp=...)``); None: on the motor plant, whose loops do.
         initial_offset: the true start pose minus the reference's at t = 0 (world frame,
             [m, m, rad]); None: on the reference.
         optimal_lap: the scenario's time-optimal lap [s] (:func:`optimal_lap`, computed once
@@ -104,6 +106,7 @@ class RunSpec:
     weights: Mapping[str, Any] | None = None
     delay_ticks: int = 0
     plant: str | Mapping[str, Any] = "ideal"
+    command_ramp: bool | None = None
     seed: int | None = 0
     initial_offset: tuple[float, float, float] | None = None
     optimal_lap: float | None = None
@@ -137,15 +140,18 @@ def build_trajectory(spec: Mapping[str, Any], robot: Robot) -> Trajectory:
 def build_controller(spec: RunSpec, robot: Robot, trajectory: Trajectory) -> TrackingController:
     """The controller of a run: by benchmark name, with the spec's weights and latency; an
     MPC on the motor plant is told that its wheel loops ramp each command over the tick
-    (``Controller(command_ramp=True)``)."""
+    (``Controller(command_ramp=True)``) unless the spec says otherwise."""
     name, settings = spec.controller, spec.settings
     if name not in MPC_CONTROLLERS:
-        if spec.weights is not None or spec.delay_ticks:
-            raise ScenarioError(f"weights and delay_ticks apply to MPC controllers, not {name}")
+        if spec.weights is not None or spec.delay_ticks or spec.command_ramp is not None:
+            raise ScenarioError(f"weights, delay_ticks and command_ramp apply to MPC "
+                                f"controllers, not {name}")
         return controller(name, robot, trajectory, settings)
     plant = _plant(spec.plant)
-    ramp = isinstance(PLANT_PRESETS.get(plant) if isinstance(plant, str) else plant,
-                      MotorPlantConfig)
+    ramp = spec.command_ramp
+    if ramp is None:
+        ramp = isinstance(PLANT_PRESETS.get(plant) if isinstance(plant, str) else plant,
+                          MotorPlantConfig)
     return mpc_controller(name, robot, trajectory, settings, spec.weights, spec.delay_ticks,
                           command_ramp=ramp)
 

@@ -122,14 +122,16 @@ def run_all(
     log: Callable[[str], None],
     pool: RunPool | None = None,
     failed: list[dict[str, Any]] | None = None,
+    command_ramp: bool | None = None,
 ) -> list[dict[str, Any]]:
     """Simulate every scenario with every controller on ``pool`` (default: in this
     process); print one line per run as it finishes; return the runs in plan order.
 
     A run that raised is left out of the result and appended to ``failed`` (its labels and
-    an ``"error"``), and the other runs go on.
+    an ``"error"``), and the other runs go on. ``command_ramp``: what the MPCs are told of
+    the wheel loops (:attr:`~benchmarks.executor.RunSpec.command_ramp`; None: per plant).
     """
-    from benchmarks.executor import RunPool, RunSpec
+    from benchmarks.executor import MPC_CONTROLLERS, RunPool, RunSpec
     from benchmarks.executor import optimal_lap as yardstick
 
     plan = [(index, name) for index, scenario in enumerate(scenarios) for name in controllers
@@ -139,7 +141,8 @@ def run_all(
     laps = executor.map(yardstick, described)  # once per scenario, in parallel
     specs = [RunSpec(robot=described[index][0], trajectory=described[index][1],
                      controller=name, settings=settings, duration=duration, skip=skip,
-                     plant=plant, seed=seed, optimal_lap=laps[index], series=True,
+                     plant=plant, command_ramp=command_ramp if name in MPC_CONTROLLERS else None,
+                     seed=seed, optimal_lap=laps[index], series=True,
                      labels={"layout": scenarios[index].layout,
                              "trajectory": scenarios[index].trajectory_name,
                              "heading": scenarios[index].heading,

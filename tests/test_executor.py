@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -222,3 +223,35 @@ def test_mpcs_on_the_motor_plant_are_told_the_wheel_loops_ramp() -> None:
         robot = build_robot(spec.robot)
         control = build_controller(spec, robot, build_trajectory(shape, robot))
         assert isinstance(control, Controller) and control.command_ramp is ramp
+    # --no-command-ramp (RunSpec.command_ramp=False): not told even on the motor plant; a
+    # baseline is not an MPC and takes no such setting.
+    spec = RunSpec(robot={"motor_preset": "omni3"}, trajectory=shape, controller="mpc-daqp",
+                   plant="motor", command_ramp=False)
+    robot = build_robot(spec.robot)
+    control = build_controller(spec, robot, build_trajectory(shape, robot))
+    assert isinstance(control, Controller) and control.command_ramp is False
+    with pytest.raises(ScenarioError, match="apply to MPC controllers, not ff-p-clip"):
+        build_controller(replace(spec, controller="ff-p-clip"), robot,
+                         build_trajectory(shape, robot))
+
+
+def test_no_command_ramp_reaches_the_runs_and_needs_the_motor_plant(tmp_path: Path) -> None:
+    """``mpc-bench --plant motor --no-command-ramp``: the MPC runs as told (its RMS error
+    differs from the default run's), recorded in results.json; refused on another plant
+    (exit code 2)."""
+    from benchmarks.cli import main
+
+    common = ["--layouts", "omni3", "--trajectories", "circle", "--speeds", "inside",
+              "--heading", "fixed", "--controllers", "mpc-daqp", "--duration", "3", "--skip", "1",
+              "--no-report",
+              "--workers", "1", "--force"]
+    rms = {}
+    for flags in ([], ["--no-command-ramp"]):
+        out = tmp_path / ("told" if not flags else "not")
+        assert main(["--plant", "motor", *common, *flags, "--out", str(out)]) == 0
+        document = json.loads((out / "results.json").read_text())
+        assert document["meta"]["settings"]["command_ramp"] is not bool(flags)
+        rms[bool(flags)] = document["runs"][0]["metrics"]["rms_position_error"]
+    assert rms[True] != rms[False]
+    assert main(["--plant", "ideal", *common, "--no-command-ramp",
+                 "--out", str(tmp_path / "x")]) == 2
