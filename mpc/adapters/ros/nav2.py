@@ -168,19 +168,21 @@ class Nav2Controller:
         timed within ``max_speed`` and the present speed limit. A robot already under way
         (nav2 plans again every second or so, from where the robot is) starts the new plan
         at the speed it has along it, not from rest."""
-        poses = self._from_robot(poses_from_path(path))
-        speed = self._speed_along(poses)
+        recent = self._recent()  # once: the three uses below see the same answer
+        poses = self._from_robot(poses_from_path(path), recent)
+        speed = self._speed_along(poses, recent)
         self._install(poses, str(path.header.frame_id), speed)
         # nothing recent said how fast the robot moves: timed from rest until the first
         # command's measured velocity (compute_velocity_commands) says otherwise
-        self._timed_blind = not self._recent()
+        self._timed_blind = not recent
 
-    def _from_robot(self, poses: FloatArray) -> FloatArray:
+    def _from_robot(self, poses: FloatArray, recent: bool) -> FloatArray:
         """The path from its pose nearest where the robot will be at the next command (its
         last pose moved one tick by its last command; within the path's first
         :data:`CATCH_UP` metres): a plan made from a pose a moment old starts behind a
-        robot under way, and the reference would hold it back to there."""
-        if not self._recent() or self.last_command is None or len(poses) < 3:
+        robot under way, and the reference would hold it back to there (``recent``:
+        :meth:`_recent`; the path as it is if not)."""
+        if not recent or self.last_command is None or len(poses) < 3:
             return poses
         assert self._pose is not None
         ahead = integrate(self._pose, self.last_command.twist, self.dt)
@@ -200,11 +202,11 @@ class Nav2Controller:
         return (self._pose is not None and self._moving is not None
                 and time.monotonic() - self._commanded_at <= STALE_TICKS * self.dt)
 
-    def _speed_along(self, poses: FloatArray) -> float:
+    def _speed_along(self, poses: FloatArray, recent: bool) -> float:
         """The robot's speed [m/s] along the path's first direction: its measured twist at
-        the last command if one came with it, else that command's (0 with no recent
-        command, or for a path that starts by turning in place)."""
-        if not self._recent() or len(poses) < 2:
+        the last command if one came with it, else that command's (0 without a ``recent``
+        command, :meth:`_recent`, or for a path that starts by turning in place)."""
+        if not recent or len(poses) < 2:
             return 0.0
         assert self._pose is not None and self._moving is not None
         return _speed_along(poses, self._pose, self._moving)
