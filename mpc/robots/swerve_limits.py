@@ -318,11 +318,11 @@ FACES = len(FACE_ANGLES)
 #: broke them on one tick in three of the 16 runs, so daqp solves with 44 rows a stage
 #: rather than 56 (28 rather than 40 since the acceleration polygon keeps its outermost
 #: rows, :func:`~mpc.robots.limits.outermost`), checks the plan against these and solves
-#: again with them when one breaks: the same plans to daqp's tolerance (commands within 6e-12 of daqp given every
-#: face over those runs; after a second solve the kept model starts the next tick from the
-#: active set of the plan it gave, so later ticks may part at that tolerance), ticks
-#: 0.91-0.94x at the median (interleaved A/B on the figure-eight, fixed heading inside
-#: and beyond, tangent beyond, path mode beyond).
+#: again with them when one breaks: the same plans to daqp's tolerance (commands within
+#: 6e-12 of daqp given every face over those runs; after a second solve the kept model
+#: starts the next tick from the active set of the plan it gave, so later ticks may part
+#: at that tolerance), ticks 0.91-0.94x at the median (interleaved A/B on the
+#: figure-eight, fixed heading inside and beyond, tangent beyond, path mode beyond).
 GUARD_FACES = tuple(j for j, angle in enumerate(FACE_ANGLES) if abs(angle) > math.radians(30))
 
 #: The acceleration disk: a constant regular polygon of this many sides (half as many
@@ -359,9 +359,10 @@ def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> Sta
     module by module (``moving``); with an acceleration limit, the acceleration polygon's
     outermost rows (:func:`~mpc.robots.limits.outermost`: two a direction, ``ACCEL_SIDES``
     in all, where the modules share one limit); last the guard faces (:data:`GUARD_FACES`).
-    The faces point along the body x axis until the first tick turns them. Every face is a supporting line of the
-    disk, so the disk satisfies the faces of any refill (``StageLimits.inside``): a plan
-    within the disks with no face active is the answer whichever way they point.
+    The faces point along the body x axis until the first tick turns them. Every face is a
+    supporting line of the disk, so the disk satisfies the faces of any refill
+    (``StageLimits.inside``): a plan within the disks with no face active is the answer
+    whichever way they point.
     """
     n = robot.n_wheels
     horizon = len(change_times)
