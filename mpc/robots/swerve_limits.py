@@ -144,21 +144,28 @@ def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
     def within(parts: FloatArray) -> npt.NDArray[np.bool_]:
         return _drives_within(robot, last + parts[:, None] * step, steer_angles, dt, reach)
 
-    whole, rest = within(np.array([fraction, 0.0]))
-    if whole:
+    # The first round's grid (its last point the turn's fraction) checked with the start in
+    # one call: most ticks need no search (the fraction's point fits), and a search then has
+    # its first round already. The turn is checked with the drives on the grid: the target
+    # may fit where points on the way to it do not.
+    parts = np.linspace(0.0, fraction, _SEARCH_PARTS + 1)  # parts[0] = 0: the start
+    fits = within(parts)
+    if fits[-1]:
         return fraction
-    if not rest:
+    if not fits[0]:
         return 0.0
-    # The turn is checked with the drives on the grid: the target may fit where points on
-    # the way to it do not.
     low, high = 0.0, fraction
-    for _ in range(_SEARCH_ROUNDS):
-        parts = np.linspace(low, high, _SEARCH_PARTS + 1)[1:]
-        bad = np.flatnonzero(~within(parts))
+    for round_ in range(_SEARCH_ROUNDS):
+        if round_:
+            parts = np.linspace(low, high, _SEARCH_PARTS + 1)
+            fits = within(parts[1:])
+        else:
+            fits = fits[1:]
+        bad = np.flatnonzero(~fits)
         if bad.size == 0:
             return high
         first = int(bad[0])
-        low, high = (parts[first - 1] if first else low), parts[first]
+        low, high = parts[first], parts[first + 1]
     return low
 
 
