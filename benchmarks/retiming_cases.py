@@ -13,10 +13,13 @@ Prints, each with how it was made:
    finite differences, over their limits), a 400- and a 1000-pose path snapped to a 5 cm
    grid through ``path_reference`` with one repair (``Nav2Controller``'s) and none, with
    the time each took to time.
-3. ``steering``: a 0.3 m figure-eight on ``caster4`` timed with its steering rate and
+3. ``smoothing``: the snapped paths of 2. through ``path_reference`` smoothed within half a
+   cell and 0.4 rad (``position_tolerance``, ``yaw_tolerance``) against as given, and the
+   path before it was snapped: laps [s] and the time each took.
+4. ``steering``: a 0.3 m figure-eight on ``caster4`` timed with its steering rate and
    without (the wheels' speed and acceleration limits only), and the turn rate the latter
    asks of the casters against their limit.
-4. ``tracking``: ``caster4`` on a 2 m out-and-back of width 0.2 m retimed (400 cells),
+5. ``tracking``: ``caster4`` on a 2 m out-and-back of width 0.2 m retimed (400 cells),
    three laps in time mode, RMS position error after 1 s, at the time-optimal timing and
    at 80 % of its top speed.
 """
@@ -84,12 +87,40 @@ def _stretch(path: Trajectory, robot: Any, **options: Any) -> tuple[float, float
     return repaired.info.stretch, scaled.info.stretch, seconds
 
 
-def _snapped(count: int) -> np.ndarray:
+def _snapped(count: int, cell: float = 0.05) -> np.ndarray:
+    """``count`` poses 5 cm apart along a gentle S, snapped to a grid of ``cell`` [m] (0:
+    not snapped), yaw along the snapped poses' differences."""
     s = np.arange(count) * 0.05
     xy = np.stack([s, 0.8 * np.sin(s / 3.0) + 0.3 * np.sin(s / 1.1)], axis=1)
-    xy = np.round(xy / 0.05) * 0.05
+    if cell:
+        xy = np.round(xy / cell) * cell
     yaw = np.arctan2(np.gradient(xy[:, 1]), np.gradient(xy[:, 0]))
     return np.column_stack([xy, yaw])
+
+
+def smoothing(log: Any = print, counts: tuple[int, ...] = (400, 1000)
+              ) -> dict[int, tuple[float, float, float]]:
+    """Per path length: (lap as given, lap smoothed, lap of the path before the snap) [s]."""
+    mecanum = preset("mecanum")
+    out = {}
+    for count in counts:
+        samples = int(np.clip(2 * count, 128, 1000))
+        laps, seconds = [], []
+        for poses, tolerances in ((_snapped(count), (0.0, 0.0)),
+                                  (_snapped(count), (0.025, 0.4)),
+                                  (_snapped(count, 0.0), (0.0, 0.0))):
+            started = time.perf_counter()
+            reference = path_reference(poses, robot=mecanum, max_speed=1.0, samples=samples,
+                                       max_repairs=1, position_tolerance=tolerances[0],
+                                       yaw_tolerance=tolerances[1])
+            seconds.append(time.perf_counter() - started)
+            assert reference.duration is not None  # timed rest to rest
+            laps.append(reference.duration)
+        out[count] = (laps[0], laps[1], laps[2])
+        log(f"smoothing {count} poses on a 5 cm grid: lap {laps[0]:.2f} s as given "
+            f"({seconds[0]:.2f} s to time), {laps[1]:.2f} s smoothed within 0.025 m and "
+            f"0.4 rad ({seconds[1]:.2f} s), {laps[2]:.2f} s before the snap")
+    return out
 
 
 def repairs(log: Any = print) -> dict[str, tuple[float, ...]]:
@@ -183,7 +214,7 @@ def main(argv: list[str] | None = None) -> int:
         print("usage: python -m benchmarks.retiming_cases (no options)", file=sys.stderr)
         return 2
     started = time.perf_counter()
-    for part in (goal_overshoot, repairs, steering, tracking):
+    for part in (goal_overshoot, repairs, smoothing, steering, tracking):
         part(lambda line: print(line, flush=True))
     print(f"({time.perf_counter() - started:.0f} s)")
     return 0

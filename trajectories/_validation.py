@@ -82,6 +82,14 @@ def positive_number(name: str, value: Any) -> float:
     return as_float(value)
 
 
+def non_negative_number(name: str, value: Any) -> float:
+    """``value`` as a float, or TrajectoryError if it is not finite and >= 0."""
+    if not is_real_scalar(value) or not (math.isfinite(as_float(value))
+                                         and as_float(value) >= 0.0):
+        raise TrajectoryError(f"{name} must be a finite number >= 0, got {shown(value)}")
+    return as_float(value)
+
+
 def point2(name: str, value: Any) -> FloatArray:
     """A read-only float array of shape (2,) with finite entries."""
     try:

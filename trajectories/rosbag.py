@@ -13,7 +13,8 @@ sqlite3 or MCAP storage; no ROS install), an optional extra: ``pip install
   fastest timing inside the robot's exact wheel limits, optionally capped at
   ``max_speed``), or with ``speed=`` at that constant rate of ``s`` [m/s] (no limits
   checked). Heading: the poses' yaw, unless ``heading=`` (e.g. ``"tangent"``, planners
-  often leave yaw at 0) says otherwise.
+  often leave yaw at 0) says otherwise. ``position_tolerance=`` and ``yaw_tolerance=``
+  smooth a grid planner's path first (:mod:`trajectories.smoothing`).
 - An **Odometry** stream is already timed: the poses and the twist (body frame,
   ``child_frame_id``) become a :class:`~trajectories.sampled.SampledTrajectory` (cubic
   Hermite), its clock the seconds since the first ``header.stamp``.
@@ -38,12 +39,13 @@ from scipy.interpolate import CubicSpline
 
 from mpc.validation import is_integer
 
-from ._validation import FloatArray, positive_number, shown
+from ._validation import FloatArray, non_negative_number, positive_number, shown
 from .base import Trajectory
 from .errors import TrajectoryError
 from .heading import HeadingSpec
 from .retiming import DEFAULT_SAMPLES, MAX_REPAIRS, RetimingRobot, time_optimal
 from .sampled import SampledTrajectory
+from .smoothing import smooth_poses
 
 #: How to install what bag reading and writing need.
 ROS_EXTRA = "pip install 'holonomic-mpc[ros]'"
@@ -123,7 +125,8 @@ def path_reference(poses: npt.ArrayLike, *, robot: RetimingRobot | None = None,
                    speed: float | None = None, heading: HeadingSpec | None = None,
                    max_speed: float | None = None, turn_length: float = TURN_LENGTH,
                    samples: int = DEFAULT_SAMPLES, start_speed: float = 0.0,
-                   max_repairs: int = MAX_REPAIRS) -> Trajectory:
+                   max_repairs: int = MAX_REPAIRS, position_tolerance: float = 0.0,
+                   yaw_tolerance: float = 0.0) -> Trajectory:
     """A timed reference through poses (n, 3) (x, y, yaw) [m, m, rad] (module docstring).
 
     Give exactly one of ``robot`` (time-optimal within its wheel limits; ``max_speed``
@@ -132,14 +135,23 @@ def path_reference(poses: npt.ArrayLike, *, robot: RetimingRobot | None = None,
     ``max_repairs`` bounds its re-solves, see :func:`~trajectories.time_optimal`) or
     ``speed`` [m/s] (constant rate of the path parameter). Consecutive duplicate poses are
     dropped; at least two distinct poses are needed.
+
+    ``position_tolerance`` [m] and ``yaw_tolerance`` [rad] > 0 smooth the path first
+    (:func:`~trajectories.smoothing.smooth_poses`): as smooth as keeps every pose within
+    them of the one given, the ends and turns in place exactly where they are; for a grid
+    planner's path, whose steps along the cells the splines would bend through (e.g.
+    half a cell and 0.4 rad for yaws in eighths of a turn). 0 (the default): through every
+    pose as given.
     """
     if (robot is None) == (speed is None):
         raise TrajectoryError("give exactly one of robot= (time-optimal timing within its "
                               "wheel limits) or speed= [m/s] (constant speed), got "
                               f"robot={shown(robot)}, speed={shown(speed)}")
     rate = 1.0 if speed is None else positive_number("speed [m/s]", speed)
+    tolerances = (non_negative_number("position_tolerance [m]", position_tolerance),
+                  non_negative_number("yaw_tolerance [rad]", yaw_tolerance))
     geometry = _spline_through(poses, rate, positive_number("turn_length [m/rad]",
-                                                            turn_length), heading)
+                                                            turn_length), heading, tolerances)
     if robot is None:
         return geometry
     return time_optimal(geometry, robot, periodic=False, max_speed=max_speed, samples=samples,
@@ -147,7 +159,8 @@ def path_reference(poses: npt.ArrayLike, *, robot: RetimingRobot | None = None,
 
 
 def _spline_through(poses: npt.ArrayLike, speed: float, turn_length: float,
-                    heading: HeadingSpec | None) -> SampledTrajectory:
+                    heading: HeadingSpec | None, tolerances: tuple[float, float] = (0.0, 0.0)
+                    ) -> SampledTrajectory:
     try:
         table = np.array(poses, dtype=np.float64)
     except (TypeError, ValueError):
@@ -165,6 +178,19 @@ def _spline_through(poses: npt.ArrayLike, speed: float, turn_length: float,
                               f"distinct of {len(table)}")
     times = np.concatenate(([0.0], np.cumsum(lengths[keep[1:]]))) / speed
     kept = table[keep]
+    if any(tolerances):  # smoothed, then timed along the smoothed path's own lengths
+        # the ends and both poses of each step that only turns stay as they are (a step
+        # that mostly turns is left to the smoothing: a grid's yaw steps in eighths)
+        pinned = np.zeros(len(kept), dtype=bool)
+        pinned[[0, -1]] = True
+        still = np.flatnonzero(np.hypot(*np.diff(kept[:, :2], axis=0).T) <= _SAME_POSE)
+        pinned[still] = pinned[still + 1] = True
+        kept = smooth_poses(kept, *tolerances, pinned)
+        steps = np.diff(kept, axis=0)
+        lengths = np.hypot(np.hypot(steps[:, 0], steps[:, 1]), turn_length * steps[:, 2])
+        keep = np.concatenate(([True], lengths > _SAME_POSE))
+        times = np.concatenate(([0.0], np.cumsum(lengths[keep[1:]]))) / speed
+        kept = kept[keep]
     slopes = CubicSpline(times, kept, bc_type="natural", axis=0)(times, 1)
     # Where the robot turns in place the position stays put in between (the position's
     # slopes 0 at both poses: a monotone piece), and along a run of poses with one yaw the
@@ -174,9 +200,7 @@ def _spline_through(poses: npt.ArrayLike, speed: float, turn_length: float,
     # run of them is a robot that creeps while it turns, left smooth. One interval of equal
     # yaw is not a run: the two sides of a symmetric turn.
     steps = np.diff(kept, axis=0)
-    moves = np.hypot(steps[:, 0], steps[:, 1])
-    mostly = moves < TURN_SHARE * lengths[keep[1:]]
-    turning = np.flatnonzero((moves <= _SAME_POSE) | (mostly & ~_beside(mostly)))
+    turning = _turns_in_place(kept, lengths[keep[1:]])
     slopes[turning, :2] = 0.0
     slopes[turning + 1, :2] = 0.0
     level = np.abs(steps[:, 2]) <= _SAME_POSE
@@ -185,6 +209,15 @@ def _spline_through(poses: npt.ArrayLike, speed: float, turn_length: float,
     slopes[run + 1, 2] = 0.0
     return SampledTrajectory(times, kept, slopes, heading=heading)
 
+
+
+def _turns_in_place(poses: FloatArray, lengths: FloatArray) -> npt.NDArray[np.intp]:
+    """The steps between ``poses`` (n, 3) (of ``lengths`` (n - 1,), the turn counted) that
+    turn in place: no move, or one under :data:`TURN_SHARE` of the step that stands alone."""
+    steps = np.diff(poses, axis=0)
+    moves = np.hypot(steps[:, 0], steps[:, 1])
+    mostly = moves < TURN_SHARE * lengths
+    return np.flatnonzero((moves <= _SAME_POSE) | (mostly & ~_beside(mostly)))
 
 
 def _beside(mask: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:

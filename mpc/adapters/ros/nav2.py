@@ -113,12 +113,17 @@ class Nav2Controller:
             percentage speed limits.
         heading: None: the plan's yaw; else a heading spec (``"tangent"``, an angle...).
         base_frame: frame of the commands (REP-105 ``base_link``).
+        position_tolerance, yaw_tolerance: smooth each plan within these of its poses
+            [m, rad] before timing it (:func:`~trajectories.path_reference`): for a grid
+            planner's path not smoothed upstream, e.g. half a cell and 0.4 rad; 0 (the
+            default): through every pose.
         **options: further :class:`~mpc.control.Controller` options.
     """
 
     def __init__(self, robot: Robot, *, dt: float = 0.05, horizon: int = 20,
                  speed: float | None = None, max_speed: float | None = None,
                  heading: HeadingSpec | None = None, base_frame: str = "base_link",
+                 position_tolerance: float = 0.0, yaw_tolerance: float = 0.0,
                  **options: Any) -> None:
         if not isinstance(robot, Robot):
             raise ControllerError(f"robot must be an mpc.robots.Robot, got {shown(robot)}")
@@ -135,6 +140,9 @@ class Nav2Controller:
         self.max_speed = None if max_speed is None else positive("max_speed [m/s]", max_speed,
                                                                   ControllerError)
         self.heading, self.base_frame = heading, base_frame
+        self.tolerances = (non_negative("position_tolerance [m]", position_tolerance,
+                                        ControllerError),
+                           non_negative("yaw_tolerance [rad]", yaw_tolerance, ControllerError))
         self.clock = ReferenceClock()
         self.controller: Controller | None = None
         self.speed_limit: float | None = None  # [m/s] from set_speed_limit
@@ -222,10 +230,14 @@ class Nav2Controller:
             reference = path_reference(poses, robot=self.robot, heading=self.heading,
                                        max_speed=cap, samples=samples,
                                        start_speed=min(start_speed, cap or start_speed),
-                                       max_repairs=PLAN_REPAIRS)
+                                       max_repairs=PLAN_REPAIRS,
+                                       position_tolerance=self.tolerances[0],
+                                       yaw_tolerance=self.tolerances[1])
         else:
             reference = path_reference(poses, speed=min(self.speed, cap or self.speed),
-                                       heading=self.heading)
+                                       heading=self.heading,
+                                       position_tolerance=self.tolerances[0],
+                                       yaw_tolerance=self.tolerances[1])
         self._poses, self._plan_cap = poses, cap
         if self.controller is None:
             self.controller = Controller(self.robot, reference, horizon=self.horizon,
