@@ -210,7 +210,6 @@ def _spline_through(poses: npt.ArrayLike, speed: float, turn_length: float,
     return SampledTrajectory(times, kept, slopes, heading=heading)
 
 
-
 def _turns_in_place(poses: FloatArray, lengths: FloatArray) -> npt.NDArray[np.intp]:
     """The steps between ``poses`` (n, 3) (of ``lengths`` (n - 1,), the turn counted) that
     turn in place: no move, or one under :data:`TURN_SHARE` of the step that stands alone."""

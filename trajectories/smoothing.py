@@ -2,10 +2,10 @@
 
 A path snapped to a grid (a raw ``nav_msgs/Path`` from a 2-D grid planner) steps along
 the cells, its yaw in eighths of a turn: splines through every pose bend at every step,
-and the time-optimal timing crawls through the bends. :func:`smooth_poses` fits each of
-the positions (jointly) and the unwrapped yaw with a cubic smoothing spline
-(:func:`scipy.interpolate.make_smoothing_spline`: least squares plus ``lam`` times the
-integral of the squared second derivative, along the chord length, see
+and the time-optimal timing crawls through the bends. :func:`smooth_poses` fits the
+positions (x and y with one smoothing weight) and the unwrapped yaw with cubic smoothing
+splines (:func:`scipy.interpolate.make_smoothing_spline`: least squares plus ``lam``
+times the integral of the squared second derivative, along the chord length, see
 :data:`TURN_PARAMETER`) as smooth as the tolerances allow: the largest ``lam`` on a log
 grid whose fit keeps every pose within ``position_tolerance`` [m] (Euclidean) and
 ``yaw_tolerance`` [rad] of the one given. Pinned poses (the ends, the poses of a turn in
