@@ -17,7 +17,8 @@ same fields (:func:`copy_message` copies one into an rclpy message).
   :func:`from_ros2_mecanum`; :func:`joint_group_command` for a
   ``JointGroupVelocityController`` ([rad/s] in its ``joints`` order).
 - :class:`Nav2Controller`, shaped like a nav2 controller plugin: ``set_plan(path)``
-  (timed by the time-optimal retimer or at a constant speed),
+  (timed by the time-optimal retimer or at a constant speed; a grid planner's path not
+  smoothed upstream: ``position_tolerance=``, ``yaw_tolerance=``),
   ``compute_velocity_commands(pose, twist) -> TwistStamped``, ``set_speed_limit``.
 
 A node (not run here)::
