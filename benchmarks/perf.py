@@ -17,7 +17,10 @@ are shared and noisy; absolute times are what this machine did while it ran. Sec
 4. ``peers``: do-mpc (the ``peers`` extra) on the same problem (:mod:`benchmarks.peers`),
    next to the project's daqp and IPOPT paths on the same plant and ticks, inside and
    beyond the limits: tick p50 ratios and tracking errors (agreeing errors show the two
-   NLPs are the same problem). Skipped with one line when do-mpc is not installed.
+   NLPs are the same problem). Each controller runs ``--peer-rounds`` times, the
+   controllers taking turns, and its tick p50 is over all those ticks: a burst of load
+   lands on every controller alike instead of on one run. Skipped with one line when
+   do-mpc is not installed.
 
 Times [s] in ``perf.json``, printed in ms or us. ``tick`` is the whole ``step()``
 (``Command.tick_time``); ``solve`` the solver's own time (daqp and OSQP: their reported
@@ -74,6 +77,8 @@ FAST = "daqp"
 JIT = "daqp_jit"
 JIT_PEER = "mpc-daqp-jit"  # the peers section's row of the fast path with jit=True
 JIT_REPEATS = 3
+#: Rounds of the peers section: each controller runs its ticks this many times, in turns.
+PEER_ROUNDS = 3
 #: A scenario's tick p99 above this is flagged [s].
 P99_LIMIT = 1e-3
 SECTIONS: tuple[str, ...] = ("profile", "horizons", "scenarios", "peers")
@@ -139,21 +144,30 @@ def _run(control: TrackingController, ticks: int,
     return Run(result, np.asarray(timed.cpu))
 
 
-def _row(run: Run, settle: int, **labels: Any) -> dict[str, Any]:
-    """One run's timing and tracking numbers (times [s], errors [m])."""
-    result = run.result
-    tick, solve, cpu = result.tick_time[settle:], result.solve_time[settle:], run.cpu[settle:]
+def _row(run: Run | list[Run], settle: int, **labels: Any) -> dict[str, Any]:
+    """One run's timing and tracking numbers (times [s], errors [m]); for a list of runs of
+    the same ticks, the timing of all of them pooled (each without its first ``settle``
+    ticks) and the tracking of the first."""
+    runs = run if isinstance(run, list) else [run]
+    result = runs[0].result
+
+    def pooled(values: Callable[[Run], FloatArray]) -> FloatArray:
+        return np.concatenate([values(each)[settle:] for each in runs])
+
+    tick = pooled(lambda each: each.result.tick_time)
+    solve = pooled(lambda each: each.result.solve_time)
+    cpu = pooled(lambda each: each.cpu)
     duration = len(result.tick_time) * result.dt
     metrics = result.metrics(skip=min(ERROR_SKIP, 0.5 * duration))
     return {
         **labels,
         "ticks": len(tick), "settle": settle,
         "tick_p50": float(np.median(tick)), "tick_p99": float(np.percentile(tick, 99)),
-        "tick_max": float(result.tick_time.max()),
+        "tick_max": float(max(each.result.tick_time.max() for each in runs)),
         "cpu_p50": float(np.median(cpu)), "cpu_p99": float(np.percentile(cpu, 99)),
         "solve_p50": float(np.median(solve)),
         "overhead_p50": float(np.median(tick - solve)),
-        "iterations_p50": float(np.median(result.iterations[settle:])),
+        "iterations_p50": float(np.median(pooled(lambda each: each.result.iterations))),
         "rms_position_error": metrics["rms_position_error"],
         "max_position_error": metrics["max_position_error"],
         "limit_violations": metrics["limit_violations"],
@@ -384,18 +398,22 @@ def scenarios_section(layouts: list[str], modes: list[str], speeds: dict[str, fl
 
 
 # ------------------------------------------------------------------------------- 4. peers
-def peers_section(ticks: int, say: Printer) -> dict[str, Any]:
+def peers_section(ticks: int, say: Printer, rounds: int = PEER_ROUNDS) -> dict[str, Any]:
     """daqp (the default and ``jit=True``, when it compiles), the IPOPT path and (when
     installed) do-mpc on the reference scenario, inside and beyond the limits, over the same
-    ticks on the same plant."""
+    ticks on the same plant: each controller built once and run ``rounds`` times, the
+    controllers taking turns (the order rotated each round), so that every ratio is taken
+    under the same load; tick times pooled over the rounds, errors from the first."""
     robot = preset(REFERENCE_LAYOUT)
     names = [f"mpc-{FAST}", JIT_PEER, "mpc-ipopt"]
     if peers.available():
         names.append("do-mpc")
         say(f"do-mpc {peers.version()}: IPOPT inside do-mpc, exact SE(2) integral (no "
-            f"collocation), the project's grid, weights and wheel limits; {ticks} ticks each")
+            f"collocation), the project's grid, weights and wheel limits")
     else:
         say(peers.INSTALL_HINT)
+    say(f"{rounds} rounds of {ticks} ticks each, the controllers taking turns; tick p50 over "
+        f"the rounds' ticks pooled")
     say(f"{'speed':7s} {'controller':10s} {'tick p50':>9s} {'solve p50':>9s} {'iters':>6s} "
         f"{'rms err':>11s} {'max err':>11s} {'failures':>8s} {'build':>6s}")
     say(f"{'':7s} {'':10s} {'[ms]':>9s} {'[ms]':>9s} {'':>6s} {'[mm]':>11s} {'[mm]':>11s} "
@@ -404,16 +422,15 @@ def peers_section(ticks: int, say: Printer) -> dict[str, Any]:
     for speed in ("inside", "beyond"):
         trajectory: Trajectory = reference(REFERENCE_SHAPE, REFERENCE_HEADING, robot,
                                            SPEEDS[speed])
+        built: dict[str, tuple[TrackingController, float]] = {}
         for name in names:
             started = time.perf_counter()
             control: TrackingController
-            peer = None
             if name == "do-mpc":
                 ours = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT)
-                peer = peers.DoMpcController(robot, trajectory, horizon=REFERENCE_HORIZON,
-                                             dt=DT, stage_dt=ours.stage_dt,
-                                             weights=ours.weights)
-                control = peer
+                control = peers.DoMpcController(robot, trajectory, horizon=REFERENCE_HORIZON,
+                                                dt=DT, stage_dt=ours.stage_dt,
+                                                weights=ours.weights)
             elif name == JIT_PEER:
                 try:
                     control = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT,
@@ -424,17 +441,26 @@ def peers_section(ticks: int, say: Printer) -> dict[str, Any]:
             else:
                 control = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT,
                                      solver=name.removeprefix("mpc-"))
-            built = time.perf_counter() - started
-            row = _row(_run(control, ticks), _settle(ticks), section="peers",
-                       layout=REFERENCE_LAYOUT, mode="time", speed=speed,
-                       peak_ratio=SPEEDS[speed], solver=name, horizon=REFERENCE_HORIZON,
-                       build_time=built)
-            if peer is not None:
-                row["failures"] = peer.failures  # IPOPT reported no success (no fallback)
+            built[name] = control, time.perf_counter() - started
+        runs: dict[str, list[Run]] = {name: [] for name in built}
+        failures = dict.fromkeys(built, 0)
+        order = list(built)
+        for turn in range(rounds):
+            for name in order[turn % len(order):] + order[:turn % len(order)]:
+                control = built[name][0]
+                runs[name].append(_run(control, ticks))  # (simulate resets the controller)
+                if isinstance(control, peers.DoMpcController):
+                    failures[name] += control.failures  # IPOPT reported no success
+        for name, (control, build) in built.items():
+            row = _row(runs[name], _settle(ticks), section="peers", layout=REFERENCE_LAYOUT,
+                       mode="time", speed=speed, peak_ratio=SPEEDS[speed], solver=name,
+                       horizon=REFERENCE_HORIZON, build_time=build, rounds=rounds)
+            if isinstance(control, peers.DoMpcController):
+                row["failures"] = failures[name]  # (no fallback: IPOPT's last iterate)
             rows.append(row)
             say(f"{speed:7s} {name:10s} {_ms(row['tick_p50'])} {_ms(row['solve_p50'])} "
                 f"{row['iterations_p50']:6.0f} {row['rms_position_error'] * 1e3:11.6f} "
-                f"{row['max_position_error'] * 1e3:11.6f} {row['failures']:8d} {built:6.1f}")
+                f"{row['max_position_error'] * 1e3:11.6f} {row['failures']:8d} {build:6.1f}")
     return {"status": "measured" if "do-mpc" in names else "do-mpc not installed",
             "version": peers.version(), "rows": rows,
             "integration": "exact SE(2) integral of the body twist over each stage "
@@ -653,6 +679,9 @@ def _parser() -> Parser:
     parser.add_argument("--ticks", type=int, help="ticks per run (400; --quick 40)")
     parser.add_argument("--ipopt-ticks", type=int,
                         help="ticks per IPOPT run and per peers run (120; --quick 20)")
+    parser.add_argument("--peer-rounds", type=int,
+                        help=f"peers: runs of each controller, in turns ({PEER_ROUNDS}; "
+                             f"--quick 1)")
     parser.add_argument("--out", default="bench-out", metavar="DIR",
                         help="writes perf.json, perf.txt and tick_profile.txt/.json here "
                              "(bench-out)")
@@ -684,6 +713,10 @@ def main(argv: list[str]) -> int:
     for flag, value in (("--ticks", ticks), ("--ipopt-ticks", ipopt_ticks)):
         if value < 20:
             raise ScenarioError(f"{flag} must be >= 20, got {value}")
+    rounds = (args.peer_rounds if args.peer_rounds is not None
+              else (1 if args.quick else PEER_ROUNDS))
+    if rounds < 1:
+        raise ScenarioError(f"--peer-rounds must be >= 1, got {rounds}")
     profiles = ("tick_profile.txt", "tick_profile.json") if "profile" in sections else ()
     out = claim(args.out, ("perf.json", "perf.txt", *profiles), args.force)
 
@@ -713,7 +746,7 @@ def main(argv: list[str]) -> int:
                                           ticks, say)
     if "peers" in sections:
         say(f"\n== 4. peers: {FAST}, the IPOPT path and do-mpc on the same problem and ticks ==")
-        peer = peers_section(ipopt_ticks, say)
+        peer = peers_section(ipopt_ticks, say, rounds)
     first = next((row for row in horizon_rows or []
                   if row["solver"] == FAST and row["horizon"] == REFERENCE_HORIZON), None)
     if first is not None:  # the same run again: how much the machine moved meanwhile
@@ -735,7 +768,7 @@ def main(argv: list[str]) -> int:
                     "load_average_end": os.getloadavg() if hasattr(os, "getloadavg") else None,
                     # BLAS threads: the condensed QP's dense algebra runs in NumPy's BLAS
                     "thread_env": {name: os.environ.get(name) for name in THREAD_VARIABLES}},
-        "settings": {"dt": DT, "ticks": ticks, "ipopt_ticks": ipopt_ticks,
+        "settings": {"dt": DT, "ticks": ticks, "ipopt_ticks": ipopt_ticks, "peer_rounds": rounds,
                      "horizons": horizons, "profile_horizons": profile_horizons,
                      "solvers": solvers, "layouts": layouts,
                      "modes": modes, "speeds": speeds, "trajectories": trajectories,

@@ -127,6 +127,7 @@ def test_sections_and_profile_horizons_are_chosen(tmp_path: Path) -> None:
     (["--profile-horizons", "0"], "--profile-horizons must list integers >= 1"),
     (["--ticks", "5"], "--ticks must be >= 20"),
     (["--ipopt-ticks", "3"], "--ipopt-ticks must be >= 20"),
+    (["--peer-rounds", "0"], "--peer-rounds must be >= 1"),
     (["--out", __file__], "--out must be a folder"),
 ])
 def test_bad_flags_are_one_line_errors(argv: list[str], message: str, tmp_path: Path,
@@ -155,14 +156,17 @@ def test_do_mpc_peer_refuses_steered_wheels() -> None:
 def test_do_mpc_solves_the_same_problem(tmp_path: Path,
                                         capsys: pytest.CaptureFixture[str]) -> None:
     pytest.importorskip("do_mpc")
-    assert main(["perf", "--sections", "peers", "--ipopt-ticks", "40",
+    assert main(["perf", "--sections", "peers", "--ipopt-ticks", "40", "--peer-rounds", "2",
                  "--out", str(tmp_path)]) == 0
     assert peers.INSTALL_HINT not in capsys.readouterr().out
     document = json.loads((tmp_path / "perf.json").read_text())
     assert document["peers"]["status"] == "measured" and document["peers"]["version"]
+    assert document["settings"]["peer_rounds"] == 2
     rows = {(row["solver"], row["speed"]): row for row in document["rows"]}
     for speed in ("inside", "beyond"):
         ours, theirs = rows[("mpc-ipopt", speed)], rows[("do-mpc", speed)]
+        for row in (ours, theirs):  # both rounds' ticks pooled, each without its settling
+            assert row["rounds"] == 2 and row["ticks"] == 2 * (40 - row["settle"])
         _sane(theirs)
         assert theirs["failures"] == 0
         # The same NLP, the same plant: the closed loops agree to IPOPT's tolerance.
