@@ -23,7 +23,7 @@ from mpc.robots import (
     motor_preset,
     preset,
 )
-from mpc.robots.dynamics import bus_voltage
+from mpc.robots.dynamics import HEADROOM, bus_voltage
 from mpc.robots.force_map import force_map
 
 RPM = math.pi / 30.0
@@ -66,6 +66,8 @@ def test_motor_as_a_table_and_steering() -> None:
     ({"motor": {"stall_torque": 1.0}}, "missing key(s)"),
     ({"motor": 3}, "motor must be a DCMotor"),
     ({"headroom": 0.5}, "headroom must be a fraction in [0, 0.5)"),
+    ({"voltage_headroom": -0.1}, "voltage_headroom must be a finite number >= 0"),
+    ({"voltage_headroom": 0.6}, "voltage_headroom must be a fraction in [0, 0.5)"),
     ({"current_limit": 0.0}, "current_limit [A] must be a finite number > 0"),
     ({"friction": float("nan")}, "friction must be a finite number > 0"),
     ({"battery_resistance": -0.1}, "battery_resistance [ohm]"),
@@ -96,11 +98,13 @@ gearing = 16.0
 current_limit = 8.0
 friction = 0.7
 battery_resistance = 0.02
+voltage_headroom = 0.1
 """)
     robot = load(file)
     assert robot.dynamics == dynamics(mass=15.0, yaw_inertia=0.25, motor="neo_550",
                                       gearing=16.0, current_limit=8.0, friction=0.7,
-                                      battery_resistance=0.02)
+                                      battery_resistance=0.02, voltage_headroom=0.1)
+    assert robot.dynamics is not None and robot.dynamics.headroom == HEADROOM
     assert robot.with_dynamics(None).dynamics is None
     described = {"type": "omni", "n_wheels": 3, "base_radius": 0.2, "wheel_radius": 0.05,
                  "max_wheel_speed": 10.0, "dynamics": {"mass": 5.0, "yaw_inertia": 0.1,

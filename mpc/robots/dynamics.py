@@ -20,7 +20,8 @@ A robot file::
     current_limit = 60.0        # [A] per motor (each motor controller's limit), optional
     friction = 1.1              # wheel-floor friction coefficient, optional
     wheel_inertia = 0.003       # [kg m^2] wheel + rotors reflected, about its axle, optional
-    headroom = 0.05             # fraction of each limit left for wheel feedback, optional
+    headroom = 0.05             # fraction of current and friction left for wheel feedback, optional
+    voltage_headroom = 0.03     # fraction of the battery voltage left likewise, optional
     # steer_motor = "kraken_x60" and steer_gearing = 21.43 (swerve, optional)
 """
 
@@ -37,6 +38,21 @@ from mpc.validation import integer_at_least, non_negative, positive, shown
 
 #: [m/s^2] gravity for the wheels' normal loads.
 GRAVITY = 9.81
+
+#: Default share of each motor's current limit and each contact's friction that a plan
+#: leaves to the wheels' own velocity loops, whose feedback adds torque to the plan's. On
+#: the motor plant (its proportional wheel loops) 2-3 % let the loops past the current limit
+#: on the shipped Choreo trajectory (1-5 ticks) and past traction on the swerve preset
+#: (``mpc-bench motors``: 1-5 slip ticks a run); 5 % on neither.
+HEADROOM = 0.05
+
+#: Default share of the battery voltage a plan leaves likewise. Where the voltage binds (at
+#: the motors' free speed) the loops need less of it: 3 % kept ``mpc-bench motors`` (every
+#: preset at 100 % of its motor model, 1 m and 3 m shapes) and the Choreo trajectory free of
+#: voltage violations (2 %: 3 ticks on the 3 m omni circles) and cut the motor-aware MPC's
+#: RMS error against 5 % where the voltage binds (omni-3 figure-eight 1.7 -> 0.9 mm, where
+#: the reference needs the motors' free speed; the 3 m omni-3 circle 11.9 -> 8.4 mm).
+VOLTAGE_HEADROOM = 0.03
 
 
 @dataclass(frozen=True)
@@ -57,8 +73,9 @@ class RobotDynamics:
         friction: wheel-floor friction coefficient, or None for unlimited traction.
         wheel_inertia: each wheel's inertia about its axle with the motors' rotors
             reflected through the gearing [kg m^2], >= 0.
-        headroom: fraction in [0, 0.5) of the battery voltage, current limit and friction
-            the plan leaves unused, for the wheels' own velocity feedback.
+        headroom: fraction in [0, 0.5) of the current limit and friction the plan leaves
+            unused, for the wheels' own velocity feedback (:data:`HEADROOM`).
+        voltage_headroom: the same for the battery voltage (:data:`VOLTAGE_HEADROOM`).
         steer_motor: a swerve module's steering gearbox at the motor shaft, or None.
         steer_gearing: its motor turns per module turn (with ``steer_motor``).
     """
@@ -72,7 +89,8 @@ class RobotDynamics:
     current_limit: float | None = None
     friction: float | None = None
     wheel_inertia: float = 0.0
-    headroom: float = 0.05
+    headroom: float = HEADROOM
+    voltage_headroom: float = VOLTAGE_HEADROOM
     steer_motor: DCMotor | None = None
     steer_gearing: float | None = None
 
@@ -92,10 +110,12 @@ class RobotDynamics:
                 unit = " [A]" if name == "current_limit" else ""
                 object.__setattr__(self, name, positive(f"{name}{unit}", getattr(self, name),
                                                         RobotError))
-        headroom = non_negative("headroom", self.headroom, RobotError)
-        if headroom >= 0.5:
-            raise RobotError(f"headroom must be a fraction in [0, 0.5), got {shown(self.headroom)}")
-        object.__setattr__(self, "headroom", headroom)
+        for name in ("headroom", "voltage_headroom"):
+            value = non_negative(name, getattr(self, name), RobotError)
+            if value >= 0.5:
+                raise RobotError(f"{name} must be a fraction in [0, 0.5), got "
+                                 f"{shown(getattr(self, name))}")
+            object.__setattr__(self, name, value)
         if (self.steer_motor is None) != (self.steer_gearing is None):
             raise RobotError("steer_motor and steer_gearing go together: give both or neither")
         if self.steer_motor is not None:
@@ -166,7 +186,8 @@ def motor_from(value: object, count: object = 1, what: str = "motor") -> DCMotor
 def dynamics(*, mass: float, yaw_inertia: float, motor: DCMotor | str | Mapping[str, Any],
              gearing: float, motor_count: int = 1, battery_voltage: float = 12.0,
              battery_resistance: float = 0.0, current_limit: float | None = None,
-             friction: float | None = None, wheel_inertia: float = 0.0, headroom: float = 0.05,
+             friction: float | None = None, wheel_inertia: float = 0.0,
+             headroom: float = HEADROOM, voltage_headroom: float = VOLTAGE_HEADROOM,
              steer_motor: DCMotor | str | Mapping[str, Any] | None = None,
              steer_motor_count: int = 1, steer_gearing: float | None = None
              ) -> RobotDynamics:
@@ -179,7 +200,8 @@ def dynamics(*, mass: float, yaw_inertia: float, motor: DCMotor | str | Mapping[
                          motor=motor_from(motor, motor_count), gearing=gearing,
                          battery_voltage=battery_voltage, battery_resistance=battery_resistance,
                          current_limit=current_limit, friction=friction,
-                         wheel_inertia=wheel_inertia, headroom=headroom, steer_motor=steer,
+                         wheel_inertia=wheel_inertia, headroom=headroom,
+                         voltage_headroom=voltage_headroom, steer_motor=steer,
                          steer_gearing=steer_gearing)
 
 
@@ -187,7 +209,7 @@ def dynamics(*, mass: float, yaw_inertia: float, motor: DCMotor | str | Mapping[
 DYNAMICS_KEYS: frozenset[str] = frozenset({
     "mass", "yaw_inertia", "motor", "gearing", "motor_count", "battery_voltage",
     "battery_resistance", "current_limit", "friction", "wheel_inertia", "headroom",
-    "steer_motor", "steer_motor_count", "steer_gearing"})
+    "voltage_headroom", "steer_motor", "steer_motor_count", "steer_gearing"})
 
 
 def dynamics_from_dict(table: object, source: str = "dynamics") -> RobotDynamics:
@@ -226,7 +248,8 @@ class ChoreoMotorConfig(Protocol):
 
 def choreo_dynamics(config: ChoreoMotorConfig, *, motor: str | DCMotor = "kraken_x60",
                     battery_voltage: float = 12.0, battery_resistance: float = 0.0,
-                    wheel_inertia: float = 0.0, headroom: float = 0.05) -> RobotDynamics:
+                    wheel_inertia: float = 0.0, headroom: float = HEADROOM,
+                    voltage_headroom: float = VOLTAGE_HEADROOM) -> RobotDynamics:
     """The motor model of a Choreo config: ``mass``, ``inertia``, ``gearing``, ``cof`` as
     they are; the motor is ``motor`` (Choreo's default drive motor, a Kraken X60, unless
     given) with its free speed set to ``vmax`` (what Choreo plans with) and its current
@@ -244,7 +267,8 @@ def choreo_dynamics(config: ChoreoMotorConfig, *, motor: str | DCMotor = "kraken
     return RobotDynamics(mass=config.mass, yaw_inertia=config.inertia, motor=scaled,
                          gearing=config.gearing, battery_voltage=battery_voltage,
                          battery_resistance=battery_resistance, current_limit=limit,
-                         friction=config.cof, wheel_inertia=wheel_inertia, headroom=headroom)
+                         friction=config.cof, wheel_inertia=wheel_inertia, headroom=headroom,
+                         voltage_headroom=voltage_headroom)
 
 
 def free_speed_at(dynamics_: RobotDynamics, voltage: float) -> float:

@@ -39,7 +39,7 @@ def _nlp_stage(forces: ForceMap, now: ca.SX, before: ca.SX, dt: float
     """One change's motor limits, exactly: at its end (``now``'s speed and Coriolis term)
     and at its start (``before``'s)."""
     dyn = forces.dynamics
-    keep = 1.0 - dyn.headroom
+    keep, volts_kept = 1.0 - dyn.headroom, 1.0 - dyn.voltage_headroom
     volt = dyn.battery_voltage
     change = (now - before) / dt
 
@@ -56,13 +56,13 @@ def _nlp_stage(forces: ForceMap, now: ca.SX, before: ca.SX, dt: float
         power = ca.dot(voltage[0], torque[0]) / forces.kt
         disc = ca.fmax(volt**2 - 4.0 * dyn.battery_resistance * power, 1e-6 * volt**2)
         bus = ca.fmin(0.5 * (volt + ca.sqrt(disc)), volt)
-        headroom = keep * ca.repmat(bus, n, 1)
+        headroom = volts_kept * ca.repmat(bus, n, 1)
         for value in voltage:
             out.append(((value - headroom) / volt, np.full(n, -np.inf), np.zeros(n)))
             out.append(((value + headroom) / volt, np.zeros(n), np.full(n, np.inf)))
     else:
         for value in voltage:
-            out.append((value / volt, np.full(n, -keep), np.full(n, keep)))
+            out.append((value / volt, np.full(n, -volts_kept), np.full(n, volts_kept)))
     traction = forces.friction_limits
     for side in (0, 1):
         out.append((torque[side] / forces.torque_limit, np.full(n, -keep), np.full(n, keep)))

@@ -129,7 +129,7 @@ def motor_rows(forces: ForceMap) -> MotorRows:
     dyn = forces.dynamics
     blocks = forces.robot.wheel_blocks  # (n, d, 3)
     n, d = blocks.shape[:2]
-    keep = 1.0 - dyn.headroom
+    keep, volts_kept = 1.0 - dyn.headroom, 1.0 - dyn.voltage_headroom
     volt = dyn.battery_voltage
     table = _RowTable()
     wheel = np.arange(n)
@@ -139,7 +139,8 @@ def motor_rows(forces: ForceMap) -> MotorRows:
     speed = blocks / (forces.kv * volt)
     for end in (True, False):
         table.add(speed if end else zero, zero if end else speed, r_over * forces.drive_map,
-                  r_over * forces.effort_map, keep, True, 0, wheel, steer, np.zeros(n), (end,))
+                  r_over * forces.effort_map, volts_kept, True, 0, wheel, steer, np.zeros(n),
+                  (end,))
     limit = forces.torque_limit
     table.add(zero, zero, forces.drive_map / limit, forces.effort_map / limit, keep, False, 1,
               wheel, steer, np.zeros(n))

@@ -13,9 +13,9 @@ from mpc.robots.base import Robot
 from mpc.robots.dynamics import bus_voltage
 from mpc.robots.force_map import AT_REST, ForceMap, force_map
 
-#: The share of ``headroom`` the final clamp keeps for the first command (the plan keeps it
-#: all): the rest absorbs the plan's linearisation (Coriolis term, sag) so that the clamp
-#: does not cut a plan for its second-order terms.
+#: The share of each headroom (``headroom``, ``voltage_headroom``) the final clamp keeps for
+#: the first command (the plan keeps it all): the rest absorbs the plan's linearisation
+#: (Coriolis term, sag) so that the clamp does not cut a plan for its second-order terms.
 CLAMP_HEADROOM = 0.5
 
 
@@ -177,7 +177,7 @@ def _sag_fraction(forces: ForceMap, volts: tuple[FloatArray, FloatArray],
     ``|o0 + f o1| <= 1``. ``power``: end voltages and torques ``(V0, V1, T0, T1)`` (the
     power at f is ``sum (V0 + f V1)(T0 + f T1) / kt``)."""
     dyn = forces.dynamics
-    keep = 1.0 - CLAMP_HEADROOM * dyn.headroom
+    keep = 1.0 - CLAMP_HEADROOM * dyn.voltage_headroom
     upper = _linear_fraction(*others)
     v0, v1 = volts
 
