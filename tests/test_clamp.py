@@ -227,3 +227,45 @@ def test_tiny_limits_hold_to_rounding_relative_to_themselves(limit: float,
         speeds = robot.wheel_magnitudes(safe)
         assert (speeds <= robot.max_wheel_speed * (1.0 + 1e-9)).all()
         last = safe
+
+
+@pytest.mark.parametrize("name", ["omni3", "omni4", "mecanum", "ball3"])
+def test_the_scalar_wheel_clamp_agrees_with_the_array_clamp(name: str) -> None:
+    """Robots whose wheels have scalar speeds clamp in plain Python floats
+    (``Robot.scalar_wheels``): the same twists as the NumPy clamp every robot can take (to
+    rounding of the wheel products' summation order), the same verdict on whether the
+    target changed, and the target itself returned when it is within every limit."""
+    from mpc.control.clamp import _clamp_arrays, _clamp_scalar
+
+    robot = preset(name)
+    wheels = robot.scalar_wheels
+    assert wheels is not None
+    for twist in np.random.default_rng(5).normal(size=(20, 3)):  # the rows are W's, as floats
+        np.testing.assert_array_equal(np.array(wheels.rows) @ twist,
+                                      robot.wheel_blocks[:, 0, :] @ twist)
+        np.testing.assert_allclose(np.abs(np.array(wheels.rows) @ twist),
+                                   robot.wheel_magnitudes(twist), rtol=1e-15, atol=0.0)
+    rng = np.random.default_rng(2026)
+    changed = 0
+    for _ in range(500):
+        last, target = random_feasible(robot, rng), random_target(robot, rng)
+        for dt in (DT, 1e-3):
+            mine, moved = _clamp_scalar(wheels, target, last, dt)
+            theirs, moved_too = _clamp_arrays(robot, target, last, dt, None)
+            np.testing.assert_allclose(mine, theirs, rtol=1e-12, atol=1e-12)
+            assert moved == moved_too
+            assert (mine is target) == (not moved)
+            changed += moved
+    assert changed > 100  # both sides of the limits were tried
+
+
+def test_robots_the_scalar_clamp_does_not_fit_take_the_array_clamp() -> None:
+    """Steered wheels, a failed wheel (its rest projector) and a motor model each need what
+    only the array clamp does: they have no ``scalar_wheels``."""
+    from mpc.robots import motor_preset
+
+    assert preset("swerve").scalar_wheels is None
+    assert preset("caster4").scalar_wheels is None
+    assert preset("mecanum").derated({1: 0.0}).scalar_wheels is None
+    assert preset("mecanum").derated({1: 0.5}).scalar_wheels is not None
+    assert motor_preset("mecanum").scalar_wheels is None

@@ -8,10 +8,12 @@ which the clamp relies on.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from mpc.arrays import FloatArray
-from mpc.robots.base import SPEED_SLACK, Robot
+from mpc.robots.base import SPEED_SLACK, Robot, ScalarWheels
 from mpc.robots.motor_step import motor_step_fraction
 
 #: Passes of the motor step: each takes the Coriolis term of the step the last one left.
@@ -41,7 +43,9 @@ def clamp_command(
        before it can drive waits at rest while it turns.
 
     Robots whose limits depend on measured steer angles (casters) clamp at those angles
-    themselves (:meth:`~mpc.robots.Robot.clamp_joints`) instead of steps 1-3.
+    themselves (:meth:`~mpc.robots.Robot.clamp_joints`) instead of steps 1-3. Robots with
+    :attr:`~mpc.robots.Robot.scalar_wheels` take steps 1 and 2 in plain Python (the same
+    arithmetic, wheel by wheel).
 
     Returns the clamped twist and whether it differs from ``target``. If
     ``last`` itself breaks a speed limit (the limits were just derated),
@@ -51,6 +55,14 @@ def clamp_command(
         own = robot.clamp_joints(target, last, dt, steer_angles)  # casters: at these angles
         if own is not None:
             return own, bool(own is not target and not np.array_equal(own, target))
+    elif robot.scalar_wheels is not None:
+        return _clamp_scalar(robot.scalar_wheels, target, last, dt)
+    return _clamp_arrays(robot, target, last, dt, steer_angles)
+
+
+def _clamp_arrays(robot: Robot, target: FloatArray, last: FloatArray, dt: float,
+                  steer_angles: FloatArray | None) -> tuple[FloatArray, bool]:
+    """Steps 1-4 of :func:`clamp_command` in NumPy (any robot)."""
     safe = target
     if robot.rest_projector is not None:
         safe = robot.rest_projector @ safe
@@ -62,6 +74,40 @@ def clamp_command(
         safe = safe * (limit[over] / speed[over]).min() * (1.0 - SPEED_SLACK)
     safe = _limit_step(robot, safe, last, dt, steer_angles, limit)
     return safe, bool(safe is not target and not np.array_equal(safe, target))
+
+
+def _clamp_scalar(wheels: ScalarWheels, target: FloatArray, last: FloatArray,
+                  dt: float) -> tuple[FloatArray, bool]:
+    """Steps 1 and 2 of :func:`clamp_command` for wheels with scalar speeds, in Python
+    floats (``target`` itself returned when it is within every limit)."""
+    tx, ty, tw = target.tolist()
+    lx, ly, lw = last.tolist()
+    rows, limits, slack = wheels.rows, wheels.limits, wheels.slack
+    scale = math.inf  # the smallest limit / speed over the wheels above their limits
+    for (a, b, c), limit, extra in zip(rows, limits, slack, strict=True):
+        speed = abs(a * tx + b * ty + c * tw)
+        if speed - limit > extra:
+            scale = min(scale, limit / speed)
+    changed = scale != math.inf
+    if changed:
+        tx, ty, tw = (tx * scale * (1.0 - SPEED_SLACK), ty * scale * (1.0 - SPEED_SLACK),
+                      tw * scale * (1.0 - SPEED_SLACK))
+    accel = wheels.accel
+    # A last command beyond the speed limits (the limits were just derated): see _limit_step.
+    if accel is not None and not any(
+            abs(a * lx + b * ly + c * lw) - limit * (1 + 1e-9) > extra
+            for (a, b, c), limit, extra in zip(rows, limits, slack, strict=True)):
+        sx, sy, sw = tx - lx, ty - ly, tw - lw
+        ratio = max(abs(a * sx + b * sy + c * sw) / (limit * dt)
+                    for (a, b, c), limit in zip(rows, accel, strict=True))
+        if ratio > 1.0:
+            keep = (1.0 - SPEED_SLACK) / ratio
+            tx, ty, tw = lx + keep * sx, ly + keep * sy, lw + keep * sw
+            changed = True
+    if not changed:
+        return target, False
+    safe = np.array((tx, ty, tw))
+    return safe, bool(not np.array_equal(safe, target))
 
 
 def _limit_step(robot: Robot, safe: FloatArray, last: FloatArray, dt: float,

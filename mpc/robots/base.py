@@ -59,6 +59,19 @@ __all__ = ["Robot", "SpeedRows", "WheelCommands", "as_twists", "check_holonomic"
 RobotT = TypeVar("RobotT", bound="Robot")
 
 
+class ScalarWheels(NamedTuple):
+    """A robot's wheel rows and limits as Python floats, for a robot whose every wheel has
+    a scalar speed ``W_i u`` (``wheel_dim`` 1: Swedish wheels, ball spin axes) and nothing
+    else for the clamp to check (no failed wheel, no motor model): the clamp's pure-Python
+    path (:func:`mpc.control.clamp.clamp_command`; with 3-8 wheels NumPy's cost a call is
+    most of its work: 11 -> 3 us on the Mecanum, timeit)."""
+
+    rows: tuple[tuple[float, float, float], ...]  # W_i [rad/s per twist unit]
+    limits: tuple[float, ...]  # max_wheel_speed [rad/s]
+    slack: tuple[float, ...]  # speed_slack [rad/s]
+    accel: tuple[float, ...] | None  # max_wheel_accel [rad/s^2]
+
+
 class WheelCommands(NamedTuple):
     """What is sent to the wheels: signed speeds [rad/s] and steer angles [rad] or None."""
 
@@ -98,6 +111,8 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
     #: rest, ``I - pinv(W_f) W_f``; None when no wheel has failed.
     rest_projector: FloatArray | None = field(init=False, repr=False, default=None)
     _flat_pinv: FloatArray = field(init=False, repr=False)  # (3, n * d) least squares
+    #: The wheels as Python floats for the clamp (:class:`ScalarWheels`), or None.
+    scalar_wheels: ScalarWheels | None = field(init=False, repr=False, default=None)
     #: How far over its speed limit a wheel may read and count as within it (rounding) [rad/s]
     #: (n,): :data:`SPEED_SLACK` of the limit, of the nominal one for a failed wheel.
     speed_slack: FloatArray = field(init=False, repr=False)
@@ -122,6 +137,12 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         object.__setattr__(self, "speed_slack", _speed_slack(self.max_wheel_speed,
                                                              self.nominal_max_wheel_speed))
         self._check_dynamics()
+        if self.wheel_dim == 1 and self.rest_projector is None and self.dynamics is None:
+            accel = self.max_wheel_accel
+            object.__setattr__(self, "scalar_wheels", ScalarWheels(
+                tuple((a, b, c) for a, b, c in flat.tolist()),
+                tuple(self.max_wheel_speed.tolist()), tuple(self.speed_slack.tolist()),
+                None if accel is None else tuple(np.asarray(accel, dtype=float).tolist())))
 
     def _check_rates(self) -> None:
         """Every nominal speed, acceleration and steering-rate limit at least
