@@ -64,7 +64,7 @@ class ScalarWheels(NamedTuple):
     a scalar speed ``W_i u`` (``wheel_dim`` 1: Swedish wheels, ball spin axes) and nothing
     else for the clamp to check (no failed wheel, no motor model): the clamp's pure-Python
     path (:func:`mpc.control.clamp.clamp_command`; with 3-8 wheels NumPy's cost a call is
-    most of its work: 11 -> 3 us on the Mecanum, timeit)."""
+    most of its work: 11 -> 4 us on the Mecanum, timeit)."""
 
     rows: tuple[tuple[float, float, float], ...]  # W_i [rad/s per twist unit]
     limits: tuple[float, ...]  # max_wheel_speed [rad/s]
