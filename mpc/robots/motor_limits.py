@@ -3,8 +3,8 @@
 For a robot with :class:`~mpc.robots.dynamics.RobotDynamics`, every stage ``k`` of a plan
 of twists (``u_{-1}``: the last command) gets, on top of the kinematic rows, per wheel::
 
-    |V_end|, |V_start| <= (1 - voltage_headroom) V_bus      (battery voltage)
-    |T| <= (1 - headroom) T_limit                   (current limit: T = kt I)
+    |V_end|, |V_start| <= (1 - voltage_headroom) V_bus   (battery voltage)
+    |T| <= (1 - headroom) T_limit                          (current limit: T = kt I)
 
 and per contact ``|F_c| <= (1 - headroom) mu N_c`` (traction), where over the change
 from ``u_{k-1}`` to ``u_k`` (``change_times[k]`` seconds, a constant acceleration):

@@ -56,10 +56,10 @@ def _nlp_stage(forces: ForceMap, now: ca.SX, before: ca.SX, dt: float
         power = ca.dot(voltage[0], torque[0]) / forces.kt
         disc = ca.fmax(volt**2 - 4.0 * dyn.battery_resistance * power, 1e-6 * volt**2)
         bus = ca.fmin(0.5 * (volt + ca.sqrt(disc)), volt)
-        headroom = volts_kept * ca.repmat(bus, n, 1)
+        allowed = volts_kept * ca.repmat(bus, n, 1)
         for value in voltage:
-            out.append(((value - headroom) / volt, np.full(n, -np.inf), np.zeros(n)))
-            out.append(((value + headroom) / volt, np.zeros(n), np.full(n, np.inf)))
+            out.append(((value - allowed) / volt, np.full(n, -np.inf), np.zeros(n)))
+            out.append(((value + allowed) / volt, np.zeros(n), np.full(n, np.inf)))
     else:
         for value in voltage:
             out.append((value / volt, np.full(n, -volts_kept), np.full(n, volts_kept)))
