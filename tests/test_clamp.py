@@ -269,3 +269,53 @@ def test_robots_the_scalar_clamp_does_not_fit_take_the_array_clamp() -> None:
     assert preset("mecanum").derated({1: 0.0}).scalar_wheels is None
     assert preset("mecanum").derated({1: 0.5}).scalar_wheels is not None
     assert motor_preset("mecanum").scalar_wheels is None
+
+
+def test_the_planar_module_clamp_agrees_with_the_array_clamp() -> None:
+    """Swerve modules without an axle offset clamp in Python floats
+    (``Robot.planar_modules``): the same twists as the NumPy clamp (to rounding of the
+    module products' summation order) and the same verdict, on random last commands,
+    targets and steer angles (modules aligned with the last command and turned by up to
+    three ticks of their steering rate), so that the speed, acceleration and steering
+    steps each bind, alone and together."""
+    from mpc.control.clamp import _clamp_arrays, _clamp_planar
+
+    robot = preset("swerve")
+    modules = robot.planar_modules
+    assert modules is not None
+    rng = np.random.default_rng(2027)
+    bound = {"speed": 0, "turn": 0, "unchanged": 0}
+    for _ in range(400):
+        last = random_feasible(robot, rng)
+        near = last + rng.normal(size=3) * rng.choice([1e-3, 3e-2])  # within reach, or not
+        faster = last * rng.uniform(1.2, 4.0)  # the same directions: speed and acceleration
+        target = (near, faster, random_target(robot, rng))[rng.integers(3)]
+        for dt in (DT, 1e-3):
+            aligned = robot.wheel_commands(last, robot.initial_steer_angles())[1]
+            assert aligned is not None
+            turned = rng.choice([0.0, 0.5, 3.0]) * robot.max_steer_rate * dt
+            steer = aligned + rng.uniform(-1.0, 1.0, robot.n_wheels) * turned
+            mine, moved = _clamp_planar(robot, modules, target, last, dt, steer)
+            theirs, moved_too = _clamp_arrays(robot, target, last, dt, steer)
+            np.testing.assert_allclose(mine, theirs, rtol=1e-12, atol=1e-12)
+            assert moved == moved_too
+            assert (mine is target) == (not moved)
+            if not moved:
+                bound["unchanged"] += 1
+            elif robot.steering_fraction(last, target, steer, dt) < 1.0:
+                bound["turn"] += 1
+            else:
+                bound["speed"] += 1
+    assert min(bound.values()) > 100, bound
+
+
+def test_modules_the_planar_clamp_does_not_fit_take_the_array_clamp() -> None:
+    """An axle offset (its drive limit moves with the steering), a failed module and a
+    motor model each need the array clamp: no ``planar_modules`` for them."""
+    from mpc.robots import motor_preset
+
+    assert preset("swerve").planar_modules is not None
+    assert preset("mpo700").planar_modules is None
+    assert preset("swerve").derated({0: 0.0}).planar_modules is None
+    assert motor_preset("swerve").planar_modules is None
+    assert preset("mecanum").planar_modules is None and preset("swerve").scalar_wheels is None

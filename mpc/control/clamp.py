@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from mpc.arrays import FloatArray
-from mpc.robots.base import SPEED_SLACK, Robot, ScalarWheels
+from mpc.robots.base import SPEED_SLACK, PlanarModules, Robot, ScalarWheels
 from mpc.robots.motor_step import motor_step_fraction
 
 #: Passes of the motor step: each takes the Coriolis term of the step the last one left.
@@ -45,7 +45,8 @@ def clamp_command(
     Robots whose limits depend on measured steer angles (casters) clamp at those angles
     themselves (:meth:`~mpc.robots.Robot.clamp_joints`) instead of steps 1-3. Robots with
     :attr:`~mpc.robots.Robot.scalar_wheels` take steps 1 and 2 in plain Python (the same
-    arithmetic, wheel by wheel).
+    arithmetic, wheel by wheel), robots with :attr:`~mpc.robots.Robot.planar_modules` steps
+    1, 2 and 4 (step 4's search, when a module would turn too far, in NumPy).
 
     Returns the clamped twist and whether it differs from ``target``. If
     ``last`` itself breaks a speed limit (the limits were just derated),
@@ -55,6 +56,8 @@ def clamp_command(
         own = robot.clamp_joints(target, last, dt, steer_angles)  # casters: at these angles
         if own is not None:
             return own, bool(own is not target and not np.array_equal(own, target))
+        if robot.planar_modules is not None:
+            return _clamp_planar(robot, robot.planar_modules, target, last, dt, steer_angles)
     elif robot.scalar_wheels is not None:
         return _clamp_scalar(robot.scalar_wheels, target, last, dt)
     return _clamp_arrays(robot, target, last, dt, steer_angles)
@@ -104,6 +107,68 @@ def _clamp_scalar(wheels: ScalarWheels, target: FloatArray, last: FloatArray,
             keep = (1.0 - SPEED_SLACK) / ratio
             tx, ty, tw = lx + keep * sx, ly + keep * sy, lw + keep * sw
             changed = True
+    if not changed:
+        return target, False
+    safe = np.array((tx, ty, tw))
+    return safe, bool(not np.array_equal(safe, target))
+
+
+def _clamp_planar(robot: Robot, modules: PlanarModules, target: FloatArray,
+                  last: FloatArray, dt: float, steer_angles: FloatArray
+                  ) -> tuple[FloatArray, bool]:
+    """Steps 1, 2 and 4 of :func:`clamp_command` for steered modules whose speed is their
+    velocity's length, in Python floats (as :func:`_clamp_arrays` takes them: the speed
+    scaling, the acceleration step with ``command_snap`` kept at each end, then the turn:
+    whole if no moving module turns past ``max_steer_rate dt``, else the robot's
+    :meth:`~mpc.robots.Robot.steering_fraction` search)."""
+    tx, ty, tw = target.tolist()
+    lx, ly, lw = last.tolist()
+    rows, limits, slack = modules.rows, modules.limits, modules.slack
+    scale = math.inf
+    for (a, b, c, d, e, f), limit, extra in zip(rows, limits, slack, strict=True):
+        speed = math.hypot(a * tx + b * ty + c * tw, d * tx + e * ty + f * tw)
+        if speed - limit > extra:
+            scale = min(scale, limit / speed)
+    changed = scale != math.inf
+    if changed:
+        tx, ty, tw = (tx * scale * (1.0 - SPEED_SLACK), ty * scale * (1.0 - SPEED_SLACK),
+                      tw * scale * (1.0 - SPEED_SLACK))
+    if any(math.hypot(a * lx + b * ly + c * lw, d * lx + e * ly + f * lw)
+           - limit * (1 + 1e-9) > extra
+           for (a, b, c, d, e, f), limit, extra in zip(rows, limits, slack, strict=True)):
+        return _planar_result(target, tx, ty, tw, changed)  # the speed limits win
+    sx, sy, sw = tx - lx, ty - ly, tw - lw
+    if modules.accel is not None:
+        snap = modules.snap
+        ratio = max(
+            math.hypot(a * sx + b * sy + c * sw, d * sx + e * sy + f * sw)
+            / (accel * dt if snap == 0.0 else max(accel * dt - 2.0 * snap, 0.5 * accel * dt))
+            for (a, b, c, d, e, f), accel in zip(rows, modules.accel, strict=True))
+        if ratio > 1.0:
+            keep = (1.0 - SPEED_SLACK) / ratio
+            tx, ty, tw = lx + keep * sx, ly + keep * sy, lw + keep * sw
+            sx, sy, sw = tx - lx, ty - ly, tw - lw
+            changed = True
+    # The turn: every moving module within its reach of its present angle at the target
+    # (the velocities as turn_fraction forms them, from last plus the whole change).
+    reach = modules.steer_rate * dt * (1.0 - 1e-9)
+    half = 0.5 * math.pi
+    for (a, b, c, d, e, f), angle in zip(rows, steer_angles.tolist(), strict=True):
+        vx = (a * lx + b * ly + c * lw) + 1.0 * (a * sx + b * sy + c * sw)
+        vy = (d * lx + e * ly + f * lw) + 1.0 * (d * sx + e * sy + f * sw)
+        if (math.hypot(vx, vy) * modules.radius > modules.moving
+                and not abs((math.atan2(vy, vx) - angle + half) % math.pi - half) <= reach):
+            safe = np.array((tx, ty, tw))
+            fraction = robot.steering_fraction(last, safe, steer_angles, dt)
+            if fraction < 1.0:
+                safe = last + fraction * (safe - last)
+            return safe, bool(not np.array_equal(safe, target))
+    return _planar_result(target, tx, ty, tw, changed)
+
+
+def _planar_result(target: FloatArray, tx: float, ty: float, tw: float,
+                   changed: bool) -> tuple[FloatArray, bool]:
+    """``target`` itself if unchanged, else the new twist and whether it differs."""
     if not changed:
         return target, False
     safe = np.array((tx, ty, tw))

@@ -31,11 +31,12 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
-from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
+from mpc.robots.base import PlanarModules, Robot, SpeedRows, WheelCommands, as_twists
 from mpc.robots.limits import StageLimits
 from mpc.robots.registry import register
 from mpc.robots.swerve_axle import axle_forward_kinematics, axle_speed_ratio
 from mpc.robots.swerve_limits import (
+    MOVING_MODULE_SPEED,
     STOPPED_MODULE_SPEED,
     linearised_stage_limits,
     nlp_stage_limits,
@@ -93,6 +94,14 @@ class SwerveRobot(Robot):
             self, "nominal_max_wheel_accel",
             None if self.max_accel is None else readonly(np.full(n, self.max_accel)))
         self._finish()
+        if not lever and self.rest_projector is None and self.dynamics is None:
+            accel = self.max_wheel_accel
+            object.__setattr__(self, "planar_modules", PlanarModules(
+                tuple((a, b, c, d, e, f)
+                      for a, b, c, d, e, f in self.wheel_blocks.reshape(n, 6).tolist()),
+                tuple(self.max_wheel_speed.tolist()), tuple(self.speed_slack.tolist()),
+                None if accel is None else tuple(accel.tolist()), self.command_snap,
+                self.max_steer_rate, radius, MOVING_MODULE_SPEED))
 
     def ground_maps(self) -> FloatArray:
         """Module ground velocity per twist, ``[[1, 0, -y_i], [0, 1, x_i]]``, shape (n, 2, 3)."""

@@ -99,7 +99,7 @@ STOPPED_MODULE_SPEED = 1e-6
 #: The steering limits count a module as moving a little below that speed: rounding
 #: between the limit's check and the command's own computation can then only make the
 #: command keep an angle the limit allowed to change, never the reverse.
-_MOVING = STOPPED_MODULE_SPEED * (1.0 - 1e-3)
+MOVING_MODULE_SPEED = STOPPED_MODULE_SPEED * (1.0 - 1e-3)
 
 
 def _flip_turn(x: FloatArray, y: FloatArray, steer_angles: FloatArray) -> FloatArray:
@@ -117,7 +117,8 @@ def turns(robot: SwerveRobot, velocities: FloatArray, steer_angles: FloatArray) 
     """How far each module must turn [rad] to drive ``velocities`` (n, 2) from its present
     angle, with the flip rule (so in [0, pi / 2]); 0 for a module at rest."""
     turn = np.abs(_flip_turn(velocities[:, 0], velocities[:, 1], steer_angles))
-    moving = np.hypot(velocities[:, 0], velocities[:, 1]) * robot.wheel_radius > _MOVING
+    speed = np.hypot(velocities[:, 0], velocities[:, 1])
+    moving = speed * robot.wheel_radius > MOVING_MODULE_SPEED
     return np.where(moving, turn, 0.0)
 
 
@@ -190,7 +191,8 @@ def _drives_within(robot: SwerveRobot, twists: FloatArray, steer_angles: FloatAr
     drive += lever * twists[:, 2:3]
     within = np.abs(drive) <= robot.max_wheel_speed * (1.0 + 1e-12)
     if reach is not None:
-        within &= (np.abs(turn) <= reach) | (magnitude * robot.wheel_radius <= _MOVING)
+        within &= ((np.abs(turn) <= reach)
+                   | (magnitude * robot.wheel_radius <= MOVING_MODULE_SPEED))
     return np.all(within, axis=1)
 
 
@@ -226,7 +228,7 @@ def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
         return 0.0
     # The roots a hair inside the limits, so that rounding cannot push them out.
     roots = _turn_roots(start, change, steer_angles, reach * (1.0 - 1e-7),
-                        _MOVING / robot.wheel_radius * (1.0 - 1e-6))
+                        MOVING_MODULE_SPEED / robot.wheel_radius * (1.0 - 1e-6))
     points = np.unique(np.concatenate(([0.0, 1.0], roots[(roots > 0.0) & (roots < 1.0)])))
     middles = 0.5 * (points[:-1] + points[1:])
     order = np.empty(2 * points.size - 1)
@@ -248,9 +250,9 @@ def _turns_fit(velocities: FloatArray, steer_angles: FloatArray, reach: float,
     angles = steer_angles.tolist()
     half = 0.5 * math.pi
     return np.array([
-        all(not speed * wheel_radius > _MOVING or abs((bearing - angle + half) % math.pi - half)
-            <= reach for bearing, speed, angle in zip(row_bearings, row_speeds, angles,
-                                                         strict=True))
+        all(not speed * wheel_radius > MOVING_MODULE_SPEED
+            or abs((bearing - angle + half) % math.pi - half) <= reach
+            for bearing, speed, angle in zip(row_bearings, row_speeds, angles, strict=True))
         for row_bearings, row_speeds in zip(bearings, speeds, strict=True)])
 
 
