@@ -454,13 +454,15 @@ def peers_section(ticks: int, say: Printer, rounds: int = PEER_ROUNDS) -> dict[s
         runs: dict[str, list[Run]] = {name: [] for name in built}
         failures = dict.fromkeys(built, 0)
         order = list(built)
-        for turn in range(rounds):
-            for name in order[turn % len(order):] + order[:turn % len(order)]:
-                control = built[name][0]
-                runs[name].append(_run(control, ticks))  # (simulate resets the controller)
-                if isinstance(control, peers.DoMpcController):
-                    failures[name] += control.failures  # IPOPT reported no success
-        gc.unfreeze()
+        try:
+            for turn in range(rounds):
+                for name in order[turn % len(order):] + order[:turn % len(order)]:
+                    control = built[name][0]
+                    runs[name].append(_run(control, ticks))  # (simulate resets it)
+                    if isinstance(control, peers.DoMpcController):
+                        failures[name] += control.failures  # IPOPT reported no success
+        finally:
+            gc.unfreeze()
         for name, (control, build) in built.items():
             row = _row(runs[name], _settle(ticks), section="peers", layout=REFERENCE_LAYOUT,
                        mode="time", speed=speed, peak_ratio=SPEEDS[speed], solver=name,
