@@ -293,7 +293,7 @@ def test_the_planar_module_clamp_agrees_with_the_array_clamp() -> None:
         for dt in (DT, 1e-3):
             aligned = robot.wheel_commands(last, robot.initial_steer_angles())[1]
             assert aligned is not None
-            turned = rng.choice([0.0, 0.5, 3.0]) * robot.max_steer_rate * dt
+            turned = rng.choice([0.0, 0.5, 3.0]) * modules.steer_rate * dt
             steer = aligned + rng.uniform(-1.0, 1.0, robot.n_wheels) * turned
             mine, moved = _clamp_planar(robot, modules, target, last, dt, steer)
             theirs, moved_too = _clamp_arrays(robot, target, last, dt, steer)
