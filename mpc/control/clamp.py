@@ -86,15 +86,10 @@ def _clamp_scalar(wheels: ScalarWheels, target: FloatArray, last: FloatArray,
     tx, ty, tw = target.tolist()
     lx, ly, lw = last.tolist()
     rows, limits, slack = wheels.rows, wheels.limits, wheels.slack
-    scale = math.inf  # the smallest limit / speed over the wheels above their limits
-    for (a, b, c), limit, extra in zip(rows, limits, slack, strict=True):
-        speed = abs(a * tx + b * ty + c * tw)
-        if speed - limit > extra:
-            scale = min(scale, limit / speed)
-    changed = scale != math.inf
+    scale = _speed_scale([abs(a * tx + b * ty + c * tw) for a, b, c in rows], limits, slack)
+    changed = scale < math.inf
     if changed:
-        tx, ty, tw = (tx * scale * (1.0 - SPEED_SLACK), ty * scale * (1.0 - SPEED_SLACK),
-                      tw * scale * (1.0 - SPEED_SLACK))
+        tx, ty, tw = _scaled(tx, ty, tw, scale)
     accel = wheels.accel
     # A last command beyond the speed limits (the limits were just derated): see _limit_step.
     if accel is not None and not any(
@@ -107,10 +102,7 @@ def _clamp_scalar(wheels: ScalarWheels, target: FloatArray, last: FloatArray,
             keep = (1.0 - SPEED_SLACK) / ratio
             tx, ty, tw = lx + keep * sx, ly + keep * sy, lw + keep * sw
             changed = True
-    if not changed:
-        return target, False
-    safe = np.array((tx, ty, tw))
-    return safe, bool(not np.array_equal(safe, target))
+    return _float_result(target, tx, ty, tw, changed)
 
 
 def _clamp_planar(robot: Robot, modules: PlanarModules, target: FloatArray,
@@ -124,19 +116,15 @@ def _clamp_planar(robot: Robot, modules: PlanarModules, target: FloatArray,
     tx, ty, tw = target.tolist()
     lx, ly, lw = last.tolist()
     rows, limits, slack = modules.rows, modules.limits, modules.slack
-    scale = math.inf
-    for (a, b, c, d, e, f), limit, extra in zip(rows, limits, slack, strict=True):
-        speed = math.hypot(a * tx + b * ty + c * tw, d * tx + e * ty + f * tw)
-        if speed - limit > extra:
-            scale = min(scale, limit / speed)
-    changed = scale != math.inf
+    scale = _speed_scale([math.hypot(a * tx + b * ty + c * tw, d * tx + e * ty + f * tw)
+                          for a, b, c, d, e, f in rows], limits, slack)
+    changed = scale < math.inf
     if changed:
-        tx, ty, tw = (tx * scale * (1.0 - SPEED_SLACK), ty * scale * (1.0 - SPEED_SLACK),
-                      tw * scale * (1.0 - SPEED_SLACK))
+        tx, ty, tw = _scaled(tx, ty, tw, scale)
     if any(math.hypot(a * lx + b * ly + c * lw, d * lx + e * ly + f * lw)
            - limit * (1 + 1e-9) > extra
            for (a, b, c, d, e, f), limit, extra in zip(rows, limits, slack, strict=True)):
-        return _planar_result(target, tx, ty, tw, changed)  # the speed limits win
+        return _float_result(target, tx, ty, tw, changed)  # the speed limits win
     sx, sy, sw = tx - lx, ty - ly, tw - lw
     if modules.accel is not None:
         snap = modules.snap
@@ -163,11 +151,28 @@ def _clamp_planar(robot: Robot, modules: PlanarModules, target: FloatArray,
             if fraction < 1.0:
                 safe = last + fraction * (safe - last)
             return safe, bool(not np.array_equal(safe, target))
-    return _planar_result(target, tx, ty, tw, changed)
+    return _float_result(target, tx, ty, tw, changed)
 
 
-def _planar_result(target: FloatArray, tx: float, ty: float, tw: float,
-                   changed: bool) -> tuple[FloatArray, bool]:
+def _speed_scale(speeds: list[float], limits: tuple[float, ...],
+                 slack: tuple[float, ...]) -> float:
+    """Step 1's factor: the smallest limit / speed over the wheels above their limits by
+    more than their rounding slack (inf when none is)."""
+    scale = math.inf
+    for speed, limit, extra in zip(speeds, limits, slack, strict=True):
+        if speed - limit > extra:
+            scale = min(scale, limit / speed)
+    return scale
+
+
+def _scaled(tx: float, ty: float, tw: float, scale: float) -> tuple[float, float, float]:
+    """The twist scaled into the speed limits (as the array clamp scales it)."""
+    return (tx * scale * (1.0 - SPEED_SLACK), ty * scale * (1.0 - SPEED_SLACK),
+            tw * scale * (1.0 - SPEED_SLACK))
+
+
+def _float_result(target: FloatArray, tx: float, ty: float, tw: float,
+                  changed: bool) -> tuple[FloatArray, bool]:
     """``target`` itself if unchanged, else the new twist and whether it differs."""
     if not changed:
         return target, False
