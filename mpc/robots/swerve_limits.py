@@ -23,6 +23,7 @@ paths.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from typing import TYPE_CHECKING
 
@@ -128,6 +129,9 @@ def turns(robot: SwerveRobot, velocities: FloatArray, steer_angles: FloatArray) 
 #: ~80 us more a tick on the MPO-700 beyond the limits, one round of 257 points and one
 #: more no less, a bisection of single wheel-command calls ~1 ms.
 _SEARCH_ROUNDS, _SEARCH_PARTS = 3, 40
+#: A round's grid over [0, 1] (``np.linspace`` itself took ~15 us a call: a fifth of a
+#: search round).
+_SEARCH_GRID = np.linspace(0.0, 1.0, _SEARCH_PARTS + 1)
 
 
 def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
@@ -149,7 +153,7 @@ def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
     # one call: most ticks need no search (the fraction's point fits), and a search then has
     # its first round already. The turn is checked with the drives on the grid: the target
     # may fit where points on the way to it do not.
-    parts = np.linspace(0.0, fraction, _SEARCH_PARTS + 1)  # parts[0] = 0: the start
+    parts = fraction * _SEARCH_GRID  # parts[0] = 0: the start
     fits = within(parts)
     if fits[-1]:
         return fraction
@@ -158,7 +162,7 @@ def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
     low, high = 0.0, fraction
     for round_ in range(_SEARCH_ROUNDS):
         if round_:
-            parts = np.linspace(low, high, _SEARCH_PARTS + 1)
+            parts = low + (high - low) * _SEARCH_GRID
             fits = within(parts[1:])
         else:
             fits = fits[1:]
@@ -184,20 +188,17 @@ def _drives_within(robot: SwerveRobot, twists: FloatArray, steer_angles: FloatAr
     x, y = velocities[:, 0::2], velocities[:, 1::2]
     turn = _flip_turn(x, y, steer_angles)
     magnitude = np.hypot(x, y)
+    ground = magnitude * robot.wheel_radius  # [m/s]
     speed = np.copysign(magnitude, x * np.cos(steer_angles) + y * np.sin(steer_angles))
     lever = robot.axle_offset / robot.wheel_radius
-    drive = np.where(magnitude * robot.wheel_radius < STOPPED_MODULE_SPEED, 0.0,
-                     speed + lever * turn / dt)
+    # (NumPy calls on arrays of K x n: each saved is ~1 us of a search round's ~40)
+    speed += (lever / dt) * turn
+    drive = np.where(ground < STOPPED_MODULE_SPEED, 0.0, speed)
     drive += lever * twists[:, 2:3]
     within = np.abs(drive) <= robot.max_wheel_speed * (1.0 + 1e-12)
     if reach is not None:
-        within &= ((np.abs(turn) <= reach)
-                   | (magnitude * robot.wheel_radius <= MOVING_MODULE_SPEED))
+        within &= (np.abs(turn) <= reach) | (ground <= MOVING_MODULE_SPEED)
     return np.all(within, axis=1)
-
-
-#: The fractions of a step :func:`turn_fraction` checks first: all of it, none of it.
-_WHOLE_STEP, _NO_STEP = np.array([1.0]), np.array([0.0])
 
 
 def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
@@ -210,75 +211,78 @@ def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
     Closed form: along the step a module's velocity ``a + g b`` is a line, so with ``u``
     its present direction the bound ``|u x v| <= tan(reach) |u . v|`` (a double cone: the
     flip rule) changes sign only where ``u x v = +-tan(reach) u . v`` (linear in ``g``) or
-    where the module's speed crosses the stopped threshold (a module at rest turns by 0):
-    the answer is one of those roots, checked at all of them and between them at once.
+    where the module's speed crosses the stopped threshold (a module at rest turns by 0).
+    Each module's answer is one of its roots: its roots and the points between them are
+    checked in order up to the first that breaks the bound, and the smallest answer over
+    the modules is the step's. In Python floats, module by module (a few modules, and most
+    calls stop at the first check: NumPy's arrays of all the roots at once took ~280 us a
+    call on the MPO-700 1.3x beyond the limits in path mode, where every tick searched).
     """
     reach = _reach(robot, dt)
     blocks = robot.wheel_blocks
-    start = blocks @ last  # (n, 2)
-    change = blocks @ (target - last)
-
-    def fits(fractions: FloatArray) -> npt.NDArray[np.bool_]:
-        velocities = start[None] + fractions[:, None, None] * change[None]  # (K, n, 2)
-        return _turns_fit(velocities, steer_angles, reach, robot.wheel_radius)
-
-    if fits(_WHOLE_STEP)[0]:  # most ticks: the target turns no module too far
+    modules = list(zip((blocks @ last).tolist(), (blocks @ (target - last)).tolist(),
+                       steer_angles.tolist(), strict=True))
+    radius = robot.wheel_radius
+    if all(_turn_fits(start, change, angle, 1.0, reach, radius)
+           for start, change, angle in modules):  # most ticks: no module turns too far
         return 1.0
-    if not fits(_NO_STEP)[0]:  # the last command itself is out of line (e.g. after a reset)
-        return 0.0
+    if not all(_turn_fits(start, change, angle, 0.0, reach, radius)
+               for start, change, angle in modules):  # the last command itself is out of
+        return 0.0  # line (e.g. after a reset)
     # The roots a hair inside the limits, so that rounding cannot push them out.
-    roots = _turn_roots(start, change, steer_angles, reach * (1.0 - 1e-7),
-                        MOVING_MODULE_SPEED / robot.wheel_radius * (1.0 - 1e-6))
-    points = np.unique(np.concatenate(([0.0, 1.0], roots[(roots > 0.0) & (roots < 1.0)])))
-    middles = 0.5 * (points[:-1] + points[1:])
-    order = np.empty(2 * points.size - 1)
-    order[0::2], order[1::2] = points, middles
-    good = fits(order)
-    first_bad = int(np.argmin(good))  # good[0] holds: 0 fits
-    return float(order[first_bad - 1])
+    slope = math.tan(reach * (1.0 - 1e-7))
+    stopped = MOVING_MODULE_SPEED / radius * (1.0 - 1e-6)
+    fraction = 1.0
+    for start, change, angle in modules:
+        roots = _turn_roots(start, change, angle, slope, stopped)
+        points = sorted({0.0, 1.0, *(root for root in roots if 0.0 < root < 1.0)})
+        for low, high in itertools.pairwise(points):  # low fits (0 does, see above)
+            middle = 0.5 * (low + high)
+            if not _turn_fits(start, change, angle, middle, reach, radius):
+                fraction = min(fraction, low)
+                break
+            if not _turn_fits(start, change, angle, high, reach, radius):
+                fraction = min(fraction, middle)
+                break
+    return fraction
 
 
-def _turns_fit(velocities: FloatArray, steer_angles: FloatArray, reach: float,
-               wheel_radius: float) -> npt.NDArray[np.bool_]:
-    """For each of K sets of module velocities (K, n, 2) [rad/s]: whether every moving
-    module turns by at most ``reach`` [rad] from ``steer_angles`` (the flip rule). The
-    bearings and speeds are NumPy's; the rest is a loop over the few modules, the same
-    operations in the same order as :func:`_flip_turn` (a dozen NumPy calls on arrays of
-    four took :func:`turn_fraction` 17 us a call, this 9.5)."""
-    x, y = velocities[..., 0], velocities[..., 1]
-    bearings, speeds = np.arctan2(y, x).tolist(), np.hypot(x, y).tolist()
-    angles = steer_angles.tolist()
+def _turn_fits(start: list[float], change: list[float], angle: float, fraction: float,
+               reach: float, wheel_radius: float) -> bool:
+    """Whether a module whose velocity is ``start + fraction * change`` [rad/s] turns by at
+    most ``reach`` [rad] from ``angle`` (the flip rule; a module at rest turns by 0): the
+    operations of :func:`_flip_turn`, in Python floats."""
+    x = start[0] + fraction * change[0]
+    y = start[1] + fraction * change[1]
+    if not math.hypot(x, y) * wheel_radius > MOVING_MODULE_SPEED:
+        return True
     half = 0.5 * math.pi
-    return np.array([
-        all(not speed * wheel_radius > MOVING_MODULE_SPEED
-            or abs((bearing - angle + half) % math.pi - half) <= reach
-            for bearing, speed, angle in zip(row_bearings, row_speeds, angles, strict=True))
-        for row_bearings, row_speeds in zip(bearings, speeds, strict=True)])
+    return abs((math.atan2(y, x) - angle + half) % math.pi - half) <= reach
 
 
-def _turn_roots(start: FloatArray, change: FloatArray, steer_angles: FloatArray, reach: float,
-                stopped: float) -> FloatArray:
-    """Fractions ``g`` where a module's velocity ``start + g change`` (n, 2) meets the edge
-    of its steering cone (half-angle ``reach`` about its angle, both ways) or the stopped
-    speed ``stopped`` [rad/s]."""
-    u = np.stack((np.cos(steer_angles), np.sin(steer_angles)), axis=1)
-    c0 = u[:, 0] * start[:, 1] - u[:, 1] * start[:, 0]
-    c1 = u[:, 0] * change[:, 1] - u[:, 1] * change[:, 0]
-    d0 = np.einsum("nd,nd->n", u, start)
-    d1 = np.einsum("nd,nd->n", u, change)
-    slope = math.tan(reach)
+def _turn_roots(start: list[float], change: list[float], angle: float, slope: float,
+                stopped: float) -> list[float]:
+    """Fractions ``g`` where a module's velocity ``start + g change`` [rad/s] meets the edge
+    of its steering cone (``|u x v| = slope |u . v|`` about its angle ``u``, both ways) or
+    the stopped speed ``stopped`` [rad/s]."""
+    ux, uy = math.cos(angle), math.sin(angle)
+    (sx, sy), (cx, cy) = start, change
+    c0, c1 = ux * sy - uy * sx, ux * cy - uy * cx
+    d0, d1 = ux * sx + uy * sy, ux * cx + uy * cy
     roots = []
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for sign in (1.0, -1.0):  # c0 + c1 g = sign * slope * (d0 + d1 g)
-            roots.append((sign * slope * d0 - c0) / (c1 - sign * slope * d1))
-        # |start + g change|^2 = stopped^2
-        a = np.einsum("nd,nd->n", change, change)
-        b = 2.0 * np.einsum("nd,nd->n", start, change)
-        c = np.einsum("nd,nd->n", start, start) - stopped**2
-        root = np.sqrt(b * b - 4.0 * a * c)
+    for sign in (1.0, -1.0):  # c0 + c1 g = sign * slope * (d0 + d1 g)
+        denominator = c1 - sign * slope * d1
+        if denominator != 0.0:
+            roots.append((sign * slope * d0 - c0) / denominator)
+    # |start + g change|^2 = stopped^2
+    a = cx * cx + cy * cy
+    b = 2.0 * (sx * cx + sy * cy)
+    c = sx * sx + sy * sy - stopped * stopped
+    discriminant = b * b - 4.0 * a * c
+    if a > 0.0 and discriminant >= 0.0:
+        root = math.sqrt(discriminant)
         roots += [(-b - root) / (2.0 * a), (-b + root) / (2.0 * a)]
-    found = np.concatenate(roots)
-    return found[np.isfinite(found)]
+    return [root for root in roots if math.isfinite(root)]
 
 
 def qp_speed_rows(robot: SwerveRobot, polygon_sides: int) -> SpeedRows:
