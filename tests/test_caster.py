@@ -326,12 +326,18 @@ def test_command_predicts_the_steer_angles_along_its_plan() -> None:
     reference = Circle(1.0, 12.0)
     control = Controller(robot, reference, horizon=8, dt=0.05)
     measured = np.array([0.3, -0.2, 0.1, 0.4])
-    command = control.step(reference.sample(0.0).pose, 0.0, steer_angles=measured)
+    given = measured.copy()
+    command = control.step(reference.sample(0.0).pose, 0.0, steer_angles=given)
+    plan = control._warm._plan
+    assert plan is not None and command.status.value == "solved"
+    expected = robot.predict_steer_angles(measured, plan[1].copy(), control.model.durations)
+    # computed when read (not in the tick), from this tick's angles and plan: the ones the
+    # controller holds move on with the next tick, and the caller's array may be reused
+    given[:] = 0.0
+    control.step(reference.sample(0.05).pose, 0.05, steer_angles=measured + 0.01)
     predicted = command.predicted_steer_angles
     assert predicted is not None and predicted.shape == (9, 4)
     np.testing.assert_array_equal(predicted[0], measured)
-    plan = control._warm._plan
-    assert plan is not None and command.status.value == "solved"
-    expected = robot.predict_steer_angles(measured, plan[1], control.model.durations)
+    assert command.predicted_steer_angles is predicted  # computed once
     np.testing.assert_allclose(predicted, expected, rtol=0, atol=1e-12)
     assert not np.allclose(predicted[-1], measured)  # the casters turn along the plan

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
+import functools
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 from mpc.arrays import FloatArray
 
@@ -52,7 +54,9 @@ class Command:
         steer_rates: casters (robots whose steer angles are states): the steer rates to
             send [rad/s], shape (n,), within their limits; else None.
         predicted_steer_angles: casters: the steer angles along the plan (N+1, n) [rad],
-            from the measured ones; else None.
+            from the measured ones (computed when first read, not in the tick: it is no
+            command); else None.
+        steer_prediction: what computes ``predicted_steer_angles`` (casters), or None.
         wheel_forces: robots with dynamics, the first step's planned drive force of each
             wheel at the floor [N] (n,), signed like ``wheel_speeds``; else None.
         motor_torques: the torque of each of a wheel's motors at its shaft [N m] (n,)
@@ -75,7 +79,13 @@ class Command:
     reference_time: float
     lag: float = 0.0
     steer_rates: FloatArray | None = None
-    predicted_steer_angles: FloatArray | None = None
     wheel_forces: FloatArray | None = None
     motor_torques: FloatArray | None = None
     motor_currents: FloatArray | None = None
+    steer_prediction: Callable[[], FloatArray] | None = field(default=None, repr=False)
+
+    @functools.cached_property
+    def predicted_steer_angles(self) -> FloatArray | None:
+        """Casters: the steer angles along the plan (N+1, n) [rad], from the measured ones
+        (computed on first reading); else None."""
+        return None if self.steer_prediction is None else self.steer_prediction()

@@ -307,7 +307,7 @@ class Controller:
             if not math.isfinite(float(plan.sum())):
                 plan[:] = x0
         twist, clamped = clamp_command(self.robot, target, self._last, self.dt, self._steer)
-        twist, speeds, steer_rates, predicted_steer, self._steer = wheel_commands(
+        twist, speeds, steer_rates, steer_prediction, self._steer = wheel_commands(
             self.robot, twist, target, self._steer, measured,
             result.twists if result.success else None, self.dt, self.model.durations)
         feedforward = first_step_feedforward(self.robot, self._last, twist, self.dt, self._steer)
@@ -321,7 +321,7 @@ class Controller:
             solve_time=result.solve_time, tick_time=time.perf_counter() - start,
             iterations=result.iterations, consecutive_failures=self._fallback.failures,
             clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time,
-            steer_rates=steer_rates, predicted_steer_angles=predicted_steer,
+            steer_rates=steer_rates, steer_prediction=steer_prediction,
             **feedforward_fields(feedforward))
 
     def _solve(self, x0: FloatArray) -> SolveResult:
