@@ -528,3 +528,37 @@ def test_a_rotation_of_the_whole_plan_is_not_a_drift() -> None:
         np.testing.assert_allclose(turned[1], base[1], rtol=0.0, atol=1e-14)
     # stage 0's body x axis is the world x axis after turning
     np.testing.assert_allclose(base[0][0, :2, :2], dt * np.eye(2), atol=1e-15)
+
+
+def test_a_rebuild_for_moved_cost_terms_keeps_the_last_builds_state_sensitivities() -> None:
+    """Path mode: a rebuild for cost terms that moved while the sensitivities stayed within
+    ``COST_ONLY_DRIFT`` of the last full build's whitens with the Hessian of this tick's
+    cost terms and that build's ``S`` (rebuilt here from its terms), not this tick's."""
+    from mpc import Controller
+    from mpc.model import integrate
+
+    reference = FigureEight(1.0, 8.0)
+    control = Controller(preset("mecanum"), reference, horizon=10, dt=0.05, mode="path")
+    solver = control.solver
+    assert isinstance(solver, DenseSolver)
+    pose = reference.sample(0.0).pose
+    for k in range(80):
+        before = solver.cost_rebuilds
+        command = control.step(pose, k * 0.05)
+        pose = integrate(pose, command.twist, 0.05)
+        if solver.cost_rebuilds > before:
+            break
+    else:
+        pytest.fail("no rebuild kept the last build's S in 80 ticks")
+    cache = solver._reuse._cache
+    assert cache is not None
+    condenser = solver.condenser
+    condenser.scatter(cache.p_data)
+    unwhiten = solver._unwhiten
+    identity = np.eye(unwhiten.shape[0])
+    kept = condenser.hessian(condenser.state_sensitivities(cache.sensitivity,
+                                                           cache.displacement))
+    np.testing.assert_allclose(unwhiten.T @ kept @ unwhiten, identity, rtol=0.0, atol=1e-9)
+    fresh = condenser.hessian(condenser.state_sensitivities(solver._sensitivities(),
+                                                            solver._displacement))
+    assert not np.allclose(unwhiten.T @ fresh @ unwhiten, identity, rtol=0.0, atol=1e-6)

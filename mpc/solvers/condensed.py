@@ -206,6 +206,11 @@ class Condenser:
         states.reshape(-1)[self._block_target] = blocks.reshape(-1)
         return states.reshape(n + 1, 3, 3 * n)
 
+    def last_states(self) -> FloatArray:
+        """``S`` as the last :meth:`state_sensitivities` call wrote it (N+1, 3, 3N)."""
+        n = self.horizon
+        return self._states.reshape(n + 1, 3, 3 * n)
+
     def hessian(self, states: FloatArray) -> FloatArray:
         """``H`` for the state sensitivities ``S`` (N+1, 3, 3N), from the scattered ``P``."""
         dense, n3 = self.dense, self.n_inputs

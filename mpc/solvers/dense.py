@@ -59,7 +59,7 @@ from mpc.solvers.hessian_reuse import COST_TOLERANCE, SENSITIVITY_TOLERANCE, Hes
 from mpc.solvers.qp_structure import QpStructure, assemble_qp, fill_inequality_bounds
 from mpc.solvers.row_screen import RowScreen
 
-__all__ = ["COST_TOLERANCE", "KEEP_ROWS_BELOW", "REBUILD_EARLY", "REBUILD_NOW",
+__all__ = ["COST_ONLY_DRIFT", "COST_TOLERANCE", "KEEP_ROWS_BELOW", "REBUILD_EARLY", "REBUILD_NOW",
            "SENSITIVITY_TOLERANCE", "DenseSolver"]
 
 #: A new Hessian is begun once the sensitivities or the rollout's steps moved this
@@ -77,6 +77,15 @@ REBUILD_EARLY = 1.0
 #: 4) in 0.58x the tick; N = 100 0.18 mm (0.49 at 4; 0.008 rebuilding every tick, 1.5x
 #: the tick).
 REBUILD_NOW = 2.0
+
+#: A rebuild for moved cost terms keeps the last build's state sensitivities ``S`` (~20
+#: us of the ~140 a rebuild takes at N = 20) while the sensitivities and steps are within
+#: this multiple of their tolerance of that build's: about half the rebuilds of path mode
+#: inside the limits, few beyond (the default benchmark scenarios, figure-eight, 400
+#: ticks). At the whole tolerance (1.0) a feasible reference tracked in path mode lagged
+#: its clock by 1.7 ms, against 4e-8 s (``tests/test_path_following.py``): path mode
+#: rebuilt every tick before, so its ``S`` was always fresh.
+COST_ONLY_DRIFT = 0.25
 
 #: Row sets up to this many entries are multiplied dense, larger ones sparse
 #: (:class:`_FixedBounds`).
@@ -193,6 +202,7 @@ class DenseSolver:
         self._rows_new = False  # new whitened rows for daqp (a finished rebuild's)
         self._whitened_gradient = np.zeros(self.condenser.size)  # the last one daqp got
         self.factorisations = 0  # Hessian rebuilds so far (for benchmarks)
+        self.cost_rebuilds = 0  # of those, with the last build's S (for benchmarks)
         self.guarded_solves = 0  # ticks solved again with the guard rows (for benchmarks)
         self.kept_rows = 0  # ticks that kept the last refill's rows (for benchmarks)
         self.late_refills = 0  # of those, ticks whose plan made them refill after all
@@ -262,7 +272,12 @@ class DenseSolver:
         pending = self._rebuild
         building = pending is not None
         if self._solver is None or cost_drift > 1.0 or drift > REBUILD_NOW:  # all now
-            for _ in self._start_rebuild(sensitivity, displacement):  # all of it
+            # Only the cost terms moved (path mode's, most ticks): the sensitivities and
+            # steps are close to the last build's, whose S is kept; not where that is so
+            # only up to a rotation.
+            cost_only = (self._solver is not None and drift <= COST_ONLY_DRIFT
+                         and not self._isotropic)
+            for _ in self._start_rebuild(sensitivity, displacement, cost_only):  # all of it
                 pass
             self._rebuild, building = None, True
         elif pending is None:
@@ -318,25 +333,33 @@ class DenseSolver:
                                   p_changed, self._isotropic, REBUILD_EARLY)
         return sensitivity, displacement, drift
 
-    def _start_rebuild(self, sensitivity: FloatArray,
-                       displacement: FloatArray) -> Iterator[bool]:
-        """Begin a new Hessian from this tick's terms: its first stage runs now; the rest
-        are returned (and kept in ``_rebuild``)."""
+    def _start_rebuild(self, sensitivity: FloatArray, displacement: FloatArray,
+                       cost_only: bool = False) -> Iterator[bool]:
+        """Begin a new Hessian from this tick's terms (``cost_only``: this tick's cost terms
+        and the last build's ``S``, ~20 us of a rebuild's ~140 at N = 20): its first stage
+        runs now; the rest are returned (and kept in ``_rebuild``)."""
         self.factorisations += 1
-        self._reuse.remember(self._p_data, self._moving, sensitivity, displacement)
-        rebuild = self._rebuild_stages(sensitivity, displacement)
+        if cost_only:
+            self.cost_rebuilds += 1
+            self._reuse.remember_cost(self._p_data)
+        else:
+            self._reuse.remember(self._p_data, self._moving, sensitivity, displacement)
+        rebuild = self._rebuild_stages(None if cost_only else (sensitivity, displacement))
         next(rebuild)
         self._rebuild = rebuild
         return rebuild
 
-    def _rebuild_stages(self, sensitivity: FloatArray,
-                        displacement: FloatArray) -> Iterator[bool]:
+    def _rebuild_stages(self, terms: tuple[FloatArray, FloatArray] | None
+                        ) -> Iterator[bool]:
         """A new Hessian in stages of about the same work, one a tick (see
-        :data:`REBUILD_EARLY`): the state sensitivities ``S`` from this tick's terms; ``H``
-        and its Cholesky factor; the whitening ``L^{-T}`` and the rows whitened by it; then
-        the switch (daqp gets the rows with the same tick's gradient, so every QP is posed
-        with one Hessian)."""
-        states = self.condenser.state_sensitivities(sensitivity, displacement)
+        :data:`REBUILD_EARLY`): the state sensitivities ``S`` from this tick's ``terms``
+        (sensitivities and steps; None: the last build's ``S``); ``H`` and its Cholesky
+        factor; the whitening ``L^{-T}`` and the rows whitened by it; then the switch (daqp
+        gets the rows with the same tick's gradient, so every QP is posed with one
+        Hessian)."""
+        condenser = self.condenser
+        states = (condenser.last_states() if terms is None
+                  else condenser.state_sensitivities(*terms))
         yield True
         factor = _factor(self.condenser.hessian(states))
         yield True

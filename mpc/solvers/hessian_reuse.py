@@ -81,6 +81,13 @@ class HessianReuse:
                                     displacement.copy())
         self._p_stale = False
 
+    def remember_cost(self, p_data: FloatArray) -> None:
+        """New cost terms for a build that keeps the last one's sensitivities and steps."""
+        if self._cache is None:
+            raise RuntimeError("remember_cost needs a build to keep the moving terms of")
+        self._cache.p_data = p_data.copy()
+        self._p_stale = False
+
 
 class _HessianCache:
     """The cost terms and the moving terms a Hessian was built from (also as sensitivities
