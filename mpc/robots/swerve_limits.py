@@ -226,9 +226,10 @@ def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
     if all(_turn_fits(start, change, angle, 1.0, reach, radius)
            for start, change, angle in modules):  # most ticks: no module turns too far
         return 1.0
+    # the last command itself out of line (e.g. after a reset): no step at all
     if not all(_turn_fits(start, change, angle, 0.0, reach, radius)
-               for start, change, angle in modules):  # the last command itself is out of
-        return 0.0  # line (e.g. after a reset)
+               for start, change, angle in modules):
+        return 0.0
     # The roots a hair inside the limits, so that rounding cannot push them out.
     slope = math.tan(reach * (1.0 - 1e-7))
     stopped = MOVING_MODULE_SPEED / radius * (1.0 - 1e-6)

@@ -59,8 +59,8 @@ from mpc.solvers.hessian_reuse import COST_TOLERANCE, SENSITIVITY_TOLERANCE, Hes
 from mpc.solvers.qp_structure import QpStructure, assemble_qp, fill_inequality_bounds
 from mpc.solvers.row_screen import RowScreen
 
-__all__ = ["COST_ONLY_DRIFT", "COST_TOLERANCE", "KEEP_ROWS_BELOW", "REBUILD_EARLY", "REBUILD_NOW",
-           "SENSITIVITY_TOLERANCE", "DenseSolver"]
+__all__ = ["COST_ONLY_DRIFT", "COST_TOLERANCE", "KEEP_ROWS_BELOW", "REBUILD_EARLY",
+           "REBUILD_NOW", "SENSITIVITY_TOLERANCE", "DenseSolver"]
 
 #: A new Hessian is begun once the sensitivities or the rollout's steps moved this
 #: multiple of their tolerance from the one in use; it is built over four ticks of about
