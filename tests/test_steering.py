@@ -126,6 +126,35 @@ def test_the_axle_offset_search_checks_twists_as_the_wheel_commands_drive_them()
     assert outcomes == {True, False}  # both sides of the limits were tried
 
 
+def test_the_one_twist_check_in_python_floats_agrees_with_the_vectorised_one() -> None:
+    """The clamp checks the fraction's own point in Python floats before it scans the way
+    in NumPy: the two agree twist by twist, drives and turns, on both sides of the limits
+    (modules at rest among them)."""
+    from mpc.robots.swerve_limits import _drives_fit, _drives_within
+
+    robot = preset("mpo700")
+    assert isinstance(robot, SwerveRobot)
+    rng = np.random.default_rng(14)
+    dt, reach = 0.05, robot.max_steer_rate * 0.05 * (1.0 - 1e-9)
+    outcomes = set()
+    for _ in range(100):
+        twists = rng.normal(0.0, 0.6, (8, 3))
+        positions = np.asarray(robot.module_positions)
+        (x, y), omega = positions[rng.integers(robot.n_wheels)], twists[0, 2]
+        twists[0, :2] = omega * y, -omega * x  # one module at rest
+        last = rng.normal(0.0, 0.6, 3)
+        _, aligned = robot.wheel_commands(last, None)
+        assert aligned is not None
+        steer = aligned + rng.uniform(-0.3, 0.3, robot.n_wheels)
+        for limit in (reach, None):
+            within = _drives_within(robot, twists, steer, dt, limit)
+            for twist, ok in zip(twists, within, strict=True):
+                assert _drives_fit(robot, twist, steer, dt,
+                                   math.inf if limit is None else limit) == bool(ok)
+                outcomes.add(bool(ok))
+    assert outcomes == {True, False}
+
+
 def test_the_axle_offset_clamp_keeps_every_drive_within_its_limit() -> None:
     robot = preset("mpo700")
     assert isinstance(robot, SwerveRobot)
