@@ -15,6 +15,7 @@ import numpy as np
 from mpc.arrays import FloatArray
 from mpc.robots.base import SPEED_SLACK, PlanarModules, Robot, ScalarWheels
 from mpc.robots.motor_step import motor_step_fraction
+from mpc.robots.swerve_limits import flip_turn
 
 #: Passes of the motor step: each takes the Coriolis term of the step the last one left.
 _MOTOR_PASSES = 4
@@ -140,12 +141,11 @@ def _clamp_planar(robot: Robot, modules: PlanarModules, target: FloatArray,
     # The turn: every moving module within its reach of its present angle at the target
     # (the velocities as turn_fraction forms them, from last plus the whole change).
     reach = modules.steer_rate * dt * (1.0 - 1e-9)
-    half = 0.5 * math.pi
     for (a, b, c, d, e, f), angle in zip(rows, steer_angles.tolist(), strict=True):
         vx = (a * lx + b * ly + c * lw) + 1.0 * (a * sx + b * sy + c * sw)
         vy = (d * lx + e * ly + f * lw) + 1.0 * (d * sx + e * sy + f * sw)
         if (math.hypot(vx, vy) * modules.radius > modules.moving
-                and not abs((math.atan2(vy, vx) - angle + half) % math.pi - half) <= reach):
+                and not abs(flip_turn(vx, vy, angle)) <= reach):
             safe = np.array((tx, ty, tw))
             fraction = robot.steering_fraction(last, safe, steer_angles, dt)
             if fraction < 1.0:

@@ -114,6 +114,13 @@ def _reach(robot: SwerveRobot, dt: float) -> float:
     return robot.max_steer_rate * dt * (1.0 - 1e-9)
 
 
+def flip_turn(x: float, y: float, steer_angle: float) -> float:
+    """:func:`_flip_turn` of one module in Python floats (the same operations): the signed
+    turn [rad] in [-pi/2, pi/2) from ``steer_angle`` to the direction of (``x``, ``y``)."""
+    half = 0.5 * math.pi
+    return (math.atan2(y, x) - steer_angle + half) % math.pi - half
+
+
 def turns(robot: SwerveRobot, velocities: FloatArray, steer_angles: FloatArray) -> FloatArray:
     """How far each module must turn [rad] to drive ``velocities`` (n, 2) from its present
     angle, with the flip rule (so in [0, pi / 2]); 0 for a module at rest."""
@@ -212,13 +219,12 @@ def _drives_fit(robot: SwerveRobot, twist: FloatArray, steer_angles: FloatArray,
     rows = robot.flat_wheel_blocks.tolist()
     radius = robot.wheel_radius
     lever = robot.axle_offset / radius
-    half = 0.5 * math.pi
     for i, (angle, limit) in enumerate(zip(steer_angles.tolist(),
                                            robot.max_wheel_speed.tolist(), strict=True)):
         (a0, a1, a2), (b0, b1, b2) = rows[2 * i], rows[2 * i + 1]
         x = a0 * u0 + a1 * u1 + a2 * u2
         y = b0 * u0 + b1 * u1 + b2 * u2
-        turn = (math.atan2(y, x) - angle + half) % math.pi - half
+        turn = flip_turn(x, y, angle)
         magnitude = math.hypot(x, y)
         ground = magnitude * radius  # [m/s]
         speed = math.copysign(magnitude, x * math.cos(angle) + y * math.sin(angle))
@@ -286,8 +292,7 @@ def _turn_fits(start: list[float], change: list[float], angle: float, fraction: 
     y = start[1] + fraction * change[1]
     if not math.hypot(x, y) * wheel_radius > MOVING_MODULE_SPEED:
         return True
-    half = 0.5 * math.pi
-    return abs((math.atan2(y, x) - angle + half) % math.pi - half) <= reach
+    return abs(flip_turn(x, y, angle)) <= reach
 
 
 def _turn_roots(start: list[float], change: list[float], angle: float, slope: float,
