@@ -354,7 +354,11 @@ _DIRECTION_FLOOR = 1e-3
 #: 1.3x beyond (fixed / tangent heading), RMS position error [mm] against IPOPT's:
 #: these six 236 / 345 / 83 / 35 against 234 / 342 / 81 / 35; three faces at 0 and
 #: +-22.5 deg 428 on the tangent circle (the plan sat at their corners, 2 % outside, and
-#: every command was clamped); the constant 16-gon 238 / 347 / 82 / 38.
+#: every command was clamped); the constant 16-gon 238 / 347 / 82 / 38. The tangent alone
+#: (faces at 0, +-45 and 90 deg: 20 rows a stage against 28) was 2-12 % quicker in seven of
+#: these eight runs, time and path mode, at the same RMS, but the tangent-heading circle in
+#: time mode slid along it: 343 against 337 mm RMS, 632 against 559 max, 13 daqp iterations
+#: a tick against 5 (re-measured on 2026-11-28 with both in one session).
 FACE_ANGLES = tuple(math.radians(angle) for angle in (-45.0, -5.0, 0.0, 5.0, 45.0, 90.0))
 FACES = len(FACE_ANGLES)
 
@@ -390,6 +394,12 @@ GUARD_FACES = tuple(j for j, angle in enumerate(FACE_ANGLES) if abs(angle) > mat
 #: figure-eight beyond the limits by up to 9.9 mm against 2.3 and its tangent one took 1.5x
 #: as long a tick (``mpc-bench --layouts swerve --controllers
 #: mpc-daqp,mpc-tuned,mpc-ipopt,mpc-path,ff-p-setpoint --workers 2``, 2026-11-28).
+#: A 12-gon (24 rows a stage): 2-11 % quicker at the median, RMS up to 12 % worse (path
+#: mode on the fixed-heading figure-eight 1.29 against 1.15 mm; the tangent-heading circle
+#: in time mode 347.8 against 336.5, its largest error 793 against 559). Left to the clamp
+#: after the first stages (bounds open from stage 5 on) the plan tracked 125 mm RMS
+#: against 81 on the fixed-heading figure-eight: the acceleration rows are what track
+#: beyond the limits.
 ACCEL_SIDES = 16
 
 
@@ -478,7 +488,12 @@ def update_linearised(robot: SwerveRobot, limits: StageLimits, guess: FloatArray
     """Turn each speed disk's faces to the direction of its module's velocity in
     ``guess`` (N, 3); where that is too slow to give a direction, the faces keep the one
     they had. (``last``, the last command, bounds the first stage's acceleration rows,
-    which do not move.)"""
+    which do not move.)
+
+    Every tick: keeping the faces until a module near its disk turned more than 2.5 or 5
+    deg from them would have kept them on 0 and 44 of 796 ticks (two runs of the
+    fixed-heading figure-eight 1.3x beyond the limits): some module at some stage turns
+    that much a tick, so daqp's rows change each tick whatever the threshold."""
     velocities = (guess @ robot.flat_wheel_blocks.T).reshape(len(guess), -1, 2)  # (N, n, 2)
     _turn(limits.memory["directions"], velocities, limits.memory["floor"])
     _fill_faces(limits)
