@@ -24,6 +24,14 @@ plan is checked, and the rows turned and the tick solved again when it reaches a
 Rows a robot marks as seldom needed (``StageLimits.screened``: motor rows) leave daqp's
 problem once no plan has needed them for a while (:mod:`.row_screen`): the plan is checked
 against them, and the tick solved again with those it breaks.
+
+daqp against the other QP solvers installable here, on the whitened QPs recorded from 280
+ticks of swerve's figure-eight 1.3x beyond the limits (N = 20: 560 rows of 60 columns, a
+new ``A`` each tick), median a tick: daqp's update and solve 301 us at fixed heading and
+184 at tangent heading; proxsuite 0.8's dense solver warm started 6.5-7.0 ms (its step
+1.5-8 off daqp's, whitened, even at ``eps_abs`` 1e-9); quadprog 3.1-3.6 ms and piqp 0.7
+3.6 ms (neither warm starts); qpalm 1.3 warm started 10.7 ms (fixed heading). On
+Mecanum's 160 rows: 53 us against 259-808 (2026-11-28).
 """
 
 from __future__ import annotations
