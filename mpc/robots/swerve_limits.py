@@ -356,9 +356,10 @@ _DIRECTION_FLOOR = 1e-3
 #: +-22.5 deg 428 on the tangent circle (the plan sat at their corners, 2 % outside, and
 #: every command was clamped); the constant 16-gon 238 / 347 / 82 / 38. The tangent alone
 #: (faces at 0, +-45 and 90 deg: 20 rows a stage against 28) was 2-12 % quicker in seven of
-#: these eight runs, time and path mode, at the same RMS, but the tangent-heading circle in
-#: time mode slid along it: 343 against 337 mm RMS, 632 against 559 max, 13 daqp iterations
-#: a tick against 5 (re-measured on 2026-11-28 with both in one session).
+#: the eight runs of these four scenarios in time and path mode, at the same RMS, but the
+#: tangent-heading circle in time mode slid along it: 343 against 337 mm RMS, 632 against
+#: 559 max, 13 daqp iterations a tick against 5 (re-measured on 2026-11-28 with both in one
+#: session).
 FACE_ANGLES = tuple(math.radians(angle) for angle in (-45.0, -5.0, 0.0, 5.0, 45.0, 90.0))
 FACES = len(FACE_ANGLES)
 
@@ -394,12 +395,13 @@ GUARD_FACES = tuple(j for j, angle in enumerate(FACE_ANGLES) if abs(angle) > mat
 #: figure-eight beyond the limits by up to 9.9 mm against 2.3 and its tangent one took 1.5x
 #: as long a tick (``mpc-bench --layouts swerve --controllers
 #: mpc-daqp,mpc-tuned,mpc-ipopt,mpc-path,ff-p-setpoint --workers 2``, 2026-11-28).
-#: A 12-gon (24 rows a stage): 2-11 % quicker at the median, RMS up to 12 % worse (path
-#: mode on the fixed-heading figure-eight 1.29 against 1.15 mm; the tangent-heading circle
-#: in time mode 347.8 against 336.5, its largest error 793 against 559). Left to the clamp
-#: after the first stages (bounds open from stage 5 on) the plan tracked 125 mm RMS
-#: against 81 on the fixed-heading figure-eight: the acceleration rows are what track
-#: beyond the limits.
+#: A 12-gon (24 rows a stage), in eight runs (the benchmark's swerve circle and figure-eight
+#: 1.3x beyond, fixed and tangent heading, time and path mode; 2026-11-28): 2-11 % quicker
+#: at the median, RMS up to 12 % worse (path mode on the fixed-heading figure-eight 1.29
+#: against 1.15 mm; the tangent-heading circle in time mode 347.8 against 336.5, its largest
+#: error 793 against 559). Left to the clamp after the first stages (bounds open from stage
+#: 5 on) the plan tracked 125 mm RMS against 81 on the fixed-heading figure-eight: the
+#: acceleration rows are what track beyond the limits.
 ACCEL_SIDES = 16
 
 
