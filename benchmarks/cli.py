@@ -361,6 +361,8 @@ COMMANDS: dict[str, Command] = {
                       "benchmarks.cli", "_report_parser", "report"),
     "perf": Command("tick time against horizon for every solver path, per layout and mode",
                     "benchmarks.perf"),
+    "qp-replay": Command("the fast path's QPs from a run, solved again by each installed QP "
+                         "solver", "benchmarks.qp_replay"),
     "soak": Command("memory and tick time over a long run", "benchmarks.soak"),
     "motors": Command("motor-aware MPC against kinematic control on the motor plant",
                       "benchmarks.motors"),

@@ -25,20 +25,19 @@ Rows a robot marks as seldom needed (``StageLimits.screened``: motor rows) leave
 problem once no plan has needed them for a while (:mod:`.row_screen`): the plan is checked
 against them, and the tick solved again with those it breaks.
 
-daqp against the other QP solvers installable here, on the whitened QPs recorded from 280
-ticks of swerve's figure-eight 1.3x beyond the limits (N = 20: 560 rows of 60 columns, a
-new ``A`` each tick), median a tick: daqp's update and solve 301 us at fixed heading and
-184 at tangent heading; proxsuite 0.8's dense solver warm started 6.5-7.0 ms (its step
-1.5-8 off daqp's, whitened, even at ``eps_abs`` 1e-9); quadprog 3.1-3.6 ms and piqp 0.7
-3.6 ms (neither warm starts); qpalm 1.3 warm started 10.7 ms (fixed heading). On
-Mecanum's 160 rows: 53 us against 259-808 (2026-11-28).
+daqp against the other QP solvers installable here (``mpc-bench qp-replay``: a run's
+QPs, each tick's :class:`WhitenedQp` in :attr:`DenseSolver.record`, solved again by each):
+on swerve's figure-eight 1.3x beyond the limits (560 rows of 60 columns, a new ``A`` each
+tick) daqp took 0.17-0.30 ms a tick at the median, proxsuite's dense solver and qpalm
+(warm started) 9-13 ms, quadprog and piqp (cold) 3.2-3.6 ms; on Mecanum's 160 rows 0.021
+ms against 0.31-2.4 (README, "Performance", 2026-11-28).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterator
-from typing import Any
+from typing import Any, NamedTuple
 
 import casadi as ca
 import daqp
@@ -68,7 +67,7 @@ from mpc.solvers.qp_structure import QpStructure, assemble_qp, fill_inequality_b
 from mpc.solvers.row_screen import RowScreen
 
 __all__ = ["COST_ONLY_DRIFT", "COST_TOLERANCE", "KEEP_ROWS_BELOW", "REBUILD_EARLY",
-           "REBUILD_NOW", "SENSITIVITY_TOLERANCE", "DenseSolver"]
+           "REBUILD_NOW", "SENSITIVITY_TOLERANCE", "DenseSolver", "WhitenedQp"]
 
 #: A new Hessian is begun once the sensitivities or the rollout's steps moved this
 #: multiple of their tolerance from the one in use; it is built over four ticks of about
@@ -122,6 +121,17 @@ _STATUS = {1: "solved", 2: "solved (soft)", -1: "infeasible", -2: "cycling", -3:
            -7: "time limit reached",
            _GUARDED_SET_UP_FAILED: "daqp set-up failed (with the guard rows)",
            _SCREENED_SET_UP_FAILED: "daqp set-up failed (with rows the plan broke)"}
+
+
+class WhitenedQp(NamedTuple):
+    """The QP a tick hands daqp (its first; not the guarded or screened solves again), in
+    whitened steps ``y``: minimise ``y'y / 2 + gradient' y`` subject to ``lower <= rows y <=
+    upper`` (copies, kept by :attr:`DenseSolver.record`)."""
+
+    gradient: FloatArray
+    rows: FloatArray
+    lower: FloatArray
+    upper: FloatArray
 
 
 class DenseSolver:
@@ -227,6 +237,8 @@ class DenseSolver:
         self._next_start: FloatArray | None = None
         self.screened_solves = 0  # ticks solved again with rows their plan broke
         self.profile: TickProfile | None = None  # phase stopwatch, set by the controller
+        # Each tick's QP, copied, when a list (``mpc-bench qp-replay``: other solvers on them)
+        self.record: list[WhitenedQp] | None = None
 
     @property
     def stage_rows_solved(self) -> int:
@@ -297,6 +309,10 @@ class DenseSolver:
         if profile is not None and building:
             profile.mark("solve: hessian")
         solver = self._update(gradient, lower, upper, rows_changed)
+        if self.record is not None:
+            self.record.append(WhitenedQp(self._whitened_gradient.copy(),
+                                          self._whitened_rows.copy(), lower.copy(),
+                                          upper.copy()))
         if solver is None:  # daqp refused the problem at set-up: a failed tick
             n = self.model.horizon
             return SolveResult(success=False, status="daqp set-up failed",
