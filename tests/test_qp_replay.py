@@ -94,9 +94,15 @@ def test_a_solver_that_raises_is_listed_with_its_error(
     assert "piqp       failed to run: TypeError" in qp_replay.table(rows)
 
 
-def test_too_few_ticks_is_an_error(swerve_qps: list[qp_replay.WhitenedQp]) -> None:
+def test_too_few_ticks_or_qps_of_many_sizes_are_errors(
+        swerve_qps: list[qp_replay.WhitenedQp]) -> None:
     with pytest.raises(ScenarioError, match="more than 5 recorded ticks"):
         qp_replay.replay(swerve_qps[:3], ["daqp"])
+    smaller = swerve_qps[0]._replace(rows=swerve_qps[0].rows[:-1],
+                                     lower=swerve_qps[0].lower[:-1],
+                                     upper=swerve_qps[0].upper[:-1])
+    with pytest.raises(ScenarioError, match="QPs of one size"):
+        qp_replay.replay([smaller, *swerve_qps], ["daqp"])
 
 
 def test_the_command_writes_its_table_and_document(
@@ -115,6 +121,7 @@ def test_the_command_writes_its_table_and_document(
 
 @pytest.mark.parametrize("argv, message", [
     (["--ticks", "3"], "--ticks must be in"),
+    (["--ticks", "501"], "--ticks must be in 6..500"),
     (["--layout", "swerve,mecanum"], "--layout takes one layout"),
     (["--solvers", "cplex"], "unknown solver"),
     (["--speed", "fast"], "unknown speed"),
