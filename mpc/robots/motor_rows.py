@@ -26,12 +26,12 @@ from mpc.robots.force_map import ForceMap, apothem
 #: the clamp keeps the command sent within the disk itself.
 #: Turned every tick, the active edge swaps between the tangent and its neighbours as the
 #: planned force swings: on ball3's figure-eight at 0.8 of the wheel speeds (``mpc-bench
-#: motors --perf``'s scenario) ~65 active traction rows change a tick and daqp takes ~124
-#: iterations. Two more tangent faces at +-5 deg (swerve's speed fan): 112 iterations, no
-#: quicker (the force turns more than 2.5 deg a tick). A constant 12-gon, every edge midway:
-#: 70 iterations, 1.56 against 2.0 ms at the median, but swerve's circle 126.2 mm with 2
-#: current-violation and 10 slip ticks and its figure-eight 25.1 mm, behind the kinematic
-#: MPC's 24.5 (2026-11-28).
+#: motors --perf``'s scenario) ~65 rows join or leave the active set a tick, nearly all of
+#: them traction rows, and daqp takes ~124 iterations. Two more tangent faces at +-5 deg
+#: (swerve's speed fan): 112 iterations, no quicker (the force turns more than 2.5 deg a
+#: tick). A constant 12-gon, every edge midway: 70 iterations, 1.56 against 2.0 ms at the
+#: median, but swerve's circle 126.2 mm with 2 current-violation and 10 slip ticks and its
+#: figure-eight 25.1 mm, behind the kinematic MPC's 24.5 (2026-11-28).
 TRACTION_SIDES = 12
 
 #: How a row's direction is chosen each tick (:attr:`MotorRows.direction`): fixed, a steered
