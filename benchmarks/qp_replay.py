@@ -49,11 +49,9 @@ from mpc.robots import preset
 from mpc.sim import simulate
 from mpc.solvers.dense import DenseSolver, WhitenedQp
 
-#: Solvers in the order they run; each (but daqp) needs its package installed.
+#: Solvers in the order they run, each named as its package; daqp (a core dependency) always
+#: runs first: the others' steps are measured against its.
 SOLVERS: tuple[str, ...] = ("daqp", "proxsuite", "quadprog", "piqp", "qpalm")
-#: The module each solver needs.
-PACKAGES = {"daqp": "daqp", "proxsuite": "proxsuite", "quadprog": "quadprog", "piqp": "piqp",
-            "qpalm": "qpalm"}
 #: Ticks left out of the timing at the start of a replay (a warm start needs a first solve).
 SETTLE = 5
 #: Most ticks recorded: every tick's QP is kept (swerve's 560 x 60 rows: 0.27 MB a tick).
@@ -209,22 +207,24 @@ REPLAYS: dict[str, Replay] = {"daqp": replay_daqp, "proxsuite": replay_proxsuite
 
 def installed(name: str) -> bool:
     """Whether the solver's package can be imported."""
-    return importlib.util.find_spec(PACKAGES[name]) is not None
+    return importlib.util.find_spec(name) is not None
 
 
 def replay(qps: list[WhitenedQp], solvers: list[str]) -> list[dict[str, Any]]:
-    """Each of ``solvers`` on the recorded ``qps``: a row each (times [s], the step's
-    largest distance from daqp's), ``missing`` for a solver not installed, ``error`` for
-    one that raised."""
+    """daqp, then each other of ``solvers``, on the recorded ``qps``: a row each (times [s],
+    the step's largest distance from daqp's), ``missing`` for a solver not installed,
+    ``error`` for one that raised."""
     if len(qps) <= SETTLE:
         raise ScenarioError(f"qp-replay needs more than {SETTLE} recorded ticks, got "
                             f"{len(qps)}")
     if len({qp.rows.shape for qp in qps}) > 1:  # (rows a screen leaves out: motor models)
         raise ScenarioError("qp-replay needs QPs of one size; these change their rows "
                             "from tick to tick")
-    reference_steps = replay_daqp(qps)[1]
-    rows = []
+    times, daqp_steps, failed = replay_daqp(qps)
+    rows = [_row("daqp", times, daqp_steps, failed, daqp_steps)]
     for name in solvers:
+        if name == "daqp":
+            continue
         if not installed(name):
             rows.append({"solver": name, "missing": True})
             continue
@@ -234,26 +234,28 @@ def replay(qps: list[WhitenedQp], solvers: list[str]) -> list[dict[str, Any]]:
             rows.append({"solver": name, "missing": False, "error": f"{type(error).__name__}: "
                                                                     f"{error}"})
             continue
-        kept = np.asarray(times[SETTLE:])
-        distance = max(float(np.abs(step - daqp_step).max())
-                       for step, daqp_step in zip(steps, reference_steps, strict=True))
-        rows.append({"solver": name, "missing": False, "ticks": len(times),
-                     "tick_p50": float(np.median(kept)),
-                     "tick_p99": float(np.percentile(kept, 99)),
-                     "max_step_distance": distance, "failed": int(failed)})
+        rows.append(_row(name, times, steps, failed, daqp_steps))
     return rows
+
+
+def _row(name: str, times: list[float], steps: list[FloatArray], failed: int,
+         daqp_steps: list[FloatArray]) -> dict[str, Any]:
+    kept = np.asarray(times[SETTLE:])
+    distance = max(float(np.abs(step - daqp_step).max())
+                   for step, daqp_step in zip(steps, daqp_steps, strict=True))
+    return {"solver": name, "missing": False, "ticks": len(times),
+            "tick_p50": float(np.median(kept)), "tick_p99": float(np.percentile(kept, 99)),
+            "max_step_distance": distance, "failed": int(failed)}
 
 
 def table(rows: list[dict[str, Any]]) -> str:
     """The rows as text, times [ms] and ratios to daqp's median."""
-    base = next(row["tick_p50"] for row in rows if row["solver"] == "daqp"
-                and not row["missing"])
+    base = rows[0]["tick_p50"]  # daqp's (replay puts it first)
     lines = [f"{'solver':10s} {'p50 [ms]':>9s} {'p99 [ms]':>9s} {'/ daqp':>7s} "
              f"{'max |y - y_daqp|':>17s} {'failed':>6s}"]
     for row in rows:
         if row["missing"]:
-            lines.append(f"{row['solver']:10s} not installed (pip install "
-                         f"{PACKAGES[row['solver']]})")
+            lines.append(f"{row['solver']:10s} not installed (pip install {row['solver']})")
             continue
         if "error" in row:
             lines.append(f"{row['solver']:10s} failed to run: {row['error']}")
@@ -298,9 +300,8 @@ def main(argv: list[str]) -> int:
     heading = _one("--heading", "heading", args.heading, HEADINGS)
     speed = _one("--speed", "speed", args.speed, list(SPEEDS))
     mode = _one("--mode", "mode", args.mode, list(MODES))
-    solvers = choose("--solvers", "solver", args.solvers, SOLVERS)
-    if "daqp" not in solvers:
-        solvers = ["daqp", *solvers]  # the steps are measured against daqp's
+    solvers = list(dict.fromkeys(["daqp", *choose("--solvers", "solver", args.solvers,
+                                                  SOLVERS)]))  # daqp first, as replay runs
     if not SETTLE < args.ticks <= MAX_TICKS:
         raise ScenarioError(f"--ticks must be in {SETTLE + 1}..{MAX_TICKS}, got {args.ticks}")
     out = claim(args.out, ("qp_replay.json",), args.force)

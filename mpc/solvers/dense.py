@@ -29,8 +29,8 @@ daqp against the other QP solvers installable here (``mpc-bench qp-replay``: a r
 QPs, each tick's :class:`WhitenedQp` in :attr:`DenseSolver.record`, solved again by each):
 on swerve's figure-eight 1.3x beyond the limits (560 rows of 60 columns, a new ``A`` each
 tick) daqp took 0.17-0.30 ms a tick at the median, proxsuite's dense solver and qpalm
-(warm started) 9-13 ms, quadprog and piqp (cold) 3.2-3.6 ms; on Mecanum's 160 rows 0.021
-ms against 0.31-2.4 (README, "Performance", 2026-11-28).
+(warm started) 9-13 ms, quadprog and piqp (cold) 3.1-3.7 ms; on Mecanum's 160 rows 0.024
+ms against 0.31-2.5 (README, "Performance", 2026-11-28).
 """
 
 from __future__ import annotations
