@@ -122,8 +122,9 @@ class Controller:
             run while catching up (>= 1).
         time_scaling: deprecated; ``True`` is ``mode="path"``.
         jit: ``solver="daqp"`` only: compile the tick's CasADi functions to C with the
-            system's C compiler (CasADi's JIT: gcc, or ``$CC``), about 1.5 s when the
-            controller is built, for a quicker tick at N = 20 (README,
+            system's C compiler (CasADi's JIT: gcc, or ``$CC``), about 1.5 s the first
+            time a problem is built (~0.1 s after: the libraries are cached,
+            :func:`~mpc.model.jit.cache_folder`), for a quicker tick at N = 20 (README,
             "Performance"); the same commands. :class:`~mpc.errors.ControllerError` if it
             cannot compile.
     """
