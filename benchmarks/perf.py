@@ -364,9 +364,10 @@ def growth(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
 # --------------------------------------------------------------------------- 3. scenarios
 def scenarios_section(layouts: list[str], modes: list[str], speeds: dict[str, float],
                       trajectories: list[str], headings: list[str], ticks: int,
-                      say: Printer) -> list[dict[str, Any]]:
-    """Every layout x trajectory x heading x mode x speed at N = 20 with daqp; a tick p99
-    above :data:`P99_LIMIT` is flagged, wall clock and process CPU apart."""
+                      say: Printer, jit: bool = False) -> list[dict[str, Any]]:
+    """Every layout x trajectory x heading x mode x speed at N = 20 with daqp (``jit``:
+    built with ``jit=True``); a tick p99 above :data:`P99_LIMIT` is flagged, wall clock and
+    process CPU apart."""
     say(f"{'layout':8s} {'shape':8s} {'heading':8s} {'mode':5s} {'speed':7s} "
         f"{'tick p50':>9s} {'tick p99':>9s} {'cpu p99':>9s} {'tick max':>9s} {'iters':>6s} "
         f"{'rms err':>9s}  p99 > {P99_LIMIT * 1e3:g} ms")
@@ -381,11 +382,11 @@ def scenarios_section(layouts: list[str], modes: list[str], speeds: dict[str, fl
                     trajectory = reference(shape, heading, robot, ratio)
                     for mode in modes:
                         control = Controller(robot, trajectory, horizon=REFERENCE_HORIZON,
-                                             dt=DT, solver=FAST, mode=mode)
+                                             dt=DT, solver=FAST, mode=mode, jit=jit)
                         row = _row(_run(control, ticks), _settle(ticks), section="scenarios",
                                    layout=layout, trajectory=shape, heading=heading,
                                    mode=mode, speed=speed, peak_ratio=ratio, solver=FAST,
-                                   horizon=REFERENCE_HORIZON)
+                                   horizon=REFERENCE_HORIZON, jit=jit)
                         row["over_p99_limit"] = row["tick_p99"] > P99_LIMIT
                         row["cpu_over_p99_limit"] = row["cpu_p99"] > P99_LIMIT
                         rows.append(row)
@@ -506,6 +507,7 @@ def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, 
         summary["growth"] = growth(horizon_rows)
     if scenario_rows:
         summary["scenario_count"] = len(scenario_rows)
+        summary["scenarios_jit"] = any(row.get("jit", False) for row in scenario_rows)
         summary["scenario_tick_p99_max"] = max(row["tick_p99"] for row in scenario_rows)
         summary["scenario_cpu_p99_max"] = max(row["cpu_p99"] for row in scenario_rows)
         for key, flag in (("scenarios_over_p99_limit", "over_p99_limit"),
@@ -610,7 +612,9 @@ def _print_summary(summary: dict[str, Any], say: Printer) -> None:
             f"{item['tick_ratio']:.2f} against {item['horizon_ratio']:g}: {verdict}")
     if "scenario_tick_p99_max" in summary:
         over, cpu = summary["scenarios_over_p99_limit"], summary["scenarios_cpu_over_p99_limit"]
-        say(f"  scenarios: worst tick p99 {summary['scenario_tick_p99_max'] * 1e3:.3f} ms wall "
+        built = " (jit=True)" if summary["scenarios_jit"] else ""
+        say(f"  scenarios{built}: worst tick p99 "
+            f"{summary['scenario_tick_p99_max'] * 1e3:.3f} ms wall "
             f"({len(over)} of {summary['scenario_count']} over 1 ms), "
             f"{summary['scenario_cpu_p99_max'] * 1e3:.3f} ms CPU ({len(cpu)} over 1 ms"
             + (f": {', '.join(cpu)}" if cpu else "") + ")")
@@ -688,6 +692,9 @@ def _parser() -> Parser:
                                                f"{', '.join(TRAJECTORIES)} (default: figure8)")
     parser.add_argument("--headings", help=f"scenarios: comma list of {', '.join(HEADINGS)} "
                                            "(default: fixed)")
+    parser.add_argument("--jit", action="store_true",
+                        help="scenarios: build the daqp controllers with jit=True (their "
+                             "CasADi terms compiled to C) instead of the default")
     parser.add_argument("--ticks", type=int, help="ticks per run (400; --quick 40)")
     parser.add_argument("--ipopt-ticks", type=int,
                         help="ticks per IPOPT run and per peers run (120; --quick 20)")
@@ -752,10 +759,11 @@ def main(argv: list[str]) -> int:
                 f"{REFERENCE_HORIZON}):")
             jit = jit_comparison(ticks, JIT_REPEATS, say)
     if "scenarios" in sections:
-        say(f"\n== 3. scenarios at N={REFERENCE_HORIZON}, {FAST} (p99 flagged above "
+        built = " with jit=True" if args.jit else ""
+        say(f"\n== 3. scenarios at N={REFERENCE_HORIZON}, {FAST}{built} (p99 flagged above "
             f"{P99_LIMIT * 1e3:g} ms) ==")
         scenario_rows = scenarios_section(layouts, modes, speeds, trajectories, headings,
-                                          ticks, say)
+                                          ticks, say, args.jit)
     if "peers" in sections:
         say(f"\n== 4. peers: {FAST}, the IPOPT path and do-mpc on the same problem and ticks ==")
         peer = peers_section(ipopt_ticks, say, rounds)
@@ -785,6 +793,7 @@ def main(argv: list[str]) -> int:
                      "solvers": solvers, "layouts": layouts,
                      "modes": modes, "speeds": speeds, "trajectories": trajectories,
                      "headings": headings, "sections": sections, "plant": "ideal",
+                     "jit_scenarios": args.jit,
                      "p99_limit": P99_LIMIT},
         "profiles": profile,
         "rows": rows,

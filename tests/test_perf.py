@@ -117,6 +117,29 @@ def test_sections_and_profile_horizons_are_chosen(tmp_path: Path) -> None:
     assert document["peers"] is None and "scenario_count" not in document["summary"]
 
 
+@pytest.mark.skipif(shutil.which(os.environ.get("CC") or "gcc") is None,
+                    reason="no C compiler")
+def test_scenarios_with_jit_say_so(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--jit`` builds the scenarios' controllers with ``jit=True``: the rows, the settings
+    and the summary say so (the same plan as the default: its RMS error to the bit)."""
+    args = ["--sections", "scenarios", "--layouts", "mecanum", "--modes", "time",
+            "--speeds", "inside", "--ticks", "20"]
+    documents = []
+    for extra, folder in (([], "default"), (["--jit"], "jit")):
+        assert main(["perf", *args, *extra, "--out", str(tmp_path / folder)]) == 0
+        documents.append(json.loads((tmp_path / folder / "perf.json").read_text()))
+    out = capsys.readouterr().out
+    assert out.count("with jit=True") == 1 and out.count("scenarios (jit=True):") == 1
+    default, compiled = documents
+    assert [row["jit"] for row in default["rows"]] == [False]
+    assert [row["jit"] for row in compiled["rows"]] == [True]
+    assert (default["settings"]["jit_scenarios"], compiled["settings"]["jit_scenarios"]) == (
+        False, True)
+    assert compiled["summary"]["scenarios_jit"] and not default["summary"]["scenarios_jit"]
+    assert (compiled["rows"][0]["rms_position_error"]
+            == default["rows"][0]["rms_position_error"])
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--solvers", "cvxpy"], "--solvers: unknown solver cvxpy"),
     (["--layouts", "tank"], "--layouts: unknown layout tank"),
