@@ -453,8 +453,10 @@ def test_jit_errors_say_what_was_expected(monkeypatch: pytest.MonkeyPatch) -> No
     """jit takes a bool, applies to daqp only, and a compiler that cannot run is a
     ControllerError naming what was tried (no temporary files left behind)."""
     robot, trajectory = preset("mecanum"), FigureEight(1.0, 12.0)
-    with pytest.raises(ControllerError, match="jit must be True or False, got 'yes'"):
-        Controller(robot, trajectory, horizon=3, jit="yes")  # type: ignore[arg-type]
+    with pytest.raises(ControllerError, match="jit must be True, False or 'auto', got 'yes'"):
+        Controller(robot, trajectory, horizon=3, jit="yes")
+    with pytest.raises(ControllerError, match="jit must be True, False or 'auto', got 1"):
+        Controller(robot, trajectory, horizon=3, jit=1)  # type: ignore[arg-type]
     with pytest.raises(ControllerError, match="solver 'osqp' does not use them"):
         Controller(robot, trajectory, horizon=3, solver="osqp", jit=True)
     monkeypatch.setenv("CC", "/nonexistent/cc")
@@ -464,6 +466,27 @@ def test_jit_errors_say_what_was_expected(monkeypatch: pytest.MonkeyPatch) -> No
     left = {name for name in set(os.listdir(tempfile.gettempdir())) - before
             if name.startswith("mpc-jit-")}
     assert not left
+
+
+def test_jit_auto_compiles_where_it_can(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``jit="auto"``: compiled C where the compiler works (:attr:`Controller.jit` True), the
+    virtual machine where it does not and for solvers without terms to compile (False);
+    the same commands either way."""
+    robot, trajectory = preset("mecanum"), FigureEight(1.0, 12.0)
+    default = Controller(robot, trajectory, horizon=3)
+    assert default.jit is False
+    assert Controller(robot, trajectory, horizon=3, solver="osqp", jit="auto").jit is False
+    monkeypatch.setenv("CC", "/nonexistent/cc")
+    fallen_back = Controller(robot, trajectory, horizon=3, jit="auto")
+    assert fallen_back.jit is False
+    runs = [simulate(default, 1.0), simulate(fallen_back, 1.0)]
+    if shutil.which(_COMPILER) is not None:
+        monkeypatch.delenv("CC")
+        compiled = Controller(robot, trajectory, horizon=3, jit="auto")
+        assert compiled.jit is True
+        runs.append(simulate(compiled, 1.0))
+    for run in runs[1:]:
+        np.testing.assert_array_equal(run.twist_command, runs[0].twist_command)
 
 
 def test_reset_keeps_a_measured_twist_that_a_failed_wheel_reads_as_rounding() -> None:

@@ -18,6 +18,7 @@ from mpc.control.measurements import check_pose, check_steer_angles, check_time
 from mpc.control.settings import (
     MODES,
     SOLVERS,
+    check_jit,
     check_mode,
     check_progress_rate,
     check_stage_dt,
@@ -125,8 +126,10 @@ class Controller:
             system's C compiler (CasADi's JIT: gcc, or ``$CC``), about 1.5 s the first
             time a problem is built (~0.1 s after: the libraries are cached,
             :func:`~mpc.model.jit.cache_folder`), for a quicker tick at N = 20 (README,
-            "Performance"); the same commands. :class:`~mpc.errors.ControllerError` if it
-            cannot compile.
+            "Performance"); the same commands. ``True``: a
+            :class:`~mpc.errors.ControllerError` if it cannot compile; ``"auto"``: compiled
+            where a compiler works, CasADi's virtual machine otherwise (and for the other
+            solvers); :attr:`jit` says which.
     """
 
     @checked_arguments(ControllerError)
@@ -148,7 +151,7 @@ class Controller:
         mode: str = "time",
         max_progress_rate: float = 2.0,
         time_scaling: bool | None = None,
-        jit: bool = False,
+        jit: bool | str = False,
     ) -> None:
         if not isinstance(robot, Robot):
             raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
@@ -166,15 +169,23 @@ class Controller:
         self.model = TrackingModel(robot, self.horizon, self.stage_dt, self.weights,
                                    path=self.mode == "path", max_progress_rate=rate,
                                    tick=self.dt)
+        compile_terms = check_jit(jit, solver)
         try:
             self.solver = make_solver(self.model, solver, polygon_sides, max_iter, time_limit,
-                                      jit)
-            # (both checked) a first tick solved again would spend two budgets
-            self._budgeted = float(time_limit) > 0.0 or max_iter is not None
-            self._reference_terms = (jitted(self.model.reference_terms) if jit
+                                      compile_terms)
+            self._reference_terms = (jitted(self.model.reference_terms) if compile_terms
                                      else self.model.reference_terms)
         except JitError as error:
-            raise ControllerError(f"jit=True: {error}") from None
+            if jit is True:
+                raise ControllerError(f"jit=True: {error}") from None
+            compile_terms = False  # no compiler that works here: CasADi's virtual machine
+            self.solver = make_solver(self.model, solver, polygon_sides, max_iter, time_limit)
+            self._reference_terms = self.model.reference_terms
+        #: Whether the tick's CasADi terms run as compiled C (``jit=True``, or ``"auto"``
+        #: where a compiler worked).
+        self.jit = compile_terms
+        # (both checked) a first tick solved again would spend two budgets
+        self._budgeted = float(time_limit) > 0.0 or max_iter is not None
         prepare_commands(robot, self.dt, self.model.durations)
         self._profile: TickProfile | None = None
         self._tick = TickInput(self.model.layouts)

@@ -114,18 +114,26 @@ def check_plan_size(robot: Robot, horizon: int, solver: str, polygon_sides: int 
             "shorten the horizon, use fewer polygon_sides or solver='osqp'")
 
 
+def check_jit(jit: object, solver: object) -> bool:
+    """Whether to compile the tick's terms for ``jit`` (True, False or ``"auto"``: where a
+    compiler works, which the caller finds out) with ``solver`` (one of :data:`SOLVERS`):
+    only daqp's are compiled."""
+    if solver not in SOLVERS:
+        raise ControllerError(f"unknown solver {solver!r}; expected one of {list(SOLVERS)}")
+    if not (isinstance(jit, bool) or (isinstance(jit, str) and jit == "auto")):
+        raise ControllerError(f"jit must be True, False or 'auto', got {shown(jit)}")
+    if jit is True and solver != "daqp":
+        raise ControllerError(f"jit=True compiles the daqp fast path's terms; solver "
+                              f"{shown(solver)} does not use them")
+    return bool(jit) and solver == "daqp"
+
+
 def make_solver(model: TrackingModel, name: object, polygon_sides: int | None,
                 max_iter: int | None, time_limit: float, jit: bool = False) -> TrackingSolver:
     """The solver ``name`` (one of :data:`SOLVERS`) for ``model``, with its options checked
-    (``jit``: daqp's terms compiled to C; :class:`~mpc.model.jit.JitError` if they cannot
-    be)."""
-    if name not in SOLVERS:
-        raise ControllerError(f"unknown solver {name!r}; expected one of {list(SOLVERS)}")
-    if not isinstance(jit, bool):
-        raise ControllerError(f"jit must be True or False, got {shown(jit)}")
-    if jit and name != "daqp":
-        raise ControllerError(f"jit=True compiles the daqp fast path's terms; solver "
-                              f"{shown(name)} does not use them")
+    (``jit``: daqp's terms compiled to C, checked by :func:`check_jit`;
+    :class:`~mpc.model.jit.JitError` if they cannot be)."""
+    check_jit(jit, name)
     iterations = None if max_iter is None else integer_in("max_iter", max_iter, 1,
                                                           MAX_ITERATIONS, ControllerError)
     limit = non_negative("time_limit [s]", time_limit, ControllerError)
