@@ -196,12 +196,14 @@ class Printer:
 
 
 # ----------------------------------------------------------------------------- 1. profile
-def profile_run(horizon: int, ticks: int) -> tuple[dict[str, Any], list[str]]:
-    """The reference scenario's tick at ``horizon`` split into its phases (daqp): the
-    document and its text table."""
-    robot = preset(REFERENCE_LAYOUT)
-    trajectory = reference(REFERENCE_SHAPE, REFERENCE_HEADING, robot, SPEEDS["inside"])
-    control = Controller(robot, trajectory, horizon=horizon, dt=DT, solver=FAST)
+def profile_run(horizon: int, ticks: int, layout: str = REFERENCE_LAYOUT, mode: str = "time",
+                speed: str = "inside") -> tuple[dict[str, Any], list[str]]:
+    """A scenario's tick at ``horizon`` split into its phases (daqp; the reference scenario
+    unless ``layout``, ``mode`` and ``speed`` say otherwise): the document and its text
+    table."""
+    robot = preset(layout)
+    trajectory = reference(REFERENCE_SHAPE, REFERENCE_HEADING, robot, SPEEDS[speed])
+    control = Controller(robot, trajectory, horizon=horizon, dt=DT, solver=FAST, mode=mode)
     profile = TickProfile()
     control.profile = profile
     settle = _settle(ticks)
@@ -225,9 +227,9 @@ def profile_run(horizon: int, ticks: int) -> tuple[dict[str, Any], list[str]]:
                          "mean_per_tick": float(values.sum() / kept)})
     timing = _row(run, settle)
     document = {
-        "scenario": {"layout": REFERENCE_LAYOUT, "trajectory": REFERENCE_SHAPE,
-                     "heading": REFERENCE_HEADING, "speed": "inside",
-                     "peak_ratio": SPEEDS["inside"], "horizon": horizon, "dt": DT,
+        "scenario": {"layout": layout, "trajectory": REFERENCE_SHAPE,
+                     "heading": REFERENCE_HEADING, "mode": mode, "speed": speed,
+                     "peak_ratio": SPEEDS[speed], "horizon": horizon, "dt": DT,
                      "solver": FAST, "plant": "ideal"},
         "ticks": kept, "settle": settle, "phases": rows,
         "sum_of_medians": float(sum(row["p50"] for row in rows)),
@@ -235,8 +237,8 @@ def profile_run(horizon: int, ticks: int) -> tuple[dict[str, Any], list[str]]:
         **{key: timing[key] for key in ("tick_p50", "tick_p99", "cpu_p50", "cpu_p99")},
     }
     lines = [
-        f"tick split: {REFERENCE_LAYOUT} {REFERENCE_SHAPE} {REFERENCE_HEADING} heading, "
-        f"inside ({SPEEDS['inside']:g} x limits), N={horizon}, dt {DT} s, {FAST}, ideal "
+        f"tick split: {layout} {REFERENCE_SHAPE} {REFERENCE_HEADING} heading, {mode} mode, "
+        f"{speed} ({SPEEDS[speed]:g} x limits), N={horizon}, dt {DT} s, {FAST}, ideal "
         f"plant; {kept} ticks after {settle} settling",
         f"{'phase':24s} {'runs':>5s} {'p50 [us]':>9s} {'p99 [us]':>9s} {'mean/tick [us]':>15s}",
     ]
@@ -260,11 +262,14 @@ PROFILE_NOTE = ("runs: ticks in which the phase ran; a phase that runs on some t
 
 
 def profile_section(horizons: list[int], ticks: int, out: Path, command: str,
-                    say: Printer) -> list[dict[str, Any]]:
-    """:func:`profile_run` at each horizon; writes ``tick_profile.txt`` and ``.json``."""
+                    say: Printer, scenario: tuple[str, str, str] = (REFERENCE_LAYOUT, "time",
+                                                                    "inside")
+                    ) -> list[dict[str, Any]]:
+    """:func:`profile_run` at each horizon (``scenario``: layout, mode, speed); writes
+    ``tick_profile.txt`` and ``.json``."""
     documents, text = [], [f"$ {command}", ""]
     for horizon in horizons:
-        document, lines = profile_run(horizon, ticks)
+        document, lines = profile_run(horizon, ticks, *scenario)
         documents.append(document)
         for line in lines:
             say(line)
@@ -659,6 +664,23 @@ def _integers(flag: str, text: str) -> list[int]:
     return sorted(set(values))
 
 
+def _profile_scenario(text: str | None) -> tuple[str, str, str]:
+    """``--profile-scenario``'s layout, mode and speed (the reference scenario's if None)."""
+    if text is None:
+        return REFERENCE_LAYOUT, "time", "inside"
+    parts = [part.strip() for part in text.split(",")]
+    if len(parts) != 3:
+        raise ScenarioError(f"--profile-scenario must be LAYOUT,MODE,SPEED (e.g. "
+                            f"swerve,path,beyond), got {text!r}")
+    layout, mode, speed = parts
+    for flag, value, known in (("layout", layout, PRESETS), ("mode", mode, MODES),
+                               ("speed", speed, tuple(SPEEDS))):
+        if value not in known:
+            raise ScenarioError(f"--profile-scenario: unknown {flag} {value!r}; expected one "
+                                f"of {', '.join(known)}")
+    return layout, mode, speed
+
+
 def _commit() -> str | None:
     """The git commit of the code measured (``+dirty``: the library or the benchmark has
     uncommitted changes; results folders do not count), or None outside a git checkout."""
@@ -681,6 +703,9 @@ def _parser() -> Parser:
     parser.add_argument("--horizons", help="horizons of the horizons section (10,20,50,100)")
     parser.add_argument("--profile-horizons",
                         help="horizons the tick is split into phases at (20)")
+    parser.add_argument("--profile-scenario", metavar="LAYOUT,MODE,SPEED",
+                        help=f"the scenario the tick is split in, e.g. swerve,path,beyond "
+                             f"(default: {REFERENCE_LAYOUT},time,inside)")
     parser.add_argument("--solvers", help=f"comma list of {', '.join(SOLVERS)} (default: all)")
     parser.add_argument("--layouts", help=f"scenarios: comma list of {', '.join(PRESETS)} "
                                           "(default: all)")
@@ -718,6 +743,7 @@ def main(argv: list[str]) -> int:
                                                          else "10,20,50,100"))
     profile_horizons = _integers("--profile-horizons",
                                  args.profile_horizons or str(REFERENCE_HORIZON))
+    profile_scenario = _profile_scenario(args.profile_scenario)
     solvers = choose("--solvers", "solver", args.solvers, list(SOLVERS))
     layouts = choose("--layouts", "layout", args.layouts or ("mecanum" if args.quick else None),
                       PRESETS)
@@ -749,7 +775,7 @@ def main(argv: list[str]) -> int:
     profile = horizon_rows = scenario_rows = peer = drift = jit = None
     if "profile" in sections:
         say("\n== 1. tick split (TickProfile) ==")
-        profile = profile_section(profile_horizons, ticks, out, command, say)
+        profile = profile_section(profile_horizons, ticks, out, command, say, profile_scenario)
     if "horizons" in sections:
         say(f"\n== 2. horizons: {REFERENCE_LAYOUT} {REFERENCE_SHAPE} inside, solvers "
             f"{', '.join(solvers)} ==")
@@ -790,6 +816,7 @@ def main(argv: list[str]) -> int:
                     "thread_env": {name: os.environ.get(name) for name in THREAD_VARIABLES}},
         "settings": {"dt": DT, "ticks": ticks, "ipopt_ticks": ipopt_ticks, "peer_rounds": rounds,
                      "horizons": horizons, "profile_horizons": profile_horizons,
+                     "profile_scenario": list(profile_scenario),
                      "solvers": solvers, "layouts": layouts,
                      "modes": modes, "speeds": speeds, "trajectories": trajectories,
                      "headings": headings, "sections": sections, "plant": "ideal",

@@ -348,7 +348,8 @@ def test_profile_marks_every_phase_of_every_tick(solver: str) -> None:
                   "clamp and commands"):
         assert len(phases[phase]) == ticks
     if solver == "daqp":
-        for phase in ("solve: model", "solve: condense", "solve: daqp", "solve: result"):
+        for phase in ("solve: model", "solve: condense", "solve: whiten", "solve: daqp update",
+                      "solve: daqp solve", "solve: checks", "solve: result"):
             assert len(phases[phase]) == ticks
     recorded = sum(sum(values) for values in phases.values())
     assert 0.0 < recorded <= elapsed

@@ -140,7 +140,28 @@ def test_scenarios_with_jit_say_so(tmp_path: Path, capsys: pytest.CaptureFixture
             == default["rows"][0]["rms_position_error"])
 
 
+def test_the_profile_splits_the_scenario_asked_for(tmp_path: Path) -> None:
+    """``--profile-scenario`` names the layout, mode and speed the tick is split in; the
+    daqp tick's phases include the whitening, daqp's update and solve, and the checks."""
+    assert main(["perf", "--sections", "profile", "--profile-scenario", "swerve,path,beyond",
+                 "--ticks", "20", "--out", str(tmp_path)]) == 0
+    document = json.loads((tmp_path / "perf.json").read_text())
+    (profile,) = document["profiles"]
+    assert {key: profile["scenario"][key] for key in ("layout", "mode", "speed")} == {
+        "layout": "swerve", "mode": "path", "speed": "beyond"}
+    assert document["settings"]["profile_scenario"] == ["swerve", "path", "beyond"]
+    phases = [row["phase"] for row in profile["phases"]]
+    assert phases.index("solve: whiten") < phases.index("solve: daqp update") < phases.index(
+        "solve: daqp solve") < phases.index("solve: checks") < phases.index("solve: result")
+    assert "swerve figure8 fixed heading, path mode, beyond" in (
+        tmp_path / "tick_profile.txt").read_text()
+
+
 @pytest.mark.parametrize("argv, message", [
+    (["--profile-scenario", "swerve,path"], "--profile-scenario must be LAYOUT,MODE,SPEED"),
+    (["--profile-scenario", "tank,time,inside"], "--profile-scenario: unknown layout 'tank'"),
+    (["--profile-scenario", "swerve,fast,inside"], "--profile-scenario: unknown mode 'fast'"),
+    (["--profile-scenario", "swerve,time,warp"], "--profile-scenario: unknown speed 'warp'"),
     (["--solvers", "cvxpy"], "--solvers: unknown solver cvxpy"),
     (["--layouts", "tank"], "--layouts: unknown layout tank"),
     (["--modes", "fast"], "--modes: unknown mode fast"),

@@ -308,7 +308,9 @@ class DenseSolver:
             self._rebuild = None  # the new Hessian took over this tick
         if profile is not None and building:
             profile.mark("solve: hessian")
-        solver = self._update(gradient, lower, upper, rows_changed)
+        solver = self._update(gradient, lower, upper, rows_changed, profile)
+        if profile is not None:
+            profile.mark("solve: daqp update")
         if self.record is not None:
             self.record.append(WhitenedQp(self._whitened_gradient.copy(),
                                           self._whitened_rows.copy(), lower.copy(),
@@ -319,6 +321,8 @@ class DenseSolver:
                                poses=np.full((n + 1, 3), np.nan),
                                twists=np.full((n, 3), np.nan), solve_time=0.0, iterations=0)
         whitened_step, _, flag, info = solver.solve()
+        if profile is not None:
+            profile.mark("solve: daqp solve")
         step = np.matmul(self._unwhiten, whitened_step, out=self._step)
         if screen is not None and flag > 0:
             flag, info = self._check_screened(tick, screen, info, every_lower, every_upper)
@@ -331,7 +335,7 @@ class DenseSolver:
             flag, info = self._solve_guarded(tick, lower, upper, info)
             twists = self._plan_twists(tick)
         if profile is not None:
-            profile.mark("solve: daqp")
+            profile.mark("solve: checks")
         result = self._result(tick, step, twists, int(flag), info)
         if profile is not None:
             profile.mark("solve: result")
@@ -436,9 +440,10 @@ class DenseSolver:
         return values
 
     def _update(self, gradient: FloatArray, lower: FloatArray, upper: FloatArray,
-                rows_changed: bool) -> daqp.Model | None:
+                rows_changed: bool, profile: TickProfile | None = None) -> daqp.Model | None:
         """Hand daqp what changed, in whitened steps ``y = L' d``: Hessian the identity,
-        rows ``A L^{-T}``, gradient ``L^{-1} g`` (None if daqp refuses to set it up)."""
+        rows ``A L^{-T}``, gradient ``L^{-1} g`` (None if daqp refuses to set it up);
+        ``profile``, if given, marks the whitening's end."""
         new_rows = rows_changed or self._rows_stale or self._rows_new
         if self._rows_stale or rows_changed:
             # rows whitened by the same L^{-T} before, and not moved since, are kept
@@ -447,6 +452,8 @@ class DenseSolver:
         self._rows_stale = self._rows_new = False
         whitened_gradient = self._unwhiten.T @ gradient
         self._whitened_gradient = whitened_gradient
+        if profile is not None:
+            profile.mark("solve: whiten")
         start, self._next_start = self._next_start, None
         if self._solver is None or start is not None:  # new, or other rows (_check_screened)
             if start is not None and self._screen is not None:
