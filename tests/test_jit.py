@@ -38,7 +38,8 @@ def test_a_function_built_again_loads_its_library(tmp_path: Path,
     monkeypatch.setenv(CACHE_VARIABLE, str(tmp_path))
     function = _function()
     first = jitted(function)
-    assert [path.suffix for path in tmp_path.iterdir()] == [".so"]
+    (library,) = tmp_path.iterdir()
+    assert library.suffix == ".so" and library.stat().st_mode & 0o777 == 0o644
 
     def no_compiler(*_: object) -> ca.Function:
         raise JitError("compiled again")

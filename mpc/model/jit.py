@@ -132,6 +132,7 @@ def _keep(build: Path, cached: Path) -> None:
     partial = Path(name)
     try:
         shutil.copyfile(libraries[0], partial)
+        partial.chmod(0o644)  # (mkstemp's 0600 would keep a shared folder's others out)
         os.replace(partial, cached)
     except OSError:
         partial.unlink(missing_ok=True)
