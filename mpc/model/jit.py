@@ -9,7 +9,8 @@ unless ``$CC`` names another) and loads the library. Same inputs, outputs and nu
 it costs about 1.5 s of compiling when the controller is built. ``Controller(jit=True)``
 compiles the tick's terms, the plan's poses and the reference terms of windows sampled
 on their own (windows read from the lookahead's grid take the grid's terms, evaluated in
-the virtual machine once a fill).
+the virtual machine once a fill); ``jit="auto"`` does the same where a compiler works and
+keeps the virtual machine where none does.
 
 Each library built is kept in a cache folder (:func:`cache_folder`), named by a hash of
 the function, CasADi's version, the compiler and its flags: the same problem built again,
