@@ -45,7 +45,7 @@ from benchmarks.scenarios import (
     DEFAULT_HEADINGS,
     DEFAULT_LAYOUTS,
     HEADINGS,
-    PRESETS,
+    LAYOUTS,
     TRAJECTORIES,
     Parser,
     ScenarioError,
@@ -84,7 +84,7 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
         epilog="Other commands: " + ", ".join(name for name in COMMANDS if name != "run")
                + " (mpc-bench --help lists them; mpc-bench COMMAND --help for each).",
     )
-    parser.add_argument("--layouts", help=f"comma list of {', '.join(PRESETS)} "
+    parser.add_argument("--layouts", help=f"comma list of {', '.join(LAYOUTS)} "
                                           f"(default: {', '.join(DEFAULT_LAYOUTS)})")
     parser.add_argument("--trajectories",
                         help=f"comma list of {', '.join(ALL_TRAJECTORIES)} "
@@ -206,7 +206,7 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
         args.skip = 1.0 if args.quick else 2.0
         if args.duration is not None:
             args.skip = min(args.skip, 0.5 * args.duration)
-    layouts = choose("--layouts", "layout", args.layouts, PRESETS, DEFAULT_LAYOUTS)
+    layouts = choose("--layouts", "layout", args.layouts, LAYOUTS, DEFAULT_LAYOUTS)
     chosen_robots = robots(layouts, args.robot)
     if not args.command_ramp and args.plant != "motor":
         raise ScenarioError("--no-command-ramp applies to --plant motor (the other plants' "

@@ -8,6 +8,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from mpc.arrays import FloatArray
+from mpc.robots.conventions import WheelConvention, wheel_convention
 
 
 class Status(enum.Enum):
@@ -89,3 +90,11 @@ class Command:
         """Casters: the steer angles along the plan (N+1, n) [rad], from the measured ones
         (computed on first reading); else None."""
         return None if self.steer_prediction is None else self.steer_prediction()
+
+    def wheel_speeds_as(self, convention: str | WheelConvention,
+                        wheel_radius: float | None = None) -> FloatArray:
+        """``wheel_speeds`` in another source's wheel order, signs and unit: a name of
+        :data:`mpc.robots.CONVENTIONS` (``"jetauto"``: motors 1-4 in rev/s, right side
+        negated) or a :class:`~mpc.robots.WheelConvention`. Conventions in rim speed [m/s]
+        need ``wheel_radius`` [m]."""
+        return wheel_convention(convention).from_ours(self.wheel_speeds, wheel_radius)

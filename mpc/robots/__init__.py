@@ -7,7 +7,8 @@ twists ``(vx, vy, omega)`` in m/s and rad/s, wheel speeds in rad/s. Wheel
 orders: Mecanum FL, FR, RL, RR; omni counter-clockwise from
 ``first_wheel_angle``; swerve as ``module_positions`` lists them; driven
 balls ball by ball, the actuator about +x then the one about +y; casters as ``positions``
-lists them (steer angles measured each tick: they are states). A new
+lists them (steer angles measured each tick: they are states); another source's order,
+signs and units through :data:`CONVENTIONS` (``Command.wheel_speeds_as``). A new
 wheel type is a :class:`Robot` subclass plus a factory passed to
 :func:`register`. Motors: :class:`DCMotor` (WPILib's DC motor model and
 presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel); :class:`RobotDynamics`
@@ -18,8 +19,17 @@ limits (:mod:`mpc.robots.motor_limits`); :func:`motor_preset` ships them per lay
 from mpc.errors import RobotError as _Error
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.caster import CasterRobot, caster
+from mpc.robots.conventions import CONVENTIONS, WheelConvention, wheel_convention
 from mpc.robots.dynamics import RobotDynamics, choreo_dynamics, dynamics
-from mpc.robots.files import MOTOR_ROBOT_PRESETS, PRESETS, from_dict, load, motor_preset, preset
+from mpc.robots.files import (
+    MOTOR_ROBOT_PRESETS,
+    PRESETS,
+    SEED_PRESETS,
+    from_dict,
+    load,
+    motor_preset,
+    preset,
+)
 from mpc.robots.mobility import (
     Mobility,
     WheelSpec,
@@ -37,6 +47,7 @@ from mpc.robots.wheel_set import wheel_set
 from mpc.validation import checked_public as _checked_public
 
 __all__ = [
+    "CONVENTIONS",
     "CasterRobot",
     "MOTOR_PRESETS",
     "MOTOR_ROBOT_PRESETS",
@@ -45,6 +56,7 @@ __all__ = [
     "DCMotor",
     "Robot",
     "RobotDynamics",
+    "SEED_PRESETS",
     "SpeedRows",
     "SphericalRobot",
     "SwedishRobot",
@@ -52,6 +64,7 @@ __all__ = [
     "SwerveRobot",
     "SysIdMotor",
     "WheelCommands",
+    "WheelConvention",
     "WheelSpec",
     "caster",
     "choreo_dynamics",
@@ -70,6 +83,7 @@ __all__ = [
     "robot_types",
     "spherical",
     "swerve",
+    "wheel_convention",
     "wheel_set",
     "wrap_angle",
 ]

@@ -40,8 +40,11 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-#: Names of the shipped presets, usable with :func:`preset`.
+#: Names of the shipped layouts, usable with :func:`preset`.
 PRESETS: tuple[str, ...] = ("omni3", "omni4", "mecanum", "swerve", "ball3", "caster4", "mpo700")
+#: The founding documents' robots, usable with :func:`preset` too; each has its source's
+#: wheel order, signs and units in :data:`mpc.robots.conventions.CONVENTIONS`.
+SEED_PRESETS: tuple[str, ...] = ("jetauto", "kosen-mecanum", "kosen-omni4", "swedish3")
 
 
 def from_dict(description: Mapping[str, Any], source: str = "robot description") -> Robot:
@@ -77,13 +80,16 @@ def load(path: str | Path) -> Robot:
     return from_dict(description, source=f"robot file {str(file)!r}")
 
 
-def preset(name: str) -> Robot:
-    """A shipped robot by name, one of :data:`PRESETS`."""
-    if name not in PRESETS:
-        raise RobotError(f"unknown robot preset {name!r}; expected one of {list(PRESETS)}")
+def preset(name: str, **overrides: Any) -> Robot:
+    """A shipped robot by name, one of :data:`PRESETS` or :data:`SEED_PRESETS`;
+    ``overrides`` replace its file's top-level keys (``preset("jetauto", max_wheel_speed=2.0
+    * 2 * math.pi)``: a 2 rev/s motor limit), checked as a robot file's keys are."""
+    if name not in PRESETS + SEED_PRESETS:
+        raise RobotError(f"unknown robot preset {name!r}; expected one of "
+                         f"{list(PRESETS + SEED_PRESETS)}")
     folder = resources.files("mpc.robots").joinpath("presets")
     text = folder.joinpath(f"{name}.toml").read_text("utf-8")
-    return from_dict(tomllib.loads(text), source=f"preset {name!r}")
+    return from_dict({**tomllib.loads(text), **overrides}, source=f"preset {name!r}")
 
 
 #: Layouts shipped with motors as well (:func:`motor_preset`).

@@ -16,6 +16,8 @@ same fields (:func:`copy_message` copies one into an rclpy message).
   FR, RR, RL, ours FL, FR, RL, RR (same kinematics otherwise): :func:`to_ros2_mecanum`,
   :func:`from_ros2_mecanum`; :func:`joint_group_command` for a
   ``JointGroupVelocityController`` ([rad/s] in its ``joints`` order).
+- **JetAuto's driver** (:mod:`.jetauto`): the command as its motors take it, ids 1-4 in
+  revolutions per second, right side negated (:func:`jetauto_motors`, :func:`motors_state`).
 - :class:`Nav2Controller`, shaped like a nav2 controller plugin: ``set_plan(path)``
   (timed by the time-optimal retimer or at a constant speed; a grid planner's path not
   smoothed upstream: ``position_tolerance=``, ``yaw_tolerance=``),
@@ -52,10 +54,12 @@ runs on the poses' stamps: give each pose its measurement's stamp (a stamp that 
 move holds the reference where it is).
 
 The modules: :mod:`.messages` (messages out, wheel order), :mod:`.clock`
-(:class:`ReferenceClock`), :mod:`.nav2` (:class:`Nav2Controller`).
+(:class:`ReferenceClock`), :mod:`.nav2` (:class:`Nav2Controller`), :mod:`.jetauto` (JetAuto's
+motor messages).
 """
 
 from mpc.adapters.ros.clock import ReferenceClock
+from mpc.adapters.ros.jetauto import jetauto_motors, jetauto_typestore, motors_state
 from mpc.adapters.ros.messages import (
     ROS2_MECANUM_ORDER,
     copy_message,
@@ -78,7 +82,8 @@ from trajectories.rosbag import (
 )
 
 __all__ = ["ROS2_MECANUM_ORDER", "Nav2Controller", "ReferenceClock", "copy_message",
-           "from_ros2_mecanum", "joint_group_command", "pose_from_message",
+           "from_ros2_mecanum", "jetauto_motors", "jetauto_typestore", "joint_group_command",
+           "motors_state", "pose_from_message",
            "quaternion_from_yaw", "stamp_nanoseconds", "time_message", "to_ros2_mecanum",
            "twist_from_message", "twist_message", "twist_stamped", "yaw_from_quaternion"]
 
