@@ -4,6 +4,7 @@ equations, written out here from the documents (not from our kinematics)."""
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 from pathlib import Path
@@ -314,3 +315,16 @@ def test_motors_state_message_serialises() -> None:
                                CONVENTIONS["jetauto"].from_ours(speeds), atol=0)
     with pytest.raises(ControllerError, match=r"4 wheel speeds \[rad/s\] expected"):
         jetauto_motors(np.zeros((2, 4)))
+
+
+def test_benchmark_runs_jetauto(tmp_path: Path) -> None:
+    from benchmarks.cli import main
+
+    out = tmp_path / "out"
+    assert main(["--layouts", "jetauto", "--trajectories", "figure8", "--speeds", "beyond",
+                 "--controllers", "mpc-daqp,ff-p-clip", "--duration", "3", "--no-report",
+                 "--out", str(out)]) == 0
+    runs = json.loads((out / "results.json").read_text())["runs"]
+    assert {run["layout"] for run in runs} == {"jetauto"}
+    assert {run["controller"] for run in runs} == {"mpc-daqp", "ff-p-clip"}
+    assert all(run["metrics"]["max_wheel_speed_ratio"] <= 1.0 + 1e-6 for run in runs)
