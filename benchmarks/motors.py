@@ -31,7 +31,6 @@ import argparse
 import json
 import math
 import time
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -42,13 +41,10 @@ from benchmarks.scenarios import Parser, ScenarioError, choose, seed
 from benchmarks.scenarios import reference as scenario_reference
 from mpc import Controller
 from mpc.arrays import FloatArray
-from mpc.errors import MpcError
+from mpc.errors import MpcError, RobotError
 from mpc.robots import (
     MOTOR_ROBOT_PRESETS,
     Robot,
-    SphericalRobot,
-    SwedishRobot,
-    SwerveRobot,
     motor_preset,
 )
 from mpc.robots.force_map import force_map
@@ -86,15 +82,10 @@ def kinematic_stand_in(robot: Robot) -> Robot:
         limit = np.minimum(limit, traction[forces.contact_of] / reach)
     accel = limit / (dyn.wheel_inertia + share / reach**2)
     speed = dyn.free_speed
-    if isinstance(robot, SwedishRobot):
-        wheels = tuple(replace(w, max_speed=speed, max_accel=float(a))
-                       for w, a in zip(robot.wheels, accel, strict=True))
-        return replace(robot, wheels=wheels, dynamics=None)
-    if isinstance(robot, SwerveRobot):
-        return replace(robot, max_speed=speed, max_accel=float(accel.min()), dynamics=None)
-    if isinstance(robot, SphericalRobot):
-        return replace(robot, max_speed=speed, max_accel=accel.reshape(-1, 2), dynamics=None)
-    raise ScenarioError(f"no kinematic stand-in for robot kind {robot.kind!r}")
+    try:
+        return robot.with_wheel_limits(speed, accel)
+    except RobotError as error:
+        raise ScenarioError(f"no kinematic stand-in for robot {robot.name!r}: {error}") from None
 
 
 def motor_demand(trajectory: Trajectory, robot: Robot, samples: int = 1201) -> float:

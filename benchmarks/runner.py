@@ -13,19 +13,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from benchmarks.scenarios import ALL_TRAJECTORIES, ScenarioError, Settings, applies, reference
 from benchmarks.table import Column, format_table
-from mpc.errors import MpcError
+from mpc.errors import MpcError, RobotError
 from mpc.plot.record import run_record
 from mpc.robots import (
     MOTOR_ROBOT_PRESETS,
-    CasterRobot,
     Robot,
-    SphericalRobot,
-    SwedishRobot,
-    SwerveRobot,
     motor_preset,
 )
 from mpc.sim import SimResult
@@ -177,34 +171,10 @@ def describe_robot(robot: Robot) -> dict[str, Any]:
         raise ScenarioError(f"robot {robot.name!r} is derated; describe the healthy robot")
     if getattr(robot, "dynamics", None) is not None:
         return _describe_motor_preset(robot)
-    if isinstance(robot, SwedishRobot):
-        wheels = [{"alpha": w.alpha, "beta": w.beta, "gamma": w.gamma, "l": w.l,
-                   "radius": w.radius, "max_speed": w.max_speed,
-                   **({} if w.max_accel is None else {"max_accel": w.max_accel})}
-                  for w in robot.wheels]
-        return {"type": "swedish", "name": robot.name, "wheels": wheels}
-    if isinstance(robot, SwerveRobot):
-        return {"type": "swerve", "name": robot.name,
-                "module_positions": np.asarray(robot.module_positions).tolist(),
-                "wheel_radius": robot.wheel_radius, "max_wheel_speed": robot.max_speed,
-                "max_steer_rate": robot.max_steer_rate, "max_wheel_accel": robot.max_accel,
-                **({"axle_offset": robot.axle_offset} if robot.axle_offset else {})}
-    if isinstance(robot, CasterRobot):
-        return {"type": "caster", "name": robot.name, **_listed(
-            positions=robot.caster_positions, offset=robot.offset,
-            wheel_radius=robot.wheel_radius, max_wheel_speed=robot.max_speed,
-            max_steer_rate=robot.max_steer_rate, max_wheel_accel=robot.max_accel)}
-    if isinstance(robot, SphericalRobot):
-        return {"type": "spherical", "name": robot.name, **_listed(
-            positions=robot.ball_positions, wheel_radius=robot.wheel_radius,
-            max_wheel_speed=robot.max_speed, max_wheel_accel=robot.max_accel)}
-    raise ScenarioError(f"cannot describe a robot of kind {robot.kind!r} as plain data")
-
-
-def _listed(**values: Any) -> dict[str, Any]:
-    """Numbers and arrays as plain lists (None kept)."""
-    return {key: None if value is None else np.asarray(value).tolist()
-            for key, value in values.items()}
+    try:
+        return robot.description()
+    except RobotError as error:
+        raise ScenarioError(f"robot {robot.name!r}: {error}") from None
 
 
 def _describe_motor_preset(robot: Robot) -> dict[str, Any]:

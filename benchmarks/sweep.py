@@ -2,15 +2,10 @@
 
 Each case draws, from one seeded generator (so the cases depend on --seed only):
 
-    robot       omni: 3 or 4 wheels on a circle of radius 0.10-0.30 m, first wheel at
-                0-360/n deg, wheel radius 25-60 mm, speed limit 15-35 rad/s
-                mecanum: wheelbase and track 0.20-0.50 m, wheel radius 30-80 mm,
-                speed limit 15-30 rad/s
-                swerve: modules at (+-a, +-b), a and b 0.15-0.40 m, wheel radius
-                40-60 mm, speed limit 20-40 rad/s, steering rate 8-16 rad/s
-                ball: 3 balls on a circle of radius 0.12-0.30 m, ball radius 30-60 mm,
-                speed limit 15-30 rad/s
-                every kind: acceleration limit 1.5-4 x the speed limit [1/s]
+    robot       of a kind drawn from --kinds, as its wheel type samples it (omni, mecanum,
+                swerve, ball: the ranges are in each sampler's docstring,
+                mpc.robots.registry.robot_samplers); every kind: acceleration limit
+                1.5-4 x the speed limit [1/s]
     reference   circle or figure-eight (1 m), fixed or tangent heading, peak wheel
                 speed 0.5-1.4 x the limit
     start       0-0.3 m off the reference in any direction, heading off by +-0.5 rad
@@ -43,39 +38,25 @@ from benchmarks.outdir import add_force_argument, claim
 from benchmarks.progress import Progress
 from benchmarks.scenarios import CONTROLLERS, Parser, ScenarioError, Settings, choose, seed
 from benchmarks.table import Column, format_table
+from mpc.robots.registry import robot_samplers
 from mpc.validation import MAX_HORIZON, MAX_SIMULATION_TICKS
 
 #: Random cases in one sweep (--runs).
 MAX_SWEEP_RUNS = 100_000
 
+#: Robot kinds a sweep draws from by default (any of robot_samplers() on request).
 KINDS: tuple[str, ...] = ("omni", "mecanum", "swerve", "ball")
 QUANTILES: tuple[int, ...] = (50, 90, 99)
 
 
 def random_robot(kind: str, rng: np.random.Generator) -> dict[str, Any]:
-    """A robot description (for :func:`mpc.robots.from_dict`) within the stated ranges."""
-    u = rng.uniform
-    if kind == "omni":
-        n = int(rng.integers(3, 5))
-        robot: dict[str, Any] = {"type": "omni", "n_wheels": n, "base_radius": u(0.10, 0.30),
-                                 "first_wheel_angle": u(0.0, 2.0 * math.pi / n),
-                                 "wheel_radius": u(0.025, 0.06), "max_wheel_speed": u(15, 35)}
-    elif kind == "mecanum":
-        robot = {"type": "mecanum", "wheelbase": u(0.20, 0.50), "track": u(0.20, 0.50),
-                 "wheel_radius": u(0.03, 0.08), "max_wheel_speed": u(15, 30)}
-    elif kind == "swerve":
-        a, b = u(0.15, 0.40), u(0.15, 0.40)
-        robot = {"type": "swerve", "module_positions": [[a, b], [a, -b], [-a, b], [-a, -b]],
-                 "wheel_radius": u(0.04, 0.06), "max_wheel_speed": u(20, 40),
-                 "max_steer_rate": u(8, 16)}
-    elif kind == "ball":
-        radius, first = u(0.12, 0.30), u(0.0, 2.0 * math.pi)
-        angles = first + 2.0 * math.pi * np.arange(3) / 3
-        robot = {"type": "spherical", "wheel_radius": u(0.03, 0.06), "max_wheel_speed": u(15, 30),
-                 "positions": (radius * np.column_stack([np.cos(angles), np.sin(angles)])).tolist()}
-    else:
-        raise ScenarioError(f"unknown robot kind {kind!r}; valid: {', '.join(KINDS)}")
-    robot["max_wheel_accel"] = robot["max_wheel_speed"] * u(1.5, 4.0)
+    """A robot description (for :func:`mpc.robots.from_dict`) of a registered kind
+    (:func:`mpc.robots.registry.robot_samplers`), with an acceleration limit."""
+    samplers = robot_samplers()
+    if kind not in samplers:
+        raise ScenarioError(f"unknown robot kind {kind!r}; valid: {', '.join(samplers)}")
+    robot = samplers[kind](rng)
+    robot["max_wheel_accel"] = robot["max_wheel_speed"] * rng.uniform(1.5, 4.0)
     robot["name"] = f"random-{kind}"
     return robot
 
@@ -201,7 +182,7 @@ def main(argv: list[str]) -> int:
                             f"ticks of {Settings().dt:g} s), got {args.duration:g}")
     if args.horizon > MAX_HORIZON:
         raise ScenarioError(f"--horizon must be at most {MAX_HORIZON}, got {args.horizon}")
-    kinds = choose("--kinds", "robot kind", args.kinds, KINDS)
+    kinds = choose("--kinds", "robot kind", args.kinds, tuple(robot_samplers()), KINDS)
     controllers = choose("--controllers", "controller", args.controllers, CONTROLLERS)
     specs = sample_cases(args.runs, kinds, controllers, args.seed, not args.no_faults,
                          args.duration, args.skip, Settings(horizon=args.horizon))

@@ -15,3 +15,10 @@ def readonly(array: ArrayLike) -> FloatArray:
     out = np.array(array, dtype=float)
     out.setflags(write=False)
     return out
+
+
+def listed(**values: ArrayLike | None) -> dict[str, object]:
+    """Numbers and arrays as plain Python lists and floats (None kept), by keyword: what a
+    description in a TOML or JSON file holds."""
+    return {key: None if value is None else np.asarray(value).tolist()
+            for key, value in values.items()}

@@ -31,8 +31,8 @@ import casadi as ca
 import numpy as np
 
 from mpc.arrays import FloatArray
+from mpc.buffered import BufferedFunction
 from mpc.control.lookahead import Lookahead, Strided
-from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import PathInput, TickInput
 from mpc.model.tracking import TrackingModel, feedforward_twists, reference_directions
 from trajectories import Trajectory, TrajectorySample

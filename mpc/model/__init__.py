@@ -6,8 +6,8 @@ Modules: :mod:`.se2` (rigid motion under a constant twist), :mod:`.layout`
 (zero-copy CasADi calls).
 """
 
+from mpc.buffered import BufferedFunction
 from mpc.errors import ControllerError as _Error
-from mpc.model.buffered import BufferedFunction
 from mpc.model.layout import Layout, TickInput, TrackingLayouts, tracking_layouts
 from mpc.model.se2 import SMALL_ROTATION, integrate, twist_integral, twist_logarithm
 from mpc.model.tracking import DIRECTION_SPEED, TrackingModel

@@ -16,6 +16,7 @@ presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel); :class:`RobotDynami
 limits (:mod:`mpc.robots.motor_limits`); :func:`motor_preset` ships them per layout.
 """
 
+from mpc.angles import wrap_angle
 from mpc.errors import RobotError as _Error
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.caster import CasterRobot, caster
@@ -42,7 +43,7 @@ from mpc.robots.motor import MOTOR_PRESETS, DCMotor, SysIdMotor
 from mpc.robots.registry import register, robot_types
 from mpc.robots.spherical import SphericalRobot, spherical
 from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
-from mpc.robots.swerve import SwerveRobot, swerve, wrap_angle
+from mpc.robots.swerve import SwerveRobot, swerve
 from mpc.robots.wheel_set import wheel_set
 from mpc.validation import checked_public as _checked_public
 

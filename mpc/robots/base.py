@@ -30,7 +30,7 @@ from __future__ import annotations
 import abc
 import dataclasses
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, ClassVar, NamedTuple, TypeVar
+from typing import Any, ClassVar, NamedTuple, TypeVar
 
 import casadi as ca
 import numpy as np
@@ -40,6 +40,8 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.checks import as_twists, check_holonomic
 from mpc.robots.derating import check_derating, merged_derating, rest_projector
+from mpc.robots.dynamics import RobotDynamics
+from mpc.robots.force_map import force_map
 from mpc.robots.limits import (
     DEFAULT_POLYGON_SIDES,
     SpeedRows,
@@ -49,10 +51,6 @@ from mpc.robots.limits import (
 from mpc.robots.speed_checks import SpeedLimitChecks
 from mpc.robots.steer_states import SteerStateJoints
 from mpc.validation import MAX_WHEELS, MIN_RATE, shown
-
-if TYPE_CHECKING:
-    from mpc.robots.dynamics import RobotDynamics
-
 
 __all__ = ["Robot", "SpeedRows", "WheelCommands", "as_twists", "check_holonomic"]
 
@@ -178,9 +176,31 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         """With dynamics: the force map can be built (a supported wheel type whose wheels
         carry the weight)."""
         if self.dynamics is not None:
-            from mpc.robots.force_map import force_map
-
             force_map(self)
+
+    # ------------------------------------------------------------ what the wheel type says
+    # Code outside a wheel type asks these instead of branching on its class (the
+    # mobility analysis, the force map, the benchmarks); a type that cannot answer one
+    # raises RobotError naming itself.
+    def description(self) -> dict[str, Any]:
+        """Plain data :func:`mpc.robots.from_dict` rebuilds this robot from, exactly (its
+        wheels and limits as built; dynamics and derating are not described)."""
+        raise RobotError(f"wheel type {self.kind!r} cannot describe its robots as plain data")
+
+    def mobility_wheels(self) -> list[dict[str, Any]]:
+        """The wheels as tables of the mobility analysis (:mod:`mpc.robots.mobility`)."""
+        raise RobotError(f"wheel type {self.kind!r} has no wheel-set description")
+
+    def drive_radii(self) -> FloatArray:
+        """The radius each wheel speed's effort acts at on the floor [m] (n,), for motor
+        dynamics (:mod:`mpc.robots.force_map`)."""
+        raise RobotError(f"motor dynamics do not support wheel type {self.kind!r}")
+
+    def with_wheel_limits(self, max_speed: float, max_accel: FloatArray) -> Robot:
+        """The same wheels with every speed limit ``max_speed`` [rad/s] and per-wheel
+        acceleration limits ``max_accel`` [rad/s^2] (n,) (a type with one limit for every
+        wheel takes the smallest), without dynamics."""
+        raise RobotError(f"wheel type {self.kind!r} cannot take new wheel limits")
 
     # ------------------------------------------------------------ description
     @property
@@ -373,8 +393,6 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         """A copy with ``dynamics`` (a :class:`~mpc.robots.dynamics.RobotDynamics`): the
         solvers, the clamp and ``Command`` then respect and report the motors; None drops
         them (kinematic limits only)."""
-        from mpc.robots.dynamics import RobotDynamics
-
         if dynamics is not None and not isinstance(dynamics, RobotDynamics):
             raise RobotError(f"dynamics must be a RobotDynamics or None, got {shown(dynamics)}")
         return dataclasses.replace(self, dynamics=dynamics)

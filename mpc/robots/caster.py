@@ -49,6 +49,7 @@ rates at given angles are :meth:`CasterRobot.joint_rates`.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -56,7 +57,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mpc.arrays import FloatArray, readonly
+from mpc.arrays import FloatArray, listed, readonly
 from mpc.errors import RobotError
 from mpc.robots import caster_limits
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
@@ -68,7 +69,8 @@ from mpc.robots.caster_checks import (
 )
 from mpc.robots.caster_kinematics import joint_twist
 from mpc.robots.limits import StageLimits
-from mpc.robots.registry import register
+from mpc.robots.mobility import WheelSpec
+from mpc.robots.registry import register, register_wheel_set, steer_rate
 from mpc.validation import checked_arguments, integer_at_least
 
 
@@ -276,6 +278,16 @@ class CasterRobot(Robot):
         (k,) [s], turn the casters through from ``steer_angles`` (n,) (RK4 of ``betadot``)."""
         return caster_limits.predict(self, steer_angles, twists, durations)
 
+    def description(self) -> dict[str, Any]:
+        return {"type": "caster", "name": self.name, **listed(
+            positions=self.caster_positions, offset=self.offset,
+            wheel_radius=self.wheel_radius, max_wheel_speed=self.max_speed,
+            max_steer_rate=self.max_steer_rate, max_wheel_accel=self.max_accel)}
+
+    def mobility_wheels(self) -> list[dict[str, Any]]:
+        return [{"type": "caster", "x": float(x), "y": float(y), "offset": float(d)}
+                for (x, y), d in zip(self.wheel_positions, self.offsets, strict=True)]
+
     def _with_derating(self, derating: tuple[float, ...]) -> CasterRobot:
         return replace(self, derating=derating)
 
@@ -309,4 +321,16 @@ def caster(
                        max_accel=max_wheel_accel)
 
 
+def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_wheel_speed: float,
+                    max_steer_rate: float | None, max_wheel_accel: float | None,
+                    name: str) -> CasterRobot:
+    """Casters of a wheel set (:mod:`mpc.robots.wheel_set`)."""
+    return caster(positions=[[spec.x, spec.y] for spec in specs],
+                  offset=[spec.offset or 0.0 for spec in specs], wheel_radius=wheel_radius,
+                  max_wheel_speed=max_wheel_speed,
+                  max_steer_rate=steer_rate("caster", max_steer_rate),
+                  max_wheel_accel=max_wheel_accel, name=name)
+
+
 register("caster", caster)
+register_wheel_set(("caster",), _from_wheel_set)

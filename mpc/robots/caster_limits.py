@@ -32,24 +32,21 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
 
 from mpc.arrays import FloatArray
+from mpc.buffered import BufferedFunction
 from mpc.errors import RobotError
-from mpc.model.buffered import BufferedFunction
+from mpc.robots.caster_geometry import CasterGeometry
 from mpc.robots.limits import StageLimits
-
-if TYPE_CHECKING:
-    from mpc.robots.caster import CasterRobot
 
 #: Relative slack under which a joint counts as within its limit (rounding).
 _SLACK = 1e-12
 
 
-def joint_rows(robot: CasterRobot, angles: FloatArray) -> tuple[FloatArray, FloatArray]:
+def joint_rows(robot: CasterGeometry, angles: FloatArray) -> tuple[FloatArray, FloatArray]:
     """``D`` and ``S`` (each (..., n, 3)) at steer angles (..., n) [rad]."""
     positions = np.asarray(robot.caster_positions)
     px, py = positions[:, 0], positions[:, 1]
@@ -63,7 +60,7 @@ def joint_rows(robot: CasterRobot, angles: FloatArray) -> tuple[FloatArray, Floa
     return drive, steer
 
 
-def _symbolic_rows(robot: CasterRobot, angle: ca.SX, i: int) -> tuple[ca.SX, ca.SX]:
+def _symbolic_rows(robot: CasterGeometry, angle: ca.SX, i: int) -> tuple[ca.SX, ca.SX]:
     """Caster ``i``'s drive and steer rows (1 x 3) at a symbolic angle."""
     px, py = (float(v) for v in np.asarray(robot.caster_positions)[i])
     d, r = float(robot.offsets[i]), float(robot.radii[i])
@@ -81,7 +78,7 @@ PREDICTION_STEP = 1.0
 NLP_STEP = 2.5
 
 
-def substeps(robot: CasterRobot, duration: float, step: float = PREDICTION_STEP) -> int:
+def substeps(robot: CasterGeometry, duration: float, step: float = PREDICTION_STEP) -> int:
     """RK4 steps over ``duration`` [s] such that the caster's fastest rate of alignment,
     ``(r max_wheel_speed + d max_steer_rate) / d`` [1/s], times a step stays <= ``step``."""
     rates = (robot.radii * robot.nominal_max_wheel_speed + robot.offsets * robot.max_steer_rates
@@ -98,7 +95,7 @@ MAX_PREDICTION_STEPS = 1000
 MAX_NLP_PREDICTION_STEPS = 120
 
 
-def check_prediction(robot: CasterRobot, durations: FloatArray, step: float = PREDICTION_STEP,
+def check_prediction(robot: CasterGeometry, durations: FloatArray, step: float = PREDICTION_STEP,
                      bound: int = MAX_PREDICTION_STEPS) -> None:
     """RobotError unless predicting the steer angles over stages of ``durations`` [s] in RK4
     steps of ``step`` time constants takes at most ``bound`` steps."""
@@ -113,7 +110,7 @@ def check_prediction(robot: CasterRobot, durations: FloatArray, step: float = PR
             "stage_dt")
 
 
-def _flow(robot: CasterRobot, angles: ca.SX, twist: ca.SX, duration: float,
+def _flow(robot: CasterGeometry, angles: ca.SX, twist: ca.SX, duration: float,
           step: float = PREDICTION_STEP) -> ca.SX:
     """The angles (n) after ``twist`` is held for ``duration`` [s] (RK4, symbolic)."""
     count = substeps(robot, duration, step)
@@ -133,7 +130,7 @@ def _flow(robot: CasterRobot, angles: ca.SX, twist: ca.SX, duration: float,
     return beta
 
 
-def _rate(robot: CasterRobot) -> ca.Function:
+def _rate(robot: CasterGeometry) -> ca.Function:
     """``betadot = S(beta) u`` as a CasADi function, built once per robot: called on
     symbols it writes the same expression as building the rows afresh, in a fraction of
     the Python time (building a horizon's prediction row by row took ~0.7 s, on the first
@@ -153,7 +150,7 @@ class _Predictor:
     call by NumPy arguments costs more than the RK4 itself on a short grid), each thread
     with its own."""
 
-    def __init__(self, robot: CasterRobot, durations: tuple[float, ...]) -> None:
+    def __init__(self, robot: CasterGeometry, durations: tuple[float, ...]) -> None:
         start = ca.SX.sym("beta0", robot.n_wheels)
         twists = ca.SX.sym("u", 3, len(durations))
         columns = [start]
@@ -188,7 +185,7 @@ class _Predictor:
         self._local = threading.local()
 
 
-def _predictor(robot: CasterRobot, durations: tuple[float, ...]) -> _Predictor:
+def _predictor(robot: CasterGeometry, durations: tuple[float, ...]) -> _Predictor:
     """The prediction over ``durations``, built once per grid (and robot)."""
     key = ("predictor", durations)
     cached = robot._cache.get(key)
@@ -197,7 +194,7 @@ def _predictor(robot: CasterRobot, durations: tuple[float, ...]) -> _Predictor:
     return cached
 
 
-def predict(robot: CasterRobot, angles: FloatArray, twists: FloatArray,
+def predict(robot: CasterGeometry, angles: FloatArray, twists: FloatArray,
             durations: FloatArray) -> FloatArray:
     """Angles (k+1, n) [rad] from ``angles`` (n,) under ``twists`` (k, 3) held for
     ``durations`` (k,) [s]."""
@@ -211,7 +208,7 @@ def predict(robot: CasterRobot, angles: FloatArray, twists: FloatArray,
     return _predictor(robot, steps)(np.asarray(angles, dtype=float), twists)
 
 
-def stage_limits(robot: CasterRobot, change_times: FloatArray) -> StageLimits:
+def stage_limits(robot: CasterGeometry, change_times: FloatArray) -> StageLimits:
     """Rows a stage: ``n`` drive rows, ``n`` steer rows, and ``n`` drive-change rows with an
     acceleration limit; filled at zero angles until the first tick refills them."""
     n = robot.n_wheels
@@ -235,7 +232,7 @@ def stage_limits(robot: CasterRobot, change_times: FloatArray) -> StageLimits:
     return limits
 
 
-def _fill(robot: CasterRobot, limits: StageLimits, angles: FloatArray) -> None:
+def _fill(robot: CasterGeometry, limits: StageLimits, angles: FloatArray) -> None:
     n = robot.n_wheels
     drive, steer = joint_rows(robot, angles)  # (N, n, 3)
     limits.now[:, :n] = drive
@@ -246,7 +243,7 @@ def _fill(robot: CasterRobot, limits: StageLimits, angles: FloatArray) -> None:
     limits.changed = True
 
 
-def update_stage_limits(robot: CasterRobot, limits: StageLimits, guess: FloatArray,
+def update_stage_limits(robot: CasterGeometry, limits: StageLimits, guess: FloatArray,
                         steer_angles: FloatArray | None) -> None:
     """Refill every stage's rows at the angles the guess twists turn the casters through
     from the measured ones."""
@@ -257,7 +254,7 @@ def update_stage_limits(robot: CasterRobot, limits: StageLimits, guess: FloatArr
     _fill(robot, limits, angles)
 
 
-def nlp_stage_limits(robot: CasterRobot, twists: ca.SX, last: ca.SX,
+def nlp_stage_limits(robot: CasterGeometry, twists: ca.SX, last: ca.SX,
                      steer_angles: ca.SX | None, change_times: FloatArray
                      ) -> tuple[list[ca.SX], list[FloatArray], list[FloatArray]]:
     """Exact joint limits at the angles integrated symbolically from the measured ones."""
@@ -291,7 +288,7 @@ def nlp_stage_limits(robot: CasterRobot, twists: ca.SX, last: ca.SX,
     return values, lower, upper
 
 
-def clamp_at(robot: CasterRobot, target: FloatArray, last: FloatArray, dt: float,
+def clamp_at(robot: CasterGeometry, target: FloatArray, last: FloatArray, dt: float,
              angles: FloatArray) -> FloatArray:
     """``target`` within every joint limit at the measured ``angles`` (module docstring)."""
     drive, steer = joint_rows(robot, angles)

@@ -36,20 +36,36 @@ import functools
 import math
 import weakref
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
 from mpc.arrays import FloatArray, IntArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.dynamics import GRAVITY, RobotDynamics
-from mpc.validation import shown
 
-if TYPE_CHECKING:
-    from mpc.robots.base import Robot
 
-#: Robot kinds whose wheels the force map understands.
-SUPPORTED_KINDS: tuple[str, ...] = ("swedish", "swerve", "spherical")
+class DrivenRobot(Protocol):
+    """What the force map reads of a robot (:class:`~mpc.robots.base.Robot` satisfies it)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def n_wheels(self) -> int: ...
+    @property
+    def wheel_dim(self) -> int: ...
+    @property
+    def wheel_blocks(self) -> FloatArray: ...  # (n, d, 3) [rad/s per twist unit]
+    @property
+    def wheel_positions(self) -> FloatArray: ...  # (n, 2) [m]
+    @property
+    def max_wheel_speed(self) -> FloatArray: ...  # (n,) [rad/s]
+    @property
+    def steered(self) -> bool: ...
+    @property
+    def dynamics(self) -> RobotDynamics | None: ...
+
+    def drive_radii(self) -> FloatArray: ...  # (n,) [m]
 
 #: [rad/s] below this wheel speed a steered wheel's drive direction is its steer angle.
 AT_REST = 1e-6
@@ -61,24 +77,6 @@ def coriolis(twist: FloatArray) -> FloatArray:
     out[..., 0] = -twist[..., 2] * twist[..., 1]
     out[..., 1] = twist[..., 2] * twist[..., 0]
     return out
-
-
-def wheel_radii(robot: Robot) -> FloatArray:
-    """Each wheel's radius [m] (n,): Swedish wheels, swerve modules, driven balls."""
-    n = robot.n_wheels
-    if robot.kind == "swedish":
-        return np.array([wheel.radius for wheel in robot.wheels])  # type: ignore[attr-defined]
-    if robot.kind == "swerve":
-        if getattr(robot, "axle_offset", 0.0):
-            raise RobotError("motor dynamics support swerve modules whose wheel is under the "
-                             f"steering axis; robot {robot.name!r} has axle_offset "
-                             f"{shown(robot.axle_offset)} m")  # type: ignore[attr-defined]
-        return np.full(n, float(robot.wheel_radius))  # type: ignore[attr-defined]
-    if robot.kind == "spherical":
-        radius: FloatArray = np.asarray(robot.wheel_radius, dtype=np.float64)  # type: ignore[attr-defined]
-        return np.repeat(radius, 2)
-    raise RobotError(f"motor dynamics support robot kinds {list(SUPPORTED_KINDS)}, "
-                     f"got kind {robot.kind!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,7 +100,7 @@ class ForceMap:
         count: motors per wheel.
     """
 
-    robot: Robot
+    robot: DrivenRobot
     dynamics: RobotDynamics
     mass_matrix: FloatArray
     distribution: FloatArray
@@ -216,10 +214,10 @@ class ForceMap:
         return torque / (self.kt * self.count)
 
 
-_CACHE: weakref.WeakKeyDictionary[Robot, ForceMap] = weakref.WeakKeyDictionary()
+_CACHE: weakref.WeakKeyDictionary[DrivenRobot, ForceMap] = weakref.WeakKeyDictionary()
 
 
-def force_map(robot: Robot) -> ForceMap:
+def force_map(robot: DrivenRobot) -> ForceMap:
     """The :class:`ForceMap` of a robot with dynamics (built once per robot)."""
     cached = _CACHE.get(robot)
     if cached is None:
@@ -228,12 +226,12 @@ def force_map(robot: Robot) -> ForceMap:
     return cached
 
 
-def _build(robot: Robot) -> ForceMap:
+def _build(robot: DrivenRobot) -> ForceMap:
     dyn = robot.dynamics
     if dyn is None:
         raise RobotError(f"robot {robot.name!r} has no dynamics; attach them with "
                          "robot.with_dynamics(...)")
-    radii = wheel_radii(robot)
+    radii = robot.drive_radii()
     blocks = robot.wheel_blocks  # (n, d, 3)
     n, d = blocks.shape[:2]
     mass = np.diag([dyn.mass, dyn.mass, dyn.yaw_inertia])
@@ -267,7 +265,7 @@ def _build(robot: Robot) -> ForceMap:
         count=int(wheel.count))
 
 
-def _normal_loads(robot: Robot, contact_of: IntArray, contacts: int,
+def _normal_loads(robot: DrivenRobot, contact_of: IntArray, contacts: int,
                   dyn: RobotDynamics) -> FloatArray:
     """Static loads that balance the weight about the body origin (minimum-norm split)."""
     points = np.zeros((contacts, 2))

@@ -62,10 +62,6 @@ import numpy as np
 from mpc.arrays import FloatArray
 from mpc.errors import RobotError
 from mpc.robots.base import Robot
-from mpc.robots.caster import CasterRobot
-from mpc.robots.spherical import SphericalRobot
-from mpc.robots.swedish import SwedishRobot
-from mpc.robots.swerve import SwerveRobot
 from mpc.validation import MAX_COORDINATE, MAX_LENGTH, bounded, shown
 
 #: A singular value counts towards a rank above this fraction of the largest one.
@@ -245,28 +241,9 @@ def require_omnidirectional(description: Mapping[str, Any],
 
 
 def robot_description(robot: Robot) -> dict[str, Any]:
-    """The wheel-set description of a robot object (for :func:`mobility`)."""
-    wheels: list[dict[str, Any]]
-    if isinstance(robot, SwerveRobot) and robot.axle_offset:
-        wheels = [{"type": "axle_offset", "x": float(x), "y": float(y),
-                   "lever": float(robot.axle_offset)} for x, y in robot.wheel_positions]
-    elif isinstance(robot, SwerveRobot):
-        wheels = [{"type": "steered", "x": float(x), "y": float(y)}
-                  for x, y in robot.wheel_positions]
-    elif isinstance(robot, SwedishRobot):
-        wheels = [{"type": "swedish", "x": w.position[0], "y": w.position[1],
-                   "heading": w.alpha + w.beta - math.pi / 2.0, "gamma": w.gamma}
-                  for w in robot.wheels]
-    elif isinstance(robot, CasterRobot):
-        wheels = [{"type": "caster", "x": float(x), "y": float(y), "offset": float(d)}
-                  for (x, y), d in zip(robot.wheel_positions, robot.offsets, strict=True)]
-    elif isinstance(robot, SphericalRobot):
-        wheels = [{"type": "spherical", "x": float(x), "y": float(y)}
-                  for x, y in np.asarray(robot.ball_positions)]
-    else:
-        raise RobotError(f"no wheel-set description for wheel type {robot.kind!r} "
-                         f"({type(robot).__name__})")
-    return {"name": robot.name, "wheels": wheels}
+    """The wheel-set description of a robot object (for :func:`mobility`): its wheel
+    type's tables (:meth:`~mpc.robots.base.Robot.mobility_wheels`)."""
+    return {"name": robot.name, "wheels": robot.mobility_wheels()}
 
 
 def robot_mobility(robot: Robot) -> Mobility:

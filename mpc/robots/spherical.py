@@ -25,17 +25,20 @@ spin rates (spin rates outside the range of the rows mean slip).
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
-import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from mpc.arrays import FloatArray, readonly
+from mpc.arrays import FloatArray, listed, readonly
 from mpc.errors import RobotError
-from mpc.robots.base import Robot, SpeedRows, WheelCommands
-from mpc.robots.registry import register
-from mpc.validation import body_points, checked_arguments, metres, real_array, shown
+from mpc.robots.constant_jacobian import ConstantJacobianRobot
+from mpc.robots.mobility import WheelSpec
+from mpc.robots.registry import register, register_sampler, register_wheel_set
+from mpc.validation import body_points, checked_arguments, metres, real_array
 
 
 def _expand(name: str, value: object, balls: int, *, pairs: bool) -> FloatArray:
@@ -58,7 +61,7 @@ def _expand(name: str, value: object, balls: int, *, pairs: bool) -> FloatArray:
 
 
 @dataclass(frozen=True, eq=False)
-class SphericalRobot(Robot):
+class SphericalRobot(ConstantJacobianRobot):
     """A robot on driven balls; ``wheel_speeds`` are the 2n actuator spin rates [rad/s].
 
     Attributes:
@@ -113,11 +116,6 @@ class SphericalRobot(Robot):
         return int(np.asarray(self.ball_positions).shape[0])
 
     @property
-    def jacobian(self) -> FloatArray:
-        """Inverse-kinematics Jacobian (2n x 3) [rad/s per twist unit]."""
-        return self.wheel_blocks[:, 0, :]
-
-    @property
     def wheel_positions(self) -> FloatArray:
         """Each actuator's ball centre [m], shape (2n, 2) (a ball's two actuators share it)."""
         return np.repeat(np.asarray(self.ball_positions, dtype=float), 2, axis=0)
@@ -127,41 +125,26 @@ class SphericalRobot(Robot):
         (k, 2n)."""
         return self.wheel_velocities(twist)[..., 0]
 
-    def wheel_magnitudes(self, twist: FloatArray) -> FloatArray:
-        return np.abs(self.jacobian @ twist)
-
     def twist(self, spin_rates: ArrayLike) -> FloatArray:
         """Forward kinematics: the least-squares twist of spin rates (2n,) or (k, 2n)."""
-        try:
-            rates = np.asarray(spin_rates, dtype=float)
-        except (TypeError, ValueError):
-            raise RobotError(f"spin_rates must be numbers, got {shown(spin_rates)}") from None
-        if rates.ndim not in (1, 2) or rates.shape[-1] != self.n_wheels:
-            raise RobotError(f"spin_rates must have shape ({self.n_wheels},) or "
-                             f"(k, {self.n_wheels}), got shape {rates.shape}")
-        if not np.all(np.isfinite(rates)):
-            raise RobotError(f"spin_rates must be finite, got {rates}")
-        return rates @ self._flat_pinv.T
+        return self.least_squares_twist("spin_rates", spin_rates)
 
-    def forward_kinematics(self, wheel_speeds: FloatArray,
-                           steer_angles: FloatArray | None) -> FloatArray:
-        return self._flat_pinv @ wheel_speeds
+    def description(self) -> dict[str, Any]:
+        return {"type": "spherical", "name": self.name, **listed(
+            positions=self.ball_positions, wheel_radius=self.wheel_radius,
+            max_wheel_speed=self.max_speed, max_wheel_accel=self.max_accel)}
 
-    def commands_from_velocities(self, velocities: FloatArray,
-                                 steer_angles: FloatArray | None) -> WheelCommands:
-        return WheelCommands(velocities[:, 0].copy(), None)
+    def mobility_wheels(self) -> list[dict[str, Any]]:
+        return [{"type": "spherical", "x": float(x), "y": float(y)}
+                for x, y in np.asarray(self.ball_positions)]
 
-    def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
-        """Exact: one two-sided row per actuator (the box)."""
-        return SpeedRows(self.jacobian.copy(), np.arange(self.n_wheels), 1.0)
+    def drive_radii(self) -> FloatArray:
+        """Each ball's radius, once for each of its two actuators [m] (2n,)."""
+        return np.repeat(np.asarray(self.wheel_radius, dtype=np.float64), 2)
 
-    def casadi_limits(self, twist: ca.SX, bounds: FloatArray) -> tuple[ca.SX, FloatArray,
-                                                                         FloatArray]:
-        bounds = np.asarray(bounds, dtype=float)
-        return ca.DM(self.jacobian) @ twist, -bounds, bounds
-
-    def _with_derating(self, derating: tuple[float, ...]) -> SphericalRobot:
-        return replace(self, derating=derating)
+    def with_wheel_limits(self, max_speed: float, max_accel: FloatArray) -> SphericalRobot:
+        return replace(self, max_speed=max_speed, max_accel=np.reshape(max_accel, (-1, 2)),
+                       dynamics=None)
 
 
 @checked_arguments(RobotError)
@@ -188,4 +171,25 @@ def spherical(
                           max_speed=max_wheel_speed, max_accel=max_wheel_accel)
 
 
+def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_wheel_speed: float,
+                    max_steer_rate: float | None, max_wheel_accel: float | None,
+                    name: str) -> SphericalRobot:
+    """Balls of a wheel set (:mod:`mpc.robots.wheel_set`)."""
+    return spherical(positions=[[spec.x, spec.y] for spec in specs], wheel_radius=wheel_radius,
+                     max_wheel_speed=max_wheel_speed, max_wheel_accel=max_wheel_accel,
+                     name=name)
+
+
+def _random_balls(rng: np.random.Generator) -> dict[str, Any]:
+    """Sweeps' ball robot: 3 balls on a circle of radius 0.12-0.30 m, ball radius 30-60 mm,
+    speed limit 15-30 rad/s."""
+    u = rng.uniform
+    radius, first = u(0.12, 0.30), u(0.0, 2.0 * math.pi)
+    angles = first + 2.0 * math.pi * np.arange(3) / 3
+    return {"type": "spherical", "wheel_radius": u(0.03, 0.06), "max_wheel_speed": u(15, 30),
+            "positions": (radius * np.column_stack([np.cos(angles), np.sin(angles)])).tolist()}
+
+
 register("spherical", spherical)
+register_wheel_set(("spherical",), _from_wheel_set)
+register_sampler("ball", _random_balls)

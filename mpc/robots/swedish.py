@@ -20,14 +20,14 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
-import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
-from mpc.robots.base import Robot, SpeedRows, WheelCommands
-from mpc.robots.registry import register
+from mpc.robots.constant_jacobian import ConstantJacobianRobot
+from mpc.robots.mobility import WheelSpec
+from mpc.robots.registry import register, register_sampler, register_wheel_set
 from mpc.validation import (
     MAX_COORDINATE,
     MAX_WHEELS,
@@ -91,7 +91,7 @@ class SwedishWheel:
 
 
 @dataclass(frozen=True, eq=False)
-class SwedishRobot(Robot):
+class SwedishRobot(ConstantJacobianRobot):
     """A robot on Swedish wheels: ``wheel_speeds = J @ twist`` (signed, rad/s).
 
     Args:
@@ -125,50 +125,32 @@ class SwedishRobot(Robot):
         self._finish()
 
     @property
-    def jacobian(self) -> FloatArray:
-        """Inverse-kinematics Jacobian ``J`` (n x 3) [rad/s per twist unit]."""
-        return self.wheel_blocks[:, 0, :]
-
-    @property
     def wheel_positions(self) -> FloatArray:
         return np.array([w.position for w in self.wheels])
 
-    def wheel_speeds(self, twist: ArrayLike) -> FloatArray:
-        """Signed wheel speeds ``J @ twist`` [rad/s], shape (n,) or (k, n)."""
-        return self.wheel_velocities(twist)[..., 0]
-
-    def wheel_magnitudes(self, twist: FloatArray) -> FloatArray:
-        return np.abs(self.jacobian @ twist)
-
     def twist(self, wheel_speeds: ArrayLike) -> FloatArray:
         """Forward kinematics: least-squares twist ``pinv(J) @ wheel_speeds``, (3,) or (k, 3)."""
-        speeds = np.asarray(wheel_speeds, dtype=float)
-        if speeds.ndim not in (1, 2) or speeds.shape[-1] != self.n_wheels:
-            raise RobotError(
-                f"wheel_speeds must have shape ({self.n_wheels},) or (k, {self.n_wheels}), "
-                f"got shape {speeds.shape}"
-            )
-        if not np.all(np.isfinite(speeds)):
-            raise RobotError(f"wheel_speeds must be finite, got {speeds}")
-        return speeds @ self._flat_pinv.T
+        return self.least_squares_twist("wheel_speeds", wheel_speeds)
 
-    def forward_kinematics(self, wheel_speeds: FloatArray,
-                           steer_angles: FloatArray | None) -> FloatArray:
-        return self._flat_pinv @ wheel_speeds
+    def description(self) -> dict[str, Any]:
+        wheels = [{"alpha": w.alpha, "beta": w.beta, "gamma": w.gamma, "l": w.l,
+                   "radius": w.radius, "max_speed": w.max_speed,
+                   **({} if w.max_accel is None else {"max_accel": w.max_accel})}
+                  for w in self.wheels]
+        return {"type": "swedish", "name": self.name, "wheels": wheels}
 
-    def commands_from_velocities(self, velocities: FloatArray,
-                                 steer_angles: FloatArray | None) -> WheelCommands:
-        return WheelCommands(velocities[:, 0].copy(), None)
+    def mobility_wheels(self) -> list[dict[str, Any]]:
+        return [{"type": "swedish", "x": w.position[0], "y": w.position[1],
+                 "heading": w.alpha + w.beta - math.pi / 2.0, "gamma": w.gamma}
+                for w in self.wheels]
 
-    def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
-        return SpeedRows(self.jacobian.copy(), np.arange(self.n_wheels), 1.0)
+    def drive_radii(self) -> FloatArray:
+        return np.array([wheel.radius for wheel in self.wheels])
 
-    def casadi_limits(self, twist: ca.SX, bounds: FloatArray) -> tuple[ca.SX, FloatArray,
-                                                                         FloatArray]:
-        return ca.DM(self.jacobian) @ twist, -np.asarray(bounds), np.asarray(bounds)
-
-    def _with_derating(self, derating: tuple[float, ...]) -> SwedishRobot:
-        return replace(self, derating=derating)
+    def with_wheel_limits(self, max_speed: float, max_accel: FloatArray) -> SwedishRobot:
+        wheels = tuple(replace(w, max_speed=max_speed, max_accel=float(a))
+                       for w, a in zip(self.wheels, max_accel, strict=True))
+        return replace(self, wheels=wheels, dynamics=None)
 
 
 def wheel_limits(wheel_radius: object, max_wheel_speed: object,
@@ -278,4 +260,43 @@ def _swedish(*, wheels: Sequence[Mapping[str, Any]], name: str = "swedish") -> S
 
 register("omni", omni)
 register("mecanum", mecanum)
+def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_wheel_speed: float,
+                    max_steer_rate: float | None, max_wheel_accel: float | None,
+                    name: str) -> SwedishRobot:
+    """Swedish wheels of a wheel set (:mod:`mpc.robots.wheel_set`): wheel ``(x, y)`` rolling
+    along ``heading`` has ``alpha = atan2(y, x)``, ``l = |(x, y)|`` and
+    ``beta = heading + pi / 2 - alpha``."""
+    radius, speed, accel = wheel_limits(wheel_radius, max_wheel_speed, max_wheel_accel)
+    wheels = []
+    for spec in specs:
+        alpha = math.atan2(spec.y, spec.x)
+        heading = 0.0 if spec.heading is None else spec.heading
+        wheels.append(SwedishWheel(alpha=alpha, beta=heading + math.pi / 2 - alpha,
+                                   gamma=0.0 if spec.gamma is None else spec.gamma,
+                                   l=math.hypot(spec.x, spec.y), radius=radius,
+                                   max_speed=speed, max_accel=accel))
+    return SwedishRobot(tuple(wheels), name=name)
+
+
+def _random_omni(rng: np.random.Generator) -> dict[str, Any]:
+    """Sweeps' omni robot: 3 or 4 wheels on a circle of radius 0.10-0.30 m, first wheel at
+    0-360/n deg, wheel radius 25-60 mm, speed limit 15-35 rad/s."""
+    u = rng.uniform
+    n = int(rng.integers(3, 5))
+    return {"type": "omni", "n_wheels": n, "base_radius": u(0.10, 0.30),
+            "first_wheel_angle": u(0.0, 2.0 * math.pi / n), "wheel_radius": u(0.025, 0.06),
+            "max_wheel_speed": u(15, 35)}
+
+
+def _random_mecanum(rng: np.random.Generator) -> dict[str, Any]:
+    """Sweeps' Mecanum robot: wheelbase and track 0.20-0.50 m, wheel radius 30-80 mm, speed
+    limit 15-30 rad/s."""
+    u = rng.uniform
+    return {"type": "mecanum", "wheelbase": u(0.20, 0.50), "track": u(0.20, 0.50),
+            "wheel_radius": u(0.03, 0.08), "max_wheel_speed": u(15, 30)}
+
+
 register("swedish", _swedish)
+register_wheel_set(("swedish",), _from_wheel_set)
+register_sampler("omni", _random_omni)
+register_sampler("mecanum", _random_mecanum)

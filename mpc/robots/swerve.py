@@ -23,17 +23,21 @@ Module states (flip rule, modules at rest, aiming): :mod:`mpc.robots.swerve_stat
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mpc.angles import wrap_angle
 from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.base import PlanarModules, Robot, SpeedRows, WheelCommands, as_twists
 from mpc.robots.limits import StageLimits
-from mpc.robots.registry import register
+from mpc.robots.mobility import WheelSpec
+from mpc.robots.registry import register, register_sampler, register_wheel_set, steer_rate
 from mpc.robots.swerve_axle import axle_forward_kinematics, axle_speed_ratio
 from mpc.robots.swerve_limits import (
     MOVING_MODULE_SPEED,
@@ -44,7 +48,7 @@ from mpc.robots.swerve_limits import (
     steering_fraction,
     update_linearised,
 )
-from mpc.robots.swerve_states import aimed_angles, module_states, wrap_angle
+from mpc.robots.swerve_states import aimed_angles, module_states
 from mpc.validation import body_points, checked_arguments, metres, positive, shown
 
 __all__ = ["SwerveRobot", "swerve", "wrap_angle"]
@@ -307,6 +311,31 @@ class SwerveRobot(Robot):
         ground = self.ground_maps()
         return np.einsum("ndi,ndj->ij", ground, ground)
 
+    def description(self) -> dict[str, Any]:
+        return {"type": "swerve", "name": self.name,
+                "module_positions": np.asarray(self.module_positions).tolist(),
+                "wheel_radius": self.wheel_radius, "max_wheel_speed": self.max_speed,
+                "max_steer_rate": self.max_steer_rate, "max_wheel_accel": self.max_accel,
+                **({"axle_offset": self.axle_offset} if self.axle_offset else {})}
+
+    def mobility_wheels(self) -> list[dict[str, Any]]:
+        if self.axle_offset:
+            return [{"type": "axle_offset", "x": float(x), "y": float(y),
+                     "lever": float(self.axle_offset)} for x, y in self.wheel_positions]
+        return [{"type": "steered", "x": float(x), "y": float(y)}
+                for x, y in self.wheel_positions]
+
+    def drive_radii(self) -> FloatArray:
+        if self.axle_offset:
+            raise RobotError("motor dynamics support swerve modules whose wheel is under the "
+                             f"steering axis; robot {self.name!r} has axle_offset "
+                             f"{shown(self.axle_offset)} m")
+        return np.full(self.n_wheels, float(self.wheel_radius))
+
+    def with_wheel_limits(self, max_speed: float, max_accel: FloatArray) -> SwerveRobot:
+        return replace(self, max_speed=max_speed, max_accel=float(np.min(max_accel)),
+                       dynamics=None)
+
     def _with_derating(self, derating: tuple[float, ...]) -> SwerveRobot:
         return replace(self, derating=derating)
 
@@ -339,4 +368,31 @@ def swerve(
                        max_accel=max_wheel_accel, axle_offset=axle_offset)
 
 
+def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_wheel_speed: float,
+                    max_steer_rate: float | None, max_wheel_accel: float | None,
+                    name: str) -> SwerveRobot:
+    """Steered or axle-offset modules of a wheel set (:mod:`mpc.robots.wheel_set`), one
+    lever for every module."""
+    levers = {spec.lever or 0.0 for spec in specs}
+    if len(levers) != 1:
+        raise RobotError(f"wheels: every axle_offset module needs the same lever, got "
+                         f"{sorted(levers)}")
+    return swerve(module_positions=[[spec.x, spec.y] for spec in specs],
+                  wheel_radius=wheel_radius, max_wheel_speed=max_wheel_speed,
+                  max_steer_rate=steer_rate(specs[0].kind, max_steer_rate),
+                  max_wheel_accel=max_wheel_accel, axle_offset=levers.pop(), name=name)
+
+
+def _random_swerve(rng: np.random.Generator) -> dict[str, Any]:
+    """Sweeps' swerve robot: modules at (+-a, +-b), a and b 0.15-0.40 m, wheel radius
+    40-60 mm, speed limit 20-40 rad/s, steering rate 8-16 rad/s."""
+    u = rng.uniform
+    a, b = u(0.15, 0.40), u(0.15, 0.40)
+    return {"type": "swerve", "module_positions": [[a, b], [a, -b], [-a, b], [-a, -b]],
+            "wheel_radius": u(0.04, 0.06), "max_wheel_speed": u(20, 40),
+            "max_steer_rate": u(8, 16)}
+
+
 register("swerve", swerve)
+register_wheel_set(("steered", "axle_offset"), _from_wheel_set)
+register_sampler("swerve", _random_swerve)

@@ -20,20 +20,16 @@ clamp keeps every command's corrected drive rate within the limit.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg import lapack
 
 from mpc.arrays import FloatArray
 from mpc.robots.checks import as_twists
-
-if TYPE_CHECKING:
-    from mpc.robots.swerve import SwerveRobot
+from mpc.robots.swerve_modules import SwerveModules
 
 
-def axle_speed_ratio(robot: SwerveRobot, twist: ArrayLike) -> FloatArray | float:
+def axle_speed_ratio(robot: SwerveModules, twist: ArrayLike) -> FloatArray | float:
     """Peak wheel speed / limit with the speed ``(|v_i| + L |omega|) / r``; a failed wheel
     (limit 0) gives 0 at rest and ``inf`` otherwise."""
     xi = as_twists(twist)
@@ -46,7 +42,7 @@ def axle_speed_ratio(robot: SwerveRobot, twist: ArrayLike) -> FloatArray | float
     return float(peak) if np.ndim(peak) == 0 else peak
 
 
-def axle_forward_kinematics(robot: SwerveRobot, wheel_speeds: FloatArray,
+def axle_forward_kinematics(robot: SwerveModules, wheel_speeds: FloatArray,
                             steer_angles: FloatArray,
                             steer_rates: FloatArray | None) -> FloatArray:
     """The body twist while the modules steer at ``steer_rates`` [rad/s] (None: 0): least

@@ -25,7 +25,6 @@ from __future__ import annotations
 import functools
 import itertools
 import math
-from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -34,11 +33,8 @@ import numpy.typing as npt
 from mpc.arrays import FloatArray, IntArray
 from mpc.errors import RobotError
 from mpc.robots.limits import SpeedRows, StageLimits, outermost
+from mpc.robots.swerve_modules import SwerveModules
 from mpc.validation import integer_at_least
-
-if TYPE_CHECKING:
-    from mpc.robots.swerve import SwerveRobot
-
 
 #: The NLP's steering rows, in module speed over its nominal limit (``a = v / max``,
 #: ``b = w / max``: rows of order 1 for IPOPT), hold
@@ -51,7 +47,7 @@ if TYPE_CHECKING:
 NLP_STEERING_SLACK = 0.1
 
 
-def nlp_stage_limits(robot: SwerveRobot, twists: ca.SX, last: ca.SX, steer_angles: ca.SX | None,
+def nlp_stage_limits(robot: SwerveModules, twists: ca.SX, last: ca.SX, steer_angles: ca.SX | None,
                      change_times: FloatArray
                      ) -> tuple[list[ca.SX], list[FloatArray], list[FloatArray]]:
     """The exact limits for the NLP (squared forms; see the module docstring), ``u_k``
@@ -109,7 +105,7 @@ def _flip_turn(x: FloatArray, y: FloatArray, steer_angles: FloatArray) -> FloatA
     return np.mod(np.arctan2(y, x) - steer_angles + 0.5 * math.pi, math.pi) - 0.5 * math.pi
 
 
-def _reach(robot: SwerveRobot, dt: float) -> float:
+def _reach(robot: SwerveModules, dt: float) -> float:
     """The turn a module may make in ``dt`` [rad], a hair inside the steering rate."""
     return robot.max_steer_rate * dt * (1.0 - 1e-9)
 
@@ -121,7 +117,7 @@ def flip_turn(x: float, y: float, steer_angle: float) -> float:
     return (math.atan2(y, x) - steer_angle + half) % math.pi - half
 
 
-def turns(robot: SwerveRobot, velocities: FloatArray, steer_angles: FloatArray) -> FloatArray:
+def turns(robot: SwerveModules, velocities: FloatArray, steer_angles: FloatArray) -> FloatArray:
     """How far each module must turn [rad] to drive ``velocities`` (n, 2) from its present
     angle, with the flip rule (so in [0, pi / 2]); 0 for a module at rest."""
     turn = np.abs(_flip_turn(velocities[:, 0], velocities[:, 1], steer_angles))
@@ -141,7 +137,7 @@ _SEARCH_ROUNDS, _SEARCH_PARTS = 3, 40
 _SEARCH_GRID = np.linspace(0.0, 1.0, _SEARCH_PARTS + 1)
 
 
-def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
+def steering_fraction(robot: SwerveModules, last: FloatArray, target: FloatArray,
                       steer_angles: FloatArray, dt: float) -> float:
     """:func:`turn_fraction`, and with an axle offset no further than every wheel's drive
     rate, corrected for the module's steering over ``dt``, stays within its limit (searched
@@ -184,7 +180,7 @@ def steering_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
     return low
 
 
-def _drives_within(robot: SwerveRobot, twists: FloatArray, steer_angles: FloatArray,
+def _drives_within(robot: SwerveModules, twists: FloatArray, steer_angles: FloatArray,
                    dt: float, reach: float | None = None) -> npt.NDArray[np.bool_]:
     """For each of ``twists`` (K, 3): whether every wheel's drive rate as
     :meth:`SwerveRobot.wheel_commands` gives it is within its limit (and with ``reach``
@@ -211,7 +207,7 @@ def _drives_within(robot: SwerveRobot, twists: FloatArray, steer_angles: FloatAr
     return np.all(within, axis=1)
 
 
-def _drives_fit(robot: SwerveRobot, twist: FloatArray, steer_angles: FloatArray, dt: float,
+def _drives_fit(robot: SwerveModules, twist: FloatArray, steer_angles: FloatArray, dt: float,
                 reach: float) -> bool:
     """:func:`_drives_within` for one ``twist`` (3,), in Python floats: the same operations
     module by module."""
@@ -236,7 +232,7 @@ def _drives_fit(robot: SwerveRobot, twist: FloatArray, steer_angles: FloatArray,
     return True
 
 
-def turn_fraction(robot: SwerveRobot, last: FloatArray, target: FloatArray,
+def turn_fraction(robot: SwerveModules, last: FloatArray, target: FloatArray,
                   steer_angles: FloatArray, dt: float) -> float:
     """1 if ``target`` turns no module by more than ``max_steer_rate dt`` from its present
     angle (only the command sent has to); else the largest ``f`` in [0, 1] such
@@ -320,7 +316,7 @@ def _turn_roots(start: list[float], change: list[float], angle: float, slope: fl
     return [root for root in roots if math.isfinite(root)]
 
 
-def qp_speed_rows(robot: SwerveRobot, polygon_sides: int) -> SpeedRows:
+def qp_speed_rows(robot: SwerveModules, polygon_sides: int) -> SpeedRows:
     """A regular polygon with ``polygon_sides`` sides (even, >= 4; half as many two-sided
     rows per module) midway between the ones inscribed in and circumscribed about the
     disk: its edges' middles at ``R (1 + c) / 2``, its vertices at ``R (1 + c) / (2 c)``,
@@ -405,7 +401,7 @@ GUARD_FACES = tuple(j for j, angle in enumerate(FACE_ANGLES) if abs(angle) > mat
 ACCEL_SIDES = 16
 
 
-def linearised_stage_limits(robot: SwerveRobot, change_times: FloatArray) -> StageLimits:
+def linearised_stage_limits(robot: SwerveModules, change_times: FloatArray) -> StageLimits:
     """Each module's speed disk as faces of a polygon circumscribed about it
     (:data:`FACE_ANGLES`), turned to the direction of the module's velocity in the plan the
     solver starts from (:func:`update_linearised`): two-sided rows ``|n_j . v| <= R``;
@@ -464,7 +460,7 @@ def _kept_faces() -> tuple[int, ...]:
     return tuple(j for j in range(FACES) if j not in GUARD_FACES)
 
 
-def _within_disks(robot: SwerveRobot, twists: FloatArray, ratio: float) -> bool:
+def _within_disks(robot: SwerveModules, twists: FloatArray, ratio: float) -> bool:
     """Whether every module's velocity in ``twists`` (N, 3) keeps within ``ratio`` of its
     speed limit (the disks every face of :func:`linearised_stage_limits` contains)."""
     velocities = twists @ robot.flat_wheel_blocks.T  # (N, 2n)
@@ -485,7 +481,7 @@ def face_rows(n_wheels: int, rows: int) -> IntArray:
     return index
 
 
-def update_linearised(robot: SwerveRobot, limits: StageLimits, guess: FloatArray,
+def update_linearised(robot: SwerveModules, limits: StageLimits, guess: FloatArray,
                       last: FloatArray) -> None:
     """Turn each speed disk's faces to the direction of its module's velocity in
     ``guess`` (N, 3); where that is too slow to give a direction, the faces keep the one
@@ -508,7 +504,7 @@ def _turn(directions: FloatArray, vectors: FloatArray, floor: FloatArray) -> Non
     np.divide(vectors, lengths[..., None], out=directions, where=(lengths > floor)[..., None])
 
 
-def _face_bases(robot: SwerveRobot, faces: tuple[int, ...]) -> FloatArray:
+def _face_bases(robot: SwerveModules, faces: tuple[int, ...]) -> FloatArray:
     """(n, 2, 3 F): module ``i``'s rows of the faces ``faces`` (indices into
     :data:`FACE_ANGLES`; three numbers each, side by side) for a direction (1, 0), then
     for (0, 1), so that the rows for a unit direction ``(c, s)`` are ``(c, s) @ bases[i]``

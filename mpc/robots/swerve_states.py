@@ -10,22 +10,13 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
 
+from mpc.angles import wrap_angle
 from mpc.arrays import FloatArray
 from mpc.robots.swerve_limits import STOPPED_MODULE_SPEED, turns
-
-if TYPE_CHECKING:
-    from mpc.robots.swerve import SwerveRobot
-
-
-def wrap_angle(angle: ArrayLike) -> FloatArray:
-    """Wrap angle(s) into (-pi, pi] [rad]."""
-    wrapped = np.mod(np.asarray(angle, dtype=float) + math.pi, 2.0 * math.pi) - math.pi
-    return np.where(wrapped == -math.pi, math.pi, wrapped)
+from mpc.robots.swerve_modules import SwerveModules
 
 
 def module_states(velocities: FloatArray, steer_angles: FloatArray | None,
@@ -53,7 +44,7 @@ def _wrapped(angle: float) -> float:
     return math.pi if wrapped == -math.pi else wrapped
 
 
-def aimed_angles(robot: SwerveRobot, speeds: FloatArray, angles: FloatArray,
+def aimed_angles(robot: SwerveModules, speeds: FloatArray, angles: FloatArray,
                  aim: FloatArray, steer_angles: FloatArray, dt: float) -> FloatArray:
     """The commanded ``angles`` with each module the command leaves at rest turned towards
     its direction in the twist ``aim``, by at most ``max_steer_rate dt`` from its present

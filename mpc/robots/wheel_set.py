@@ -20,7 +20,8 @@ Loading first runs the mobility analysis: a wheel set whose manoeuvrability
 ``dm + ds`` is below 3 (a differential drive, a car, anything with a fixed wheel's
 sliding constraint) cannot follow an arbitrary pose trajectory and is refused with a
 one-line error naming its degree of mobility and degree of steerability. An
-omnidirectional set of one wheel type becomes that robot: casters a
+omnidirectional set of one wheel type becomes the robot of the wheel type registered for
+it (:func:`~mpc.robots.registry.register_wheel_set`): casters a
 :class:`~mpc.robots.caster.CasterRobot`, steered or axle-offset modules a
 :class:`~mpc.robots.swerve.SwerveRobot` (one lever for every module), balls a
 :class:`~mpc.robots.spherical.SphericalRobot`, Swedish wheels a
@@ -30,20 +31,13 @@ omnidirectional set of one wheel type becomes that robot: casters a
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
-
 from mpc.errors import RobotError
 from mpc.robots.base import Robot
-from mpc.robots.caster import caster
-from mpc.robots.mobility import WheelSpec, parse_wheels, require_omnidirectional
-from mpc.robots.registry import register
-from mpc.robots.spherical import spherical
-from mpc.robots.swedish import SwedishRobot, SwedishWheel, wheel_limits
-from mpc.robots.swerve import swerve
+from mpc.robots.mobility import parse_wheels, require_omnidirectional
+from mpc.robots.registry import register, wheel_set_builder
 
 
 def wheel_set(
@@ -66,47 +60,9 @@ def wheel_set(
     kinds = sorted({spec.kind for spec in specs})
     if len(kinds) != 1:
         raise RobotError(f"wheels: one wheel type per robot is supported, got {kinds}")
-    kind = kinds[0]
-    positions = [[spec.x, spec.y] for spec in specs]
-    if kind in ("caster", "steered", "axle_offset") and max_steer_rate is None:
-        raise RobotError(f"wheels: {kind} wheels need max_steer_rate [rad/s]")
-    if kind == "caster":
-        return caster(positions=positions, offset=[spec.offset or 0.0 for spec in specs],
-                      wheel_radius=wheel_radius, max_wheel_speed=max_wheel_speed,
-                      max_steer_rate=_given(max_steer_rate), max_wheel_accel=max_wheel_accel,
-                      name=name)
-    if kind in ("steered", "axle_offset"):
-        levers = {spec.lever or 0.0 for spec in specs}
-        if len(levers) != 1:
-            raise RobotError(f"wheels: every axle_offset module needs the same lever, got "
-                             f"{sorted(levers)}")
-        return swerve(module_positions=positions, wheel_radius=wheel_radius,
-                      max_wheel_speed=max_wheel_speed, max_steer_rate=_given(max_steer_rate),
-                      max_wheel_accel=max_wheel_accel, axle_offset=levers.pop(), name=name)
-    if kind == "spherical":
-        return spherical(positions=positions, wheel_radius=wheel_radius,
-                         max_wheel_speed=max_wheel_speed, max_wheel_accel=max_wheel_accel,
-                         name=name)
-    radius, speed, accel = wheel_limits(wheel_radius, max_wheel_speed, max_wheel_accel)
-    return SwedishRobot(name=name, wheels=tuple(
-        _swedish(spec, radius, speed, accel) for spec in specs))
-
-
-def _given(value: float | None) -> float:
-    if value is None:  # pragma: no cover - checked by the caller
-        raise RobotError("wheels: max_steer_rate [rad/s] is required")
-    return value
-
-
-def _swedish(spec: WheelSpec, radius: float, speed: float, accel: float | None) -> SwedishWheel:
-    """Siegwart's parameters of a wheel at (x, y) rolling along ``heading``:
-    ``alpha = atan2(y, x)``, ``l = |(x, y)|``, ``beta = heading + pi / 2 - alpha``."""
-    alpha = math.atan2(spec.y, spec.x)
-    heading = 0.0 if spec.heading is None else spec.heading
-    return SwedishWheel(alpha=alpha, beta=heading + math.pi / 2 - alpha,
-                        gamma=0.0 if spec.gamma is None else spec.gamma,
-                        l=float(np.hypot(spec.x, spec.y)), radius=radius, max_speed=speed,
-                        max_accel=accel)
+    builder = wheel_set_builder(kinds[0], "wheels")
+    return builder(specs, wheel_radius=wheel_radius, max_wheel_speed=max_wheel_speed,
+                   max_steer_rate=max_steer_rate, max_wheel_accel=max_wheel_accel, name=name)
 
 
 register("wheels", wheel_set)

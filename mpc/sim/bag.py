@@ -43,9 +43,9 @@ from typing import Any
 
 import numpy as np
 
+from mpc.angles import wrap_angle
 from mpc.arrays import FloatArray
 from mpc.errors import SimulationError
-from mpc.robots.swerve import wrap_angle
 from mpc.sim.result import SimResult
 from mpc.validation import shown
 from trajectories.rosbag import quaternion_from_yaw, require_rosbags

@@ -30,13 +30,13 @@ import time
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mpc.angles import wrap_angle
 from mpc.arrays import FloatArray
 from mpc.control.clamp import clamp_command
 from mpc.control.command import Command, Status
 from mpc.control.measurements import check_steer_angles
 from mpc.errors import ControllerError
 from mpc.robots.base import Robot
-from mpc.robots.swerve import wrap_angle
 from mpc.validation import is_finite_number, shown
 from trajectories import Trajectory
 

@@ -48,12 +48,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mpc.angles import wrap_angle
 from mpc.arrays import FloatArray
 from mpc.control.command import Command
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
 from mpc.robots.force_map import ForceMap, force_map
-from mpc.robots.swerve import wrap_angle
 from mpc.sim.motor_substep import MIN_WHEEL_INERTIA, SubStepModel
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.validation import is_finite_number, shown

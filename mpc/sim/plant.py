@@ -22,11 +22,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mpc.angles import wrap_angle
 from mpc.arrays import FloatArray
 from mpc.control.command import Command
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
-from mpc.robots.swerve import wrap_angle
 from mpc.validation import is_finite_number, is_integer, shown
 
 

@@ -9,10 +9,10 @@ from typing import Any
 
 import numpy as np
 
+from mpc.angles import wrap_angle
 from mpc.arrays import FloatArray, IntArray
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
-from mpc.robots.swerve import wrap_angle
 from mpc.validation import is_finite_number, shown
 from trajectories import Trajectory
 

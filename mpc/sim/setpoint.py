@@ -11,10 +11,10 @@ import time
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mpc.angles import wrap_angle
 from mpc.control.command import Command, Status
 from mpc.errors import ControllerError
 from mpc.robots.base import Robot
-from mpc.robots.swerve import wrap_angle
 from mpc.sim.setpoint_generator import SwerveSetpoint, generate_setpoint, steered_robot
 from mpc.validation import finite_vector, is_finite_number, shown
 from trajectories import Trajectory

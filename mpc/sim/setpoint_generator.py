@@ -47,11 +47,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from mpc.angles import wrap_angle
 from mpc.arrays import BoolArray, FloatArray
 from mpc.control.clamp import clamp_command
 from mpc.errors import ControllerError
 from mpc.robots.base import Robot
-from mpc.robots.swerve import wrap_angle
 from mpc.validation import finite_vector, is_finite_number, shown
 
 #: Relative slack on the steering limit (rounding), as for the other limits.

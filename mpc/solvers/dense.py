@@ -46,7 +46,7 @@ from scipy import sparse
 from scipy.linalg import lapack
 
 from mpc.arrays import FloatArray
-from mpc.model.buffered import BufferedFunction
+from mpc.buffered import BufferedFunction
 from mpc.model.jit import jitted
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel

@@ -16,7 +16,7 @@ import numpy as np
 import osqp
 
 from mpc.arrays import FloatArray
-from mpc.model.buffered import BufferedFunction
+from mpc.buffered import BufferedFunction
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
