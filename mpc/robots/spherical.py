@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
+from mpc.plausibility import SIZE, WHEEL_ACCEL, WHEEL_RADIUS, WHEEL_SPEED, check_plausible
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
 from mpc.robots.registry import register
 from mpc.validation import body_points, checked_arguments, metres, real_array, shown
@@ -172,6 +173,7 @@ def spherical(
     max_wheel_speed: ArrayLike,
     max_wheel_accel: ArrayLike | None = None,
     name: str = "spherical",
+    allow_unusual: bool = False,
 ) -> SphericalRobot:
     """A robot on driven balls, each spun about the body's +x and +y axes.
 
@@ -183,9 +185,17 @@ def spherical(
         max_wheel_accel: actuator spin acceleration limit [rad/s^2] in the same forms, or
             None for unlimited.
         name: a label.
+        allow_unusual: accept sizes and limits beyond any real robot's
+            (:mod:`mpc.plausibility`); otherwise they raise RobotError naming the likely
+            unit mistake.
     """
-    return SphericalRobot(positions, name=name, wheel_radius=wheel_radius,
-                          max_speed=max_wheel_speed, max_accel=max_wheel_accel)
+    robot = SphericalRobot(positions, name=name, wheel_radius=wheel_radius,
+                           max_speed=max_wheel_speed, max_accel=max_wheel_accel)
+    check_plausible({"positions": (SIZE, robot.ball_positions),
+                     "wheel_radius": (WHEEL_RADIUS, robot.wheel_radius),
+                     "max_wheel_speed": (WHEEL_SPEED, robot.max_speed),
+                     "max_wheel_accel": (WHEEL_ACCEL, robot.max_accel)}, allow_unusual)
+    return robot
 
 
 register("spherical", spherical)

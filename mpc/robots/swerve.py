@@ -31,6 +31,15 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
+from mpc.plausibility import (
+    OFFSET,
+    SIZE,
+    STEER_RATE,
+    WHEEL_ACCEL,
+    WHEEL_RADIUS,
+    WHEEL_SPEED,
+    check_plausible,
+)
 from mpc.robots.base import PlanarModules, Robot, SpeedRows, WheelCommands, as_twists
 from mpc.robots.limits import StageLimits
 from mpc.robots.registry import register
@@ -321,6 +330,7 @@ def swerve(
     max_wheel_accel: float | None = None,
     axle_offset: float = 0.0,
     name: str = "swerve",
+    allow_unusual: bool = False,
 ) -> SwerveRobot:
     """A swerve base.
 
@@ -333,10 +343,20 @@ def swerve(
         axle_offset: the wheel's offset along its axle from the steer axis [m] >= 0
             (MPO-700-style modules; see :mod:`mpc.robots.swerve_axle`), 0 for centred
             modules.
+        allow_unusual: accept sizes and limits beyond any real robot's
+            (:mod:`mpc.plausibility`); otherwise they raise RobotError naming the likely
+            unit mistake.
     """
-    return SwerveRobot(module_positions, name=name, wheel_radius=wheel_radius,
-                       max_speed=max_wheel_speed, max_steer_rate=max_steer_rate,
-                       max_accel=max_wheel_accel, axle_offset=axle_offset)
+    robot = SwerveRobot(module_positions, name=name, wheel_radius=wheel_radius,
+                        max_speed=max_wheel_speed, max_steer_rate=max_steer_rate,
+                        max_accel=max_wheel_accel, axle_offset=axle_offset)
+    check_plausible({"module_positions": (SIZE, robot.module_positions),
+                     "wheel_radius": (WHEEL_RADIUS, robot.wheel_radius),
+                     "axle_offset": (OFFSET, robot.axle_offset),
+                     "max_wheel_speed": (WHEEL_SPEED, robot.max_speed),
+                     "max_wheel_accel": (WHEEL_ACCEL, robot.max_accel),
+                     "max_steer_rate": (STEER_RATE, robot.max_steer_rate)}, allow_unusual)
+    return robot
 
 
 register("swerve", swerve)
