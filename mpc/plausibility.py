@@ -188,7 +188,8 @@ def check_plausible(values: Mapping[str, tuple[Limit, object]], allow_unusual: o
             if points:
                 raise error(_beyond(f"{name}[{worst}]", float(sizes[worst]), limit,
                                     " from the body origin"))
-            label = name if sizes.size == 1 else f"{name}[{worst}]"
+            same = float(sizes.max()) == float(sizes.min())  # one value, maybe broadcast
+            label = name if same else f"{name}[{worst}]"
             raise error(_beyond(label, float(sizes[worst]), limit))
         rim = {WHEEL_SPEED: RIM_SPEED, WHEEL_ACCEL: RIM_ACCEL}.get(limit)
         if rim is not None and radius is not None and sizes.size:
