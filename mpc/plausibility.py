@@ -200,9 +200,9 @@ def check_plausible(values: Mapping[str, tuple[Limit, object]], allow_unusual: o
                 hint = unit_hint(limit, float(rates[at]), rim.bound / float(radii[at]))
                 raise error(
                     f"{name} {rates[at]:.6g} {limit.unit} at a wheel radius of "
-                    f"{radii[at]:.6g} m is a {rim.quantity} of {products[at]:.6g} {rim.unit}, "
-                    f"over {rim.bound:g} {rim.unit}, beyond any real wheeled robot's: "
-                    f"{hint} {_OVERRIDE}")
+                    f"{radii[at]:.6g} m gives a {rim.quantity} of {products[at]:.4g} "
+                    f"{rim.unit}, which is over {rim.bound:g} {rim.unit}, beyond any real "
+                    f"wheeled robot's: {hint} {_OVERRIDE}")
 
 
 def check_heading(name: str, heading: float, reference: float | None, allow_unusual: bool,
