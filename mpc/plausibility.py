@@ -11,36 +11,39 @@ value, the bound and the unit mistakes that would explain it ("wheelbase 300 m i
 ``Controller(..., allow_unusual=True)``).
 
 Each bound sits a factor of about 1.5 or more beyond the largest real robot the row
-names, and a factor of 10 or more below what the unit mistakes it guards against produce.
-Figures are the makers' published specifications, rounded:
+names, and well below what the unit mistakes it guards against produce. Neobotix's
+MPO-500 figures are from its documentation (neobotix-docs.de), the motor speeds from the
+WPILib presets in :mod:`mpc.robots.motor`; the others are approximate makers' figures:
 
 ==========================  ===========  ===================================================
 quantity                    at most      real robots it came from
 ==========================  ===========  ===================================================
 wheelbase, track, a wheel   5 m          FRC swerve frames: modules 0.5-0.9 m apart;
-or module's distance from                TurtleBot3 Waffle: wheels 0.29 m apart; Clearpath
-the body origin, base                    Husky: 0.55 m track, Ridgeback 0.96 x 0.79 m;
-radius                                   Neobotix MPO-700: modules at (+-0.24, +-0.20) m;
+or module's distance from                TurtleBot3: wheels 0.16-0.29 m apart; Clearpath
+the body origin, base                    Husky: about 0.55 m track; Neobotix MPO-500: wheel
+radius                                   axes 0.25 m from the centre, 0.548 m track; the
+                                         mpo700 preset: modules at (+-0.24, +-0.20) m;
                                          large omnidirectional AGVs: 3-4 m long
 wheel (or ball) radius      0.5 m        TurtleBot3 0.033 m; FRC 4 in wheels 0.051 m;
-                                         MPO-700 0.09 m; Husky 0.165 m; heavy AGV wheels
-                                         up to about 0.25 m
-caster offset, axle offset  0.5 m        MPO-700 axle offset 0.045 m; powered casters
-                                         0.02-0.1 m
-wheel speed limit           1000 rad/s   ungeared brushless motors' free speed: Kraken X60
+                                         MPO-500 0.127 m; Husky about 0.165 m; heavy AGV
+                                         wheels up to about 0.25 m
+caster offset, axle offset  0.5 m        the mpo700 preset's axle offset 0.045 m; powered
+                                         casters 0.02-0.1 m
+wheel speed limit           1000 rad/s   brushless motors' free speed, ungeared: Kraken X60
                                          628 rad/s, Falcon 500 668 rad/s; geared wheels
                                          10-100 rad/s
-wheel rim speed             20 m/s       FRC swerve at most about 6 m/s free speed; RoboCup
-(radius x speed limit)                   small-size robots about 4 m/s; Husky 1.0 m/s,
-                                         Ridgeback 1.1 m/s, TurtleBot3 0.26 m/s
+wheel rim speed             20 m/s       FRC swerve at most about 6 m/s free speed;
+(radius x speed limit)                   MPO-500 0.9 m/s; Husky about 1 m/s; TurtleBot3
+                                         0.22-0.26 m/s
 wheel rim acceleration      100 m/s^2    floors give about 1-1.5 g of traction (FRC tread
-(radius x accel limit)      (~10 g)      friction 1.1-1.5); wheel limits of 2-15 m/s^2
+(radius x accel limit)      (~10 g)      friction 1.1-1.5); MPO-500 2.4 m/s^2
 steering rate limit         200 rad/s    FRC steering: NEO 550 at 12.8:1 about 90 rad/s,
-                                         Kraken X60 at 21.4:1 about 29 rad/s; MPO-700
-                                         about 24 rad/s
-mass ([dynamics])           100,000 kg   TurtleBot3 1 kg, FRC robots up to about 70 kg,
-                                         Husky 50 kg, MPO-700 about 170 kg; heavy-load
-                                         omnidirectional platforms carry up to about 90 t
+                                         Kraken X60 at 21.4:1 about 29 rad/s; the mpo700
+                                         preset 24.4 rad/s
+mass ([dynamics])           100,000 kg   TurtleBot3 about 1 kg, FRC robots up to about
+                                         70 kg, Husky about 50 kg; heavy-load
+                                         omnidirectional platforms (KUKA omniMove) carry
+                                         up to about 90 t
 pose heading                2 pi 1e4 rad 10,000 turns: hours of continuous spinning
 ==========================  ===========  ===================================================
 
@@ -56,10 +59,12 @@ refused when it is more than one turn from 0 (so not a wrapped heading in (-pi, 
 not a multi-turn heading following a multi-turn reference). The controller uses a
 heading only modulo whole turns (it shifts the reference by turns to within pi of it),
 so wrapping a heading never changes a command: the rule costs a legitimate caller at
-most ``math.remainder(theta, 2 * math.pi)``. It is applied at the first tick after
-construction, :meth:`~mpc.control.Controller.reset` or a new trajectory, not later: a
-wrapped odometry heading legitimately drifts many turns from a spinning reference
-mid-run, and refusing a tick then would stop a moving robot. A heading in degrees
+most ``math.remainder(theta, 2 * math.pi)``. The controller applies it at the first
+tick of a start from rest (after construction, ``reset()`` without a moving
+``last_twist``, a new trajectory while at rest), never while the robot moves: a heading
+legitimately drifts whole turns from a spinning reference (the controller aims at the
+nearest turn, and a clock jump or a new reference moves the reference's turns), and
+refusing a tick then would stop a moving robot. A heading in degrees
 within one turn of 0 (below 6.3 degrees) or of the reference's heading cannot be told
 from radians, and passes.
 """

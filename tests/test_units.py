@@ -266,14 +266,22 @@ def test_headings_in_degrees_beyond_a_turn_are_refused_whatever_the_reference(
             controller.step([1.0, 0.0, degrees], 0.0)
 
 
-def test_after_reset_or_a_new_trajectory_the_first_tick_is_checked_again() -> None:
+def test_a_start_from_rest_is_checked_again_a_robot_in_motion_never() -> None:
+    """reset() (at rest) and a new trajectory at rest check the next tick; a reset with a
+    moving last_twist and a new trajectory while moving do not: never stop a moving
+    robot."""
     controller = Controller(preset("mecanum"), Circle(1.0, 12.0))
-    controller.step([1.0, 0.0, 0.0], 0.0)
+    moving = controller.step([1.0, 0.0, 0.0], 0.0).twist
+    assert np.any(moving)
     controller.reset()
     with pytest.raises(ControllerError, match="degrees"):
         controller.step([1.0, 0.0, 90.0], 0.0)
-    controller.step([1.0, 0.0, 0.0], 0.0)
-    controller.trajectory = Circle(1.0, 12.0, heading=1.0)
+    controller.reset(moving)
+    assert controller.step([1.0, 0.0, 90.0], 0.0).status is Status.SOLVED
+    controller.trajectory = Circle(1.0, 12.0, heading=1.0)  # while moving
+    assert controller.step([1.0, 0.0, 57.0], 0.05).status is Status.SOLVED
+    controller.reset()
+    controller.trajectory = Circle(1.0, 12.0, heading=1.0)  # at rest
     with pytest.raises(ControllerError, match="degrees"):
         controller.step([1.0, 0.0, 57.0], 0.0)
 

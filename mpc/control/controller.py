@@ -132,10 +132,11 @@ class Controller:
             where a compiler works, CasADi's virtual machine otherwise (and for the other
             solvers); :attr:`jit` says which.
         allow_unusual: accept measured headings that look like degrees: one more than a
-            turn from both 0 and the reference's heading at the first tick after
-            construction, :meth:`reset` or a new trajectory, or beyond 10,000 turns at any
-            tick (:mod:`mpc.plausibility`). Without it they raise ControllerError. A
-            heading is used modulo whole turns, so wrapping a multi-turn one
+            turn from both 0 and the reference's heading at the first tick of a start from
+            rest (after construction, :meth:`reset` without a moving ``last_twist``, a
+            new trajectory while at rest), or beyond 10,000 turns at any tick
+            (:mod:`mpc.plausibility`). Without it they raise ControllerError. A heading
+            is used modulo whole turns, so wrapping a multi-turn one
             (``math.remainder(theta, 2 * math.pi)``) changes no command.
     """
 
@@ -172,7 +173,7 @@ class Controller:
         self.command_ramp = flag("command_ramp", command_ramp, ControllerError)
         #: Whether headings that look like degrees are accepted (see the Args).
         self.allow_unusual = flag("allow_unusual", allow_unusual, ControllerError)
-        self._first_tick = True  # the heading is checked against the reference's once
+        self._first_tick = True  # a start from rest: the heading is checked once
         self.mode = check_mode(mode, time_scaling)
         self.stage_dt = check_stage_dt(stage_dt, self.dt, self.mode)
         rate = check_progress_rate(max_progress_rate)
@@ -281,7 +282,7 @@ class Controller:
             steer = self.robot.wheel_commands(last, steer)[1]
         self._steer = steer
         self._delay.reset(last)
-        self._first_tick = True
+        self._first_tick = not last.any()  # never refuse a tick of a robot in motion
         self._warm.reset()
         self._fallback.reset()
         self._timing.reset()
@@ -352,11 +353,11 @@ class Controller:
             **feedforward_fields(feedforward))
 
     def _check_heading(self, heading: float) -> None:
-        """The first tick's measured heading [rad] against the reference's: ControllerError
-        if it is more than a turn from both 0 and the reference's (a heading in degrees;
-        :func:`~mpc.plausibility.check_heading`). Later ticks are not checked: a wrapped
-        heading drifts whole turns from a spinning reference, and a moving robot must not
-        be stopped for that."""
+        """The measured heading [rad] at the first tick of a start from rest, against the
+        reference's: ControllerError if it is more than a turn from both 0 and the
+        reference's (a heading in degrees; :func:`~mpc.plausibility.check_heading`).
+        Ticks of a robot in motion are not checked: a heading can legitimately drift
+        whole turns from a spinning reference, and a moving robot must not be stopped."""
         reference = float(self._tick.poses_ref[0, 2]) + 2.0 * math.pi * self._window.turns
         check_heading("pose", heading, reference, self.allow_unusual, ControllerError)
         self._first_tick = False
