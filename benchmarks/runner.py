@@ -171,8 +171,8 @@ def describe_robot(robot: Robot) -> dict[str, Any]:
         raise ScenarioError(f"robot {robot.name!r} is derated; describe the healthy robot")
     if getattr(robot, "dynamics", None) is not None:
         return _describe_motor_preset(robot)
-    try:
-        return robot.description()
+    try:  # the robot was accepted once: its copies in the workers are not checked again
+        return {**robot.description(), "allow_unusual": True}
     except RobotError as error:
         raise ScenarioError(f"robot {robot.name!r}: {error}") from None
 

@@ -34,6 +34,7 @@ from mpc.model.jit import JitError, jitted
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.model.weights import Weights, make_weights
+from mpc.plausibility import check_heading
 from mpc.profiling import TickProfile
 from mpc.robots.base import Robot
 from mpc.robots.limits import DEFAULT_POLYGON_SIDES
@@ -130,6 +131,13 @@ class Controller:
             :class:`~mpc.errors.ControllerError` if it cannot compile; ``"auto"``: compiled
             where a compiler works, CasADi's virtual machine otherwise (and for the other
             solvers); :attr:`jit` says which.
+        allow_unusual: accept measured headings that look like degrees: one more than a
+            turn from both 0 and the reference's heading at the first tick of a start from
+            rest (after construction, :meth:`reset` without a moving ``last_twist``, a
+            new trajectory while at rest), or beyond 10,000 turns at any tick
+            (:mod:`mpc.plausibility`). Without it they raise ControllerError. A heading
+            is used modulo whole turns, so wrapping a multi-turn one
+            (``math.remainder(theta, 2 * math.pi)``) changes no command.
     """
 
     @checked_arguments(ControllerError)
@@ -152,6 +160,7 @@ class Controller:
         max_progress_rate: float = 2.0,
         time_scaling: bool | None = None,
         jit: bool | str = False,
+        allow_unusual: bool = False,
     ) -> None:
         if not isinstance(robot, Robot):
             raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
@@ -162,6 +171,9 @@ class Controller:
         self.delay_ticks = integer_in("delay_ticks", delay_ticks, 0, MAX_DELAY_TICKS,
                                       ControllerError)
         self.command_ramp = flag("command_ramp", command_ramp, ControllerError)
+        #: Whether headings that look like degrees are accepted (see the Args).
+        self.allow_unusual = flag("allow_unusual", allow_unusual, ControllerError)
+        self._first_tick = True  # a start from rest: the heading is checked once
         self.mode = check_mode(mode, time_scaling)
         self.stage_dt = check_stage_dt(stage_dt, self.dt, self.mode)
         rate = check_progress_rate(max_progress_rate)
@@ -270,6 +282,7 @@ class Controller:
             steer = self.robot.wheel_commands(last, steer)[1]
         self._steer = steer
         self._delay.reset(last)
+        self._first_tick = not last.any()  # never refuse a tick of a robot in motion
         self._warm.reset()
         self._fallback.reset()
         self._timing.reset()
@@ -290,7 +303,8 @@ class Controller:
         profile = self._profile
         if profile is not None:
             profile.start()
-        x0 = self._delay.predict(check_pose(pose))
+        measured_pose = check_pose(pose, self.allow_unusual)
+        x0 = self._delay.predict(measured_pose)
         t_now = check_time(t)
         measured = check_steer_angles(self.robot, steer_angles)
         if measured is not None:
@@ -304,6 +318,8 @@ class Controller:
         except TrajectoryError as error:  # the reference, not the caller: fall back
             reference_time, result = t_plan, self._unplanned(f"reference failed: {error}")
         else:
+            if self._first_tick:
+                self._check_heading(float(measured_pose[2]))
             result = self._solve(x0)
         if result.success:
             status, target, plan = Status.SOLVED, result.twists[0], result.poses
@@ -335,6 +351,16 @@ class Controller:
             clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time,
             steer_rates=steer_rates, steer_prediction=steer_prediction,
             **feedforward_fields(feedforward))
+
+    def _check_heading(self, heading: float) -> None:
+        """The measured heading [rad] at the first tick of a start from rest, against the
+        reference's: ControllerError if it is more than a turn from both 0 and the
+        reference's (a heading in degrees; :func:`~mpc.plausibility.check_heading`).
+        Ticks of a robot in motion are not checked: a heading can legitimately drift
+        whole turns from a spinning reference, and a moving robot must not be stopped."""
+        reference = float(self._tick.poses_ref[0, 2]) + 2.0 * math.pi * self._window.turns
+        check_heading("pose", heading, reference, self.allow_unusual, ControllerError)
+        self._first_tick = False
 
     def _solve(self, x0: FloatArray) -> SolveResult:
         """Plan from ``x0`` on the reference the tick holds (warm started; path mode: solved

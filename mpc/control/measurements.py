@@ -10,12 +10,16 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
+from mpc.plausibility import check_heading
 from mpc.robots.base import Robot
 from mpc.robots.caster_checks import joint_vector
 from mpc.validation import MAX_COORDINATE, MAX_TIME, is_finite_number, real_array, shown
 
 
-def check_pose(pose: ArrayLike) -> FloatArray:
+def check_pose(pose: ArrayLike, allow_unusual: bool = False) -> FloatArray:
+    """The measured pose (x, y, theta) [m, m, rad] as a float array (3,): finite, within
+    ``MAX_COORDINATE``, and its heading within 10,000 turns unless ``allow_unusual``
+    (:func:`~mpc.plausibility.check_heading`)."""
     x0 = real_array("pose", pose, "3 numbers (x, y, theta)", ControllerError)
     if x0.shape != (3,):
         raise ControllerError(f"pose must have shape (3,) as (x, y, theta), got shape {x0.shape}")
@@ -25,6 +29,7 @@ def check_pose(pose: ArrayLike) -> FloatArray:
             and abs(x0[2]) <= MAX_COORDINATE):
         raise ControllerError(f"pose must lie within +-{MAX_COORDINATE:g} (m, m, rad), "
                               f"got {x0.tolist()}")
+    check_heading("pose", float(x0[2]), None, allow_unusual, ControllerError)
     return x0
 
 

@@ -69,6 +69,9 @@ class ReferenceWindow:
         # new grid shape takes milliseconds); path mode (grid=False) never reads the grid
         self._grid = (_GridTerms(self.lookahead, model.durations)
                       if grid and self.lookahead.gridded else None)
+        #: Whole turns the last fill took off the reference's heading (its own value is
+        #: ``poses_ref[0, 2] + 2 pi turns``).
+        self.turns = 0
 
     def fill(self, time: float, heading: float, rate: float = 1.0) -> None:
         """The window at ``time + rate * offsets`` [s] (see :meth:`fill_at`; at rate 1 read
@@ -106,9 +109,11 @@ class ReferenceWindow:
         self._evaluate()
 
     def _unwrap(self, heading: float) -> None:
-        """The tick's reference heading moved by whole turns to within pi of ``heading``."""
+        """The tick's reference heading moved by whole turns to within pi of ``heading``
+        (:attr:`turns` of them)."""
         poses = self.tick.poses_ref
         turns = math.floor((poses[0, 2] - heading) / (2.0 * math.pi) + 0.5)
+        self.turns = turns
         if turns:
             poses[:, 2] -= 2.0 * math.pi * turns
 

@@ -59,6 +59,15 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, listed, readonly
 from mpc.errors import RobotError
+from mpc.plausibility import (
+    OFFSET,
+    SIZE,
+    STEER_RATE,
+    WHEEL_ACCEL,
+    WHEEL_RADIUS,
+    WHEEL_SPEED,
+    check_plausible,
+)
 from mpc.robots import caster_limits
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
 from mpc.robots.caster_checks import (
@@ -302,6 +311,7 @@ def caster(
     max_steer_rate: ArrayLike,
     max_wheel_accel: ArrayLike | None = None,
     name: str = "caster",
+    allow_unusual: bool = False,
 ) -> CasterRobot:
     """A powered-caster vehicle (see the module docstring for the conventions).
 
@@ -315,10 +325,20 @@ def caster(
         max_wheel_accel: drive acceleration limit [rad/s^2] (a number or one per caster)
             or None for unlimited.
         name: a label.
+        allow_unusual: accept sizes and limits beyond any real robot's
+            (:mod:`mpc.plausibility`); otherwise they raise RobotError naming the likely
+            unit mistake.
     """
-    return CasterRobot(positions, name=name, offset=offset, wheel_radius=wheel_radius,
-                       max_speed=max_wheel_speed, max_steer_rate=max_steer_rate,
-                       max_accel=max_wheel_accel)
+    robot = CasterRobot(positions, name=name, offset=offset, wheel_radius=wheel_radius,
+                        max_speed=max_wheel_speed, max_steer_rate=max_steer_rate,
+                        max_accel=max_wheel_accel)
+    check_plausible({"positions": (SIZE, robot.caster_positions),
+                     "wheel_radius": (WHEEL_RADIUS, robot.radii),
+                     "offset": (OFFSET, robot.offsets),
+                     "max_wheel_speed": (WHEEL_SPEED, robot.max_speed),
+                     "max_wheel_accel": (WHEEL_ACCEL, robot.max_accel),
+                     "max_steer_rate": (STEER_RATE, robot.max_steer_rates)}, allow_unusual)
+    return robot
 
 
 def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_wheel_speed: float,
@@ -329,7 +349,7 @@ def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_whee
                   offset=[spec.offset or 0.0 for spec in specs], wheel_radius=wheel_radius,
                   max_wheel_speed=max_wheel_speed,
                   max_steer_rate=steer_rate("caster", max_steer_rate),
-                  max_wheel_accel=max_wheel_accel, name=name)
+                  max_wheel_accel=max_wheel_accel, name=name, allow_unusual=True)
 
 
 register("caster", caster)

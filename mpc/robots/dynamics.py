@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from mpc.errors import RobotError
+from mpc.plausibility import MASS, check_plausible
 from mpc.robots.motor import MOTOR_PRESETS, DCMotor
 from mpc.validation import integer_at_least, non_negative, positive, shown
 
@@ -189,20 +190,24 @@ def dynamics(*, mass: float, yaw_inertia: float, motor: DCMotor | str | Mapping[
              friction: float | None = None, wheel_inertia: float = 0.0,
              headroom: float = HEADROOM, voltage_headroom: float = VOLTAGE_HEADROOM,
              steer_motor: DCMotor | str | Mapping[str, Any] | None = None,
-             steer_motor_count: int = 1, steer_gearing: float | None = None
-             ) -> RobotDynamics:
+             steer_motor_count: int = 1, steer_gearing: float | None = None,
+             allow_unusual: bool = False) -> RobotDynamics:
     """A :class:`RobotDynamics` with motors given by preset name (``"kraken_x60"`` and
     ``motor_count``), a table of :class:`DCMotor` fields, or a DCMotor; the keys of a
-    robot file's ``[dynamics]`` table (module docstring)."""
+    robot file's ``[dynamics]`` table (module docstring). A mass beyond any real robot's
+    (:data:`mpc.plausibility.MASS`) raises RobotError naming the likely unit mistake,
+    unless ``allow_unusual``."""
     steer = None if steer_motor is None else motor_from(steer_motor, steer_motor_count,
                                                         "steer_motor")
-    return RobotDynamics(mass=mass, yaw_inertia=yaw_inertia,
+    result = RobotDynamics(mass=mass, yaw_inertia=yaw_inertia,
                          motor=motor_from(motor, motor_count), gearing=gearing,
                          battery_voltage=battery_voltage, battery_resistance=battery_resistance,
                          current_limit=current_limit, friction=friction,
                          wheel_inertia=wheel_inertia, headroom=headroom,
                          voltage_headroom=voltage_headroom, steer_motor=steer,
                          steer_gearing=steer_gearing)
+    check_plausible({"mass": (MASS, result.mass)}, allow_unusual)
+    return result
 
 
 #: Keys of a ``[dynamics]`` table (the keyword arguments of :func:`dynamics`).
@@ -212,8 +217,10 @@ DYNAMICS_KEYS: frozenset[str] = frozenset({
     "voltage_headroom", "steer_motor", "steer_motor_count", "steer_gearing"})
 
 
-def dynamics_from_dict(table: object, source: str = "dynamics") -> RobotDynamics:
-    """A :class:`RobotDynamics` from a parsed ``[dynamics]`` table (module docstring)."""
+def dynamics_from_dict(table: object, source: str = "dynamics",
+                       allow_unusual: bool = False) -> RobotDynamics:
+    """A :class:`RobotDynamics` from a parsed ``[dynamics]`` table (module docstring);
+    ``allow_unusual`` is the robot file's key of that name (:func:`dynamics`)."""
     if not isinstance(table, Mapping):
         raise RobotError(f"{source}: dynamics must be a table of keys, got {shown(table)}")
     unknown = sorted(set(table) - DYNAMICS_KEYS)
@@ -222,7 +229,7 @@ def dynamics_from_dict(table: object, source: str = "dynamics") -> RobotDynamics
         raise RobotError(f"{source}: dynamics: unknown key(s) {unknown}, missing key(s) "
                          f"{missing}; expected some of {sorted(DYNAMICS_KEYS)}")
     try:
-        return dynamics(**table)
+        return dynamics(**table, allow_unusual=allow_unusual)
     except RobotError as error:
         raise RobotError(f"{source}: dynamics: {error}") from None
 

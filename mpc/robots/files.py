@@ -19,6 +19,11 @@ the mobility analysis's types (:mod:`mpc.robots.wheel_set`), refused with a one-
 error naming its degree of mobility and steerability when it cannot follow an arbitrary
 pose trajectory. An optional ``[dynamics]`` table describes mass, motors, battery and
 traction (:mod:`mpc.robots.dynamics`). Unknown keys are an error.
+
+Sizes and limits beyond any real robot's (a wheelbase over 5 m, a wheel radius over
+0.5 m, a wheel speed limit over 1000 rad/s, a mass over 100 t, ...: :mod:`mpc.plausibility`)
+raise RobotError naming the likely unit mistake (millimetres, rpm, ...) unless the file
+says ``allow_unusual = true`` (top level; it covers ``[dynamics]`` too).
 """
 
 from __future__ import annotations
@@ -64,7 +69,8 @@ def from_dict(description: Mapping[str, Any], source: str = "robot description")
     try:
         robot = entry.factory(**params)
         if "dynamics" in description:
-            robot = robot.with_dynamics(dynamics_from_dict(description["dynamics"], source))
+            robot = robot.with_dynamics(dynamics_from_dict(
+                description["dynamics"], source, description.get("allow_unusual", False)))
         return robot
     except RobotError as error:
         message = str(error)

@@ -71,7 +71,9 @@ _WHEEL_SETS: dict[str, Callable[..., Robot]] = {}
 def register_wheel_set(kinds: tuple[str, ...], builder: Callable[..., Robot]) -> None:
     """Make wheel sets of ``kinds`` (mobility wheel types: ``"caster"``, ``"steered"``, ...)
     robots of ``builder``, called as ``builder(specs, *, wheel_radius, max_wheel_speed,
-    max_steer_rate, max_wheel_accel, name)`` with the wheels' ``WheelSpec`` list."""
+    max_steer_rate, max_wheel_accel, name)`` with the wheels' ``WheelSpec`` list. The wheel
+    set checks plausibility (:mod:`mpc.plausibility`) under its own names, so a builder
+    calls its factory with ``allow_unusual=True``."""
     for kind in kinds:
         _WHEEL_SETS[kind] = builder
 

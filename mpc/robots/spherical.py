@@ -35,6 +35,7 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, listed, readonly
 from mpc.errors import RobotError
+from mpc.plausibility import SIZE, WHEEL_ACCEL, WHEEL_RADIUS, WHEEL_SPEED, check_plausible
 from mpc.robots.constant_jacobian import ConstantJacobianRobot
 from mpc.robots.mobility import WheelSpec
 from mpc.robots.registry import register, register_sampler, register_wheel_set
@@ -155,6 +156,7 @@ def spherical(
     max_wheel_speed: ArrayLike,
     max_wheel_accel: ArrayLike | None = None,
     name: str = "spherical",
+    allow_unusual: bool = False,
 ) -> SphericalRobot:
     """A robot on driven balls, each spun about the body's +x and +y axes.
 
@@ -166,9 +168,17 @@ def spherical(
         max_wheel_accel: actuator spin acceleration limit [rad/s^2] in the same forms, or
             None for unlimited.
         name: a label.
+        allow_unusual: accept sizes and limits beyond any real robot's
+            (:mod:`mpc.plausibility`); otherwise they raise RobotError naming the likely
+            unit mistake.
     """
-    return SphericalRobot(positions, name=name, wheel_radius=wheel_radius,
-                          max_speed=max_wheel_speed, max_accel=max_wheel_accel)
+    robot = SphericalRobot(positions, name=name, wheel_radius=wheel_radius,
+                           max_speed=max_wheel_speed, max_accel=max_wheel_accel)
+    check_plausible({"positions": (SIZE, robot.ball_positions),
+                     "wheel_radius": (WHEEL_RADIUS, robot.wheel_radius),
+                     "max_wheel_speed": (WHEEL_SPEED, robot.max_speed),
+                     "max_wheel_accel": (WHEEL_ACCEL, robot.max_accel)}, allow_unusual)
+    return robot
 
 
 def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_wheel_speed: float,
@@ -177,7 +187,7 @@ def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_whee
     """Balls of a wheel set (:mod:`mpc.robots.wheel_set`)."""
     return spherical(positions=[[spec.x, spec.y] for spec in specs], wheel_radius=wheel_radius,
                      max_wheel_speed=max_wheel_speed, max_wheel_accel=max_wheel_accel,
-                     name=name)
+                     name=name, allow_unusual=True)
 
 
 def _random_balls(rng: np.random.Generator) -> dict[str, Any]:

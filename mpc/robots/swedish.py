@@ -25,6 +25,13 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
+from mpc.plausibility import (
+    SIZE,
+    WHEEL_ACCEL,
+    WHEEL_RADIUS,
+    WHEEL_SPEED,
+    check_plausible,
+)
 from mpc.robots.constant_jacobian import ConstantJacobianRobot
 from mpc.robots.mobility import WheelSpec
 from mpc.robots.registry import register, register_sampler, register_wheel_set
@@ -173,6 +180,7 @@ def omni(
     first_wheel_angle: float = math.pi / 2,
     max_wheel_accel: float | None = None,
     name: str = "omni",
+    allow_unusual: bool = False,
 ) -> SwedishRobot:
     """Omni wheels on a circle, driving tangentially, counter-clockwise positive.
 
@@ -188,6 +196,9 @@ def omni(
         max_wheel_speed: [rad/s].
         first_wheel_angle: polar angle of wheel 0's centre [rad].
         max_wheel_accel: [rad/s^2] or None.
+        allow_unusual: accept sizes and limits beyond any real robot's
+            (:mod:`mpc.plausibility`); otherwise they raise RobotError naming the likely
+            unit mistake.
     """
     count = integer_in("n_wheels", n_wheels, 3, MAX_WHEELS, RobotError)
     base = metres("base_radius", base_radius, RobotError)
@@ -198,7 +209,11 @@ def omni(
                      radius=radius, max_speed=speed, max_accel=accel)
         for i in range(count)
     )
-    return SwedishRobot(wheels, name=name)
+    robot = SwedishRobot(wheels, name=name)
+    check_plausible({"base_radius": (SIZE, base), "wheel_radius": (WHEEL_RADIUS, radius),
+                     "max_wheel_speed": (WHEEL_SPEED, speed),
+                     "max_wheel_accel": (WHEEL_ACCEL, accel)}, allow_unusual)
+    return robot
 
 
 @checked_arguments(RobotError)
@@ -210,6 +225,7 @@ def mecanum(
     max_wheel_speed: float,
     max_wheel_accel: float | None = None,
     name: str = "mecanum",
+    allow_unusual: bool = False,
 ) -> SwedishRobot:
     """Four Mecanum wheels in the X ("ABAB") pattern, order FL, FR, RL, RR.
 
@@ -223,6 +239,9 @@ def mecanum(
         wheel_radius: [m].
         max_wheel_speed: [rad/s].
         max_wheel_accel: [rad/s^2] or None.
+        allow_unusual: accept sizes and limits beyond any real robot's
+            (:mod:`mpc.plausibility`); otherwise they raise RobotError naming the likely
+            unit mistake.
     """
     half_x = metres("wheelbase", wheelbase, RobotError) / 2.0
     half_y = metres("track", track, RobotError) / 2.0
@@ -236,11 +255,18 @@ def mecanum(
         wheels.append(SwedishWheel(alpha=alpha, beta=math.pi / 2.0 - alpha, gamma=gamma,
                                    l=math.hypot(x, y), radius=radius, max_speed=speed,
                                    max_accel=accel))
-    return SwedishRobot(tuple(wheels), name=name)
+    robot = SwedishRobot(tuple(wheels), name=name)
+    check_plausible({"wheelbase": (SIZE, 2.0 * half_x), "track": (SIZE, 2.0 * half_y),
+                     "wheel_radius": (WHEEL_RADIUS, radius),
+                     "max_wheel_speed": (WHEEL_SPEED, speed),
+                     "max_wheel_accel": (WHEEL_ACCEL, accel)}, allow_unusual)
+    return robot
 
 
-def _swedish(*, wheels: Sequence[Mapping[str, Any]], name: str = "swedish") -> SwedishRobot:
-    """A Swedish robot from wheel tables (the fields of :class:`SwedishWheel`)."""
+def _swedish(*, wheels: Sequence[Mapping[str, Any]], name: str = "swedish",
+             allow_unusual: bool = False) -> SwedishRobot:
+    """A Swedish robot from wheel tables (the fields of :class:`SwedishWheel`); sizes and
+    limits beyond any real robot's raise RobotError unless ``allow_unusual``."""
     allowed = {"alpha", "beta", "gamma", "l", "radius", "max_speed", "max_accel"}
     required = allowed - {"max_accel"}
     if not isinstance(wheels, Sequence) or isinstance(wheels, str):
@@ -255,7 +281,14 @@ def _swedish(*, wheels: Sequence[Mapping[str, Any]], name: str = "swedish") -> S
             raise RobotError(f"wheels[{index}]: unknown key(s) {unknown}, missing key(s) "
                              f"{missing}; expected {sorted(allowed)}")
         built.append(SwedishWheel(**table))
-    return SwedishRobot(tuple(built), name=name)
+    robot = SwedishRobot(tuple(built), name=name)
+    for index, wheel in enumerate(built):
+        check_plausible({f"wheels[{index}].l": (SIZE, wheel.l),
+                         f"wheels[{index}].radius": (WHEEL_RADIUS, wheel.radius),
+                         f"wheels[{index}].max_speed": (WHEEL_SPEED, wheel.max_speed),
+                         f"wheels[{index}].max_accel": (WHEEL_ACCEL, wheel.max_accel)},
+                        allow_unusual)
+    return robot
 
 
 register("omni", omni)

@@ -34,6 +34,15 @@ from numpy.typing import ArrayLike
 from mpc.angles import wrap_angle
 from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
+from mpc.plausibility import (
+    OFFSET,
+    SIZE,
+    STEER_RATE,
+    WHEEL_ACCEL,
+    WHEEL_RADIUS,
+    WHEEL_SPEED,
+    check_plausible,
+)
 from mpc.robots.base import PlanarModules, Robot, SpeedRows, WheelCommands, as_twists
 from mpc.robots.limits import StageLimits
 from mpc.robots.mobility import WheelSpec
@@ -350,6 +359,7 @@ def swerve(
     max_wheel_accel: float | None = None,
     axle_offset: float = 0.0,
     name: str = "swerve",
+    allow_unusual: bool = False,
 ) -> SwerveRobot:
     """A swerve base.
 
@@ -362,10 +372,20 @@ def swerve(
         axle_offset: the wheel's offset along its axle from the steer axis [m] >= 0
             (MPO-700-style modules; see :mod:`mpc.robots.swerve_axle`), 0 for centred
             modules.
+        allow_unusual: accept sizes and limits beyond any real robot's
+            (:mod:`mpc.plausibility`); otherwise they raise RobotError naming the likely
+            unit mistake.
     """
-    return SwerveRobot(module_positions, name=name, wheel_radius=wheel_radius,
-                       max_speed=max_wheel_speed, max_steer_rate=max_steer_rate,
-                       max_accel=max_wheel_accel, axle_offset=axle_offset)
+    robot = SwerveRobot(module_positions, name=name, wheel_radius=wheel_radius,
+                        max_speed=max_wheel_speed, max_steer_rate=max_steer_rate,
+                        max_accel=max_wheel_accel, axle_offset=axle_offset)
+    check_plausible({"module_positions": (SIZE, robot.module_positions),
+                     "wheel_radius": (WHEEL_RADIUS, robot.wheel_radius),
+                     "axle_offset": (OFFSET, robot.axle_offset),
+                     "max_wheel_speed": (WHEEL_SPEED, robot.max_speed),
+                     "max_wheel_accel": (WHEEL_ACCEL, robot.max_accel),
+                     "max_steer_rate": (STEER_RATE, robot.max_steer_rate)}, allow_unusual)
+    return robot
 
 
 def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_wheel_speed: float,
@@ -380,7 +400,8 @@ def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_whee
     return swerve(module_positions=[[spec.x, spec.y] for spec in specs],
                   wheel_radius=wheel_radius, max_wheel_speed=max_wheel_speed,
                   max_steer_rate=steer_rate(specs[0].kind, max_steer_rate),
-                  max_wheel_accel=max_wheel_accel, axle_offset=levers.pop(), name=name)
+                  max_wheel_accel=max_wheel_accel, axle_offset=levers.pop(), name=name,
+                  allow_unusual=True)
 
 
 def _random_swerve(rng: np.random.Generator) -> dict[str, Any]:

@@ -35,6 +35,15 @@ from collections.abc import Sequence
 from typing import Any
 
 from mpc.errors import RobotError
+from mpc.plausibility import (
+    OFFSET,
+    SIZE,
+    STEER_RATE,
+    WHEEL_ACCEL,
+    WHEEL_RADIUS,
+    WHEEL_SPEED,
+    check_plausible,
+)
 from mpc.robots.base import Robot
 from mpc.robots.mobility import parse_wheels, require_omnidirectional
 from mpc.robots.registry import register, wheel_set_builder
@@ -48,12 +57,33 @@ def wheel_set(
     max_steer_rate: float | None = None,
     max_wheel_accel: float | None = None,
     name: str = "wheels",
+    allow_unusual: bool = False,
 ) -> Robot:
     """A robot from wheel tables of the mobility analysis's types (module docstring).
 
     Raises RobotError naming (degree of mobility, degree of steerability) if the set
-    cannot follow an arbitrary pose trajectory, or if it mixes wheel types.
+    cannot follow an arbitrary pose trajectory, or if it mixes wheel types; and, unless
+    ``allow_unusual``, for sizes and limits beyond any real robot's
+    (:mod:`mpc.plausibility`), naming the likely unit mistake.
     """
+    robot = _build(wheels, wheel_radius, max_wheel_speed, max_steer_rate, max_wheel_accel,
+                   name)
+    specs = parse_wheels({"wheels": wheels}, "wheels")
+    check_plausible({
+        "wheels": (SIZE, [[spec.x, spec.y] for spec in specs]),
+        "wheel_radius": (WHEEL_RADIUS, wheel_radius),
+        **{f"wheels[{i}].offset": (OFFSET, spec.offset) for i, spec in enumerate(specs)},
+        **{f"wheels[{i}].lever": (OFFSET, spec.lever) for i, spec in enumerate(specs)},
+        "max_wheel_speed": (WHEEL_SPEED, max_wheel_speed),
+        "max_wheel_accel": (WHEEL_ACCEL, max_wheel_accel),
+        "max_steer_rate": (STEER_RATE, max_steer_rate)}, allow_unusual)
+    return robot
+
+
+def _build(wheels: Sequence[Any], wheel_radius: float, max_wheel_speed: float,
+           max_steer_rate: float | None, max_wheel_accel: float | None, name: str) -> Robot:
+    """The robot of :func:`wheel_set`, its plausibility not yet checked (its factories are
+    called with ``allow_unusual=True``: the wheel set checks under its own names)."""
     description = {"wheels": wheels}
     require_omnidirectional(description, "wheels")
     specs = parse_wheels(description, "wheels")

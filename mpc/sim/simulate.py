@@ -12,6 +12,7 @@ from numpy.typing import ArrayLike
 from mpc.arrays import FloatArray
 from mpc.control.command import Command
 from mpc.errors import SimulationError
+from mpc.plausibility import check_heading
 from mpc.robots.base import Robot
 from mpc.sim.motor_plant import MotorPlant, MotorPlantConfig
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
@@ -64,7 +65,10 @@ def simulate(
     Args:
         controller: anything with ``step(pose, t) -> Command`` (resets first).
         duration: simulated time [s] (> 0), ``round(duration / dt)`` ticks.
-        initial_pose: true start pose; default the reference at t = 0.
+        initial_pose: true start pose (x, y, theta) [m, m, rad]; default the reference at
+            t = 0. A heading more than a turn from both 0 and the reference's at t = 0 (a
+            heading in degrees: :func:`~mpc.plausibility.check_heading`) raises
+            SimulationError unless the controller has ``allow_unusual=True``.
         plant: a :class:`~mpc.sim.plant.PlantConfig`, a preset name from
             :data:`~mpc.sim.plant.PLANT_PRESETS`, or None for the ideal plant; a
             :class:`~mpc.sim.motor_plant.MotorPlantConfig` (``"motor"``) drives the robot
@@ -96,6 +100,9 @@ def simulate(
         start = trajectory.sample(0.0).pose
     else:
         start = finite_vector("initial_pose", initial_pose, 3, "(x, y, theta)", SimulationError)
+        # a heading in degrees, checked as the controller's first tick checks it
+        check_heading("initial_pose", float(start[2]), float(trajectory.sample(0.0).pose[2]),
+                      getattr(controller, "allow_unusual", False) is True, SimulationError)
     kind = MotorPlant if isinstance(config, MotorPlantConfig) else Plant
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
                              or seed < 0):
