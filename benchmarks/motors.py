@@ -47,7 +47,7 @@ from mpc.robots import (
     Robot,
     motor_preset,
 )
-from mpc.robots.force_map import force_map
+from mpc.robots.drive.force_map import force_map
 from mpc.sim import (
     FeedforwardPController,
     FeedforwardPSetpointController,

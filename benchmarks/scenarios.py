@@ -22,7 +22,7 @@ from mpc import Controller
 from mpc.control.settings import check_plan_size
 from mpc.errors import MpcError
 from mpc.model.weights import Weights, tuned_layouts, tuned_weights
-from mpc.robots import PRESETS, SEED_PRESETS, Robot, load, preset
+from mpc.robots import PRESETS, Robot, load, preset, shipped_presets
 from mpc.sim import FeedforwardPController, FeedforwardPSetpointController, TrackingController
 from trajectories import (
     Circle,
@@ -47,9 +47,9 @@ ALL_TRAJECTORIES: tuple[str, ...] = (*TRAJECTORIES, "out-and-back")
 #: slower a tick than the others' and would double the default run.
 DEFAULT_LAYOUTS: tuple[str, ...] = tuple(name for name in PRESETS
                                          if name not in ("caster4", "mpo700"))
-#: Every layout ``--layouts`` takes: the presets, then the founding documents' robots
-#: (``jetauto``, ...; on request: the same wheel types as the defaults).
-LAYOUTS: tuple[str, ...] = PRESETS + SEED_PRESETS
+#: Every layout ``--layouts`` takes: every shipped preset (the founding documents' robots,
+#: ``jetauto``, ..., on request: the same wheel types as the defaults).
+LAYOUTS: tuple[str, ...] = shipped_presets()
 #: Every controller the benchmark knows: this project in time mode (the daqp fast path,
 #: the same with the robot's tuned weights, the OSQP fast path, the exact IPOPT path) and in
 #: path mode, and the baselines a user would otherwise pick (feedforward + P with per-wheel

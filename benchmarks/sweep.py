@@ -4,7 +4,7 @@ Each case draws, from one seeded generator (so the cases depend on --seed only):
 
     robot       of a kind drawn from --kinds, as its wheel type samples it (omni, mecanum,
                 swerve, ball: the ranges are in each sampler's docstring,
-                mpc.robots.registry.robot_samplers); every kind: acceleration limit
+                mpc.robots.description.registry.robot_samplers); every kind: acceleration limit
                 1.5-4 x the speed limit [1/s]
     reference   circle or figure-eight (1 m), fixed or tangent heading, peak wheel
                 speed 0.5-1.4 x the limit
@@ -38,7 +38,7 @@ from benchmarks.outdir import add_force_argument, claim
 from benchmarks.progress import Progress
 from benchmarks.scenarios import CONTROLLERS, Parser, ScenarioError, Settings, choose, seed
 from benchmarks.table import Column, format_table
-from mpc.robots.registry import robot_samplers
+from mpc.robots.description.registry import robot_samplers
 from mpc.validation import MAX_HORIZON, MAX_SIMULATION_TICKS
 
 #: Random cases in one sweep (--runs).
@@ -51,7 +51,7 @@ QUANTILES: tuple[int, ...] = (50, 90, 99)
 
 def random_robot(kind: str, rng: np.random.Generator) -> dict[str, Any]:
     """A robot description (for :func:`mpc.robots.from_dict`) of a registered kind
-    (:func:`mpc.robots.registry.robot_samplers`), with an acceleration limit."""
+    (:func:`mpc.robots.description.registry.robot_samplers`), with an acceleration limit."""
     samplers = robot_samplers()
     if kind not in samplers:
         raise ScenarioError(f"unknown robot kind {kind!r}; valid: {', '.join(samplers)}")

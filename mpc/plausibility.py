@@ -13,7 +13,7 @@ value, the bound and the unit mistakes that would explain it ("wheelbase 300 m i
 Each bound sits a factor of about 1.5 or more beyond the largest real robot the row
 names, and well below what the unit mistakes it guards against produce. Neobotix's
 MPO-500 figures are from its documentation (neobotix-docs.de), the motor speeds from the
-WPILib presets in :mod:`mpc.robots.motor`; the others are approximate makers' figures:
+WPILib presets in :mod:`mpc.robots.drive.motor`; the others are approximate makers' figures:
 
 ==========================  ===========  ===================================================
 quantity                    at most      real robots it came from

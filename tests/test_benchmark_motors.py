@@ -13,7 +13,7 @@ from benchmarks import motors
 from benchmarks.cli import main
 from benchmarks.motors import kinematic_stand_in, motor_demand, motor_reference
 from mpc.robots import motor_preset
-from mpc.robots.force_map import force_map
+from mpc.robots.drive.force_map import force_map
 
 
 @pytest.mark.parametrize("name", ["omni3", "swerve", "ball3"])

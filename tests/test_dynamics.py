@@ -23,8 +23,8 @@ from mpc.robots import (
     motor_preset,
     preset,
 )
-from mpc.robots.dynamics import HEADROOM, bus_voltage
-from mpc.robots.force_map import force_map
+from mpc.robots.drive.dynamics import HEADROOM, bus_voltage
+from mpc.robots.drive.force_map import force_map
 
 RPM = math.pi / 30.0
 

@@ -11,9 +11,9 @@ import pytest
 
 from mpc import Command, Status
 from mpc.robots import MOTOR_ROBOT_PRESETS, Robot, motor_preset, omni
-from mpc.robots.dynamics import GRAVITY, dynamics
-from mpc.robots.force_map import coriolis, force_map
-from mpc.robots.motor_step import first_step_feedforward
+from mpc.robots.drive.dynamics import GRAVITY, dynamics
+from mpc.robots.drive.force_map import coriolis, force_map
+from mpc.robots.drive.motor_step import first_step_feedforward
 from mpc.sim.motor_plant import MotorPlant, MotorPlantConfig
 
 RNG_SEED = 7
@@ -82,7 +82,7 @@ def test_swedish_contact_force_by_hand() -> None:
 def test_coriolis_linearisation_against_finite_differences() -> None:
     """The QP's motor rows carry ``g . coriolis(u)`` linearised around the guess: their
     coefficients are the Jacobian of the exact term (central differences)."""
-    from mpc.robots.motor_limits import MotorStageLimits, stage_limits, update_stage_limits
+    from mpc.robots.drive.motor_limits import MotorStageLimits, stage_limits, update_stage_limits
 
     robot = motor_preset("mecanum")
     assert robot.dynamics is not None  # without sag: its rows move with the power too

@@ -1,4 +1,4 @@
-"""Mobility analysis (:mod:`mpc.robots.mobility`): Campion's classic answers, robots,
+"""Mobility analysis (:mod:`mpc.robots.description.mobility`): Campion's classic answers, robots,
 the omnidirectional rule, and strict validation."""
 
 from __future__ import annotations

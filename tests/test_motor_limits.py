@@ -12,11 +12,11 @@ import pytest
 from mpc import Controller, Status
 from mpc.control.clamp import clamp_command
 from mpc.robots import motor_preset, preset, swerve
-from mpc.robots.dynamics import RobotDynamics, dynamics
-from mpc.robots.force_map import coriolis, force_map
-from mpc.robots.motor_limits import MotorStageLimits, stage_limits, update_stage_limits
-from mpc.robots.motor_nlp import nlp_stage_limits
-from mpc.robots.motor_step import CLAMP_HEADROOM, first_step_feedforward, motor_step_fraction
+from mpc.robots.drive.dynamics import RobotDynamics, dynamics
+from mpc.robots.drive.force_map import coriolis, force_map
+from mpc.robots.drive.motor_limits import MotorStageLimits, stage_limits, update_stage_limits
+from mpc.robots.drive.motor_nlp import nlp_stage_limits
+from mpc.robots.drive.motor_step import CLAMP_HEADROOM, first_step_feedforward, motor_step_fraction
 from mpc.sim import simulate
 from trajectories import Circle, FigureEight
 
@@ -238,7 +238,7 @@ def test_sag_lowers_the_planned_voltage_bound() -> None:
 def test_sag_rows_against_finite_differences() -> None:
     """The voltage rows carry the bus's sag linearised around the guess: their change of
     value with the plan is the sagged bound's, by central differences of B(P(u))."""
-    from mpc.robots.bus_sag import sag as _sag
+    from mpc.robots.drive.bus_sag import sag as _sag
 
     robot = motor_preset("mecanum")
     times = np.array([0.05, 0.1])

@@ -8,7 +8,7 @@ import pytest
 from mpc import Command, Controller, Status
 from mpc.errors import SimulationError
 from mpc.robots import motor_preset, preset
-from mpc.robots.force_map import force_map
+from mpc.robots.drive.force_map import force_map
 from mpc.sim import MotorPlant, MotorPlantConfig, simulate
 from mpc.sim.motor_plant import EVENT_KEYS
 from trajectories import Circle, FigureEight
@@ -98,7 +98,7 @@ def test_flooring_it_slips_and_breaks_the_limits() -> None:
     safe, clamped = clamp_command(robot, target, np.zeros(3), DT)
     assert clamped and 0.0 < safe[0] < target[0]
     calm = MotorPlant(robot, DT, np.zeros(3), MotorPlantConfig(), np.random.default_rng(0))
-    from mpc.robots.motor_step import first_step_feedforward
+    from mpc.robots.drive.motor_step import first_step_feedforward
 
     feed = first_step_feedforward(robot, np.zeros(3), safe, DT, None)
     assert feed is not None

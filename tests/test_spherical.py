@@ -1,4 +1,4 @@
-"""Driven ball wheels (:mod:`mpc.robots.spherical`): hand-derived spin rates, no slip at the
+"""Driven ball wheels (:mod:`mpc.robots.wheels.spherical`): hand-derived spin rates, no slip at the
 contact point, round trips, validation, and closed-loop tracking with both solvers."""
 
 from __future__ import annotations

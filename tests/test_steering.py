@@ -12,7 +12,7 @@ from mpc import Controller, Status
 from mpc.control.clamp import clamp_command
 from mpc.model import integrate
 from mpc.robots import SwerveRobot, preset
-from mpc.robots.swerve_limits import steering_fraction, turns
+from mpc.robots.wheels.swerve.limits import steering_fraction, turns
 from trajectories import Waypoints
 
 DT = 0.05
@@ -102,7 +102,7 @@ def test_exact_path_solves_through_the_end_of_a_reference_that_ends_at_speed() -
 def test_the_axle_offset_search_checks_twists_as_the_wheel_commands_drive_them() -> None:
     """The vectorised check behind the axle-offset clamp's search agrees with
     ``wheel_commands`` (flip rule, steering correction) twist by twist, limits included."""
-    from mpc.robots.swerve_limits import _drives_within
+    from mpc.robots.wheels.swerve.limits import _drives_within
 
     robot = preset("mpo700")
     assert isinstance(robot, SwerveRobot) and robot.axle_offset > 0.0
@@ -130,7 +130,7 @@ def test_the_one_twist_check_in_python_floats_agrees_with_the_vectorised_one() -
     """The clamp checks the fraction's own point in Python floats before it scans the way
     in NumPy: the two agree twist by twist, drives and turns, on both sides of the limits
     (modules at rest among them)."""
-    from mpc.robots.swerve_limits import _drives_fit, _drives_within
+    from mpc.robots.wheels.swerve.limits import _drives_fit, _drives_within
 
     robot = preset("mpo700")
     assert isinstance(robot, SwerveRobot)

@@ -13,7 +13,7 @@ from benchmarks.perf import SPEEDS, reference
 from mpc import Controller
 from mpc.robots import SwerveRobot, preset
 from mpc.robots.limits import SpeedRows, outermost
-from mpc.robots.swerve_limits import (
+from mpc.robots.wheels.swerve.limits import (
     ACCEL_SIDES,
     FACE_ANGLES,
     FACES,
@@ -140,7 +140,7 @@ def test_the_guard_faces_stay_out_of_daqp_and_the_plans_are_those_of_every_face(
     guarded = Controller(robot, trajectory, horizon=20, dt=DT, solver="daqp", mode=mode)
     inside = Controller(robot, reference("figure8", "fixed", robot, SPEEDS["inside"]),
                         horizon=20, dt=DT, solver="daqp", mode=mode)
-    monkeypatch.setattr("mpc.robots.swerve_limits.GUARD_FACES", ())
+    monkeypatch.setattr("mpc.robots.wheels.swerve.limits.GUARD_FACES", ())
     every = Controller(robot, trajectory, horizon=20, dt=DT, solver="daqp", mode=mode)
     solver, every_face, solver_inside = guarded.solver, every.solver, inside.solver
     assert isinstance(solver, DenseSolver) and isinstance(every_face, DenseSolver)

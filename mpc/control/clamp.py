@@ -14,8 +14,8 @@ import numpy as np
 
 from mpc.arrays import FloatArray
 from mpc.robots.base import SPEED_SLACK, PlanarModules, Robot, ScalarWheels
-from mpc.robots.motor_step import motor_step_fraction
-from mpc.robots.swerve_limits import flip_turn
+from mpc.robots.drive.motor_step import motor_step_fraction
+from mpc.robots.wheels.swerve.limits import flip_turn
 
 #: Passes of the motor step: each takes the Coriolis term of the step the last one left.
 _MOTOR_PASSES = 4
@@ -37,7 +37,7 @@ def clamp_command(
     3. Motors (robots with dynamics): step from ``last`` only as far as every wheel stays
        within its battery voltage and current limit and every contact within traction,
        the wheels turning at ``last``'s speeds now
-       (:func:`~mpc.robots.motor_step.motor_step_fraction`).
+       (:func:`~mpc.robots.drive.motor_step.motor_step_fraction`).
     4. Steering (steered wheels, given their present ``steer_angles``): step from
        ``last`` only as far as no wheel turns faster than its steering rate
        (:meth:`~mpc.robots.Robot.steering_fraction`); a wheel that must turn

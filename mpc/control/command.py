@@ -8,7 +8,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from mpc.arrays import FloatArray
-from mpc.robots.conventions import WheelConvention, wheel_convention
+from mpc.robots.description.conventions import WheelConvention, wheel_convention
 
 
 class Status(enum.Enum):

@@ -37,8 +37,8 @@ from mpc.model.weights import Weights, make_weights
 from mpc.plausibility import check_heading
 from mpc.profiling import TickProfile
 from mpc.robots.base import Robot
+from mpc.robots.drive.motor_step import first_step_feedforward
 from mpc.robots.limits import DEFAULT_POLYGON_SIDES
-from mpc.robots.motor_step import first_step_feedforward
 from mpc.solvers import SolveResult
 from mpc.validation import (
     MAX_DELAY_TICKS,

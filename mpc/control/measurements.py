@@ -12,7 +12,7 @@ from mpc.arrays import FloatArray
 from mpc.errors import ControllerError
 from mpc.plausibility import check_heading
 from mpc.robots.base import Robot
-from mpc.robots.caster_checks import joint_vector
+from mpc.robots.wheels.caster.checks import joint_vector
 from mpc.validation import MAX_COORDINATE, MAX_TIME, is_finite_number, real_array, shown
 
 

@@ -13,16 +13,14 @@ wheel type is a :class:`Robot` subclass plus a factory passed to
 :func:`register`. Motors: :class:`DCMotor` (WPILib's DC motor model and
 presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel); :class:`RobotDynamics`
 (mass, motors, battery, traction) through :meth:`Robot.with_dynamics` adds motor-aware
-limits (:mod:`mpc.robots.motor_limits`); :func:`motor_preset` ships them per layout.
+limits (:mod:`mpc.robots.drive.motor_limits`); :func:`motor_preset` ships them per layout.
 """
 
 from mpc.angles import wrap_angle
 from mpc.errors import RobotError as _Error
 from mpc.robots.base import Robot, SpeedRows, WheelCommands
-from mpc.robots.caster import CasterRobot, caster
-from mpc.robots.conventions import CONVENTIONS, WheelConvention, wheel_convention
-from mpc.robots.dynamics import RobotDynamics, choreo_dynamics, dynamics
-from mpc.robots.files import (
+from mpc.robots.description.conventions import CONVENTIONS, WheelConvention, wheel_convention
+from mpc.robots.description.files import (
     MOTOR_ROBOT_PRESETS,
     PRESETS,
     SEED_PRESETS,
@@ -30,8 +28,9 @@ from mpc.robots.files import (
     load,
     motor_preset,
     preset,
+    shipped_presets,
 )
-from mpc.robots.mobility import (
+from mpc.robots.description.mobility import (
     Mobility,
     WheelSpec,
     mobility,
@@ -39,12 +38,14 @@ from mpc.robots.mobility import (
     robot_description,
     robot_mobility,
 )
-from mpc.robots.motor import MOTOR_PRESETS, DCMotor, SysIdMotor
-from mpc.robots.registry import register, robot_types
-from mpc.robots.spherical import SphericalRobot, spherical
-from mpc.robots.swedish import SwedishRobot, SwedishWheel, mecanum, omni
-from mpc.robots.swerve import SwerveRobot, swerve
-from mpc.robots.wheel_set import wheel_set
+from mpc.robots.description.registry import register, robot_types
+from mpc.robots.description.wheel_set import wheel_set
+from mpc.robots.drive.dynamics import RobotDynamics, choreo_dynamics, dynamics
+from mpc.robots.drive.motor import MOTOR_PRESETS, DCMotor, SysIdMotor
+from mpc.robots.wheels.caster.robot import CasterRobot, caster
+from mpc.robots.wheels.spherical import SphericalRobot, spherical
+from mpc.robots.wheels.swedish import SwedishRobot, SwedishWheel, mecanum, omni
+from mpc.robots.wheels.swerve.robot import SwerveRobot, swerve
 from mpc.validation import checked_public as _checked_public
 
 __all__ = [
@@ -82,6 +83,7 @@ __all__ = [
     "robot_description",
     "robot_mobility",
     "robot_types",
+    "shipped_presets",
     "spherical",
     "swerve",
     "wheel_convention",

@@ -40,8 +40,8 @@ from mpc.arrays import FloatArray, readonly
 from mpc.errors import RobotError
 from mpc.robots.checks import as_twists, check_holonomic
 from mpc.robots.derating import check_derating, merged_derating, rest_projector
-from mpc.robots.dynamics import RobotDynamics
-from mpc.robots.force_map import force_map
+from mpc.robots.drive.dynamics import RobotDynamics
+from mpc.robots.drive.force_map import force_map
 from mpc.robots.limits import (
     DEFAULT_POLYGON_SIDES,
     SpeedRows,
@@ -113,8 +113,8 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
 
     name: str = field(default="robot", kw_only=True)
     derating: tuple[float, ...] | None = field(default=None, kw_only=True)
-    #: Mass, motors, battery and traction (:mod:`mpc.robots.dynamics`): the solvers add
-    #: motor-aware limits (:mod:`mpc.robots.motor_limits`); None keeps the kinematic ones.
+    #: Mass, motors, battery and traction (:mod:`mpc.robots.drive.dynamics`): the solvers add
+    #: motor-aware limits (:mod:`mpc.robots.drive.motor_limits`); None keeps the kinematic ones.
     dynamics: RobotDynamics | None = field(default=None, kw_only=True)
 
     # Set by subclasses.
@@ -188,12 +188,13 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         raise RobotError(f"wheel type {self.kind!r} cannot describe its robots as plain data")
 
     def mobility_wheels(self) -> list[dict[str, Any]]:
-        """The wheels as tables of the mobility analysis (:mod:`mpc.robots.mobility`)."""
+        """The wheels as tables of the mobility analysis
+        (:mod:`mpc.robots.description.mobility`)."""
         raise RobotError(f"wheel type {self.kind!r} has no wheel-set description")
 
     def drive_radii(self) -> FloatArray:
         """The radius each wheel speed's effort acts at on the floor [m] (n,), for motor
-        dynamics (:mod:`mpc.robots.force_map`)."""
+        dynamics (:mod:`mpc.robots.drive.force_map`)."""
         raise RobotError(f"motor dynamics do not support wheel type {self.kind!r}")
 
     def with_wheel_limits(self, max_speed: float, max_accel: FloatArray) -> Robot:
@@ -390,7 +391,7 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
 
     # ------------------------------------------------------------ dynamics
     def with_dynamics(self: RobotT, dynamics: RobotDynamics | None) -> RobotT:
-        """A copy with ``dynamics`` (a :class:`~mpc.robots.dynamics.RobotDynamics`): the
+        """A copy with ``dynamics`` (a :class:`~mpc.robots.drive.dynamics.RobotDynamics`): the
         solvers, the clamp and ``Command`` then respect and report the motors; None drops
         them (kinematic limits only)."""
         if dynamics is not None and not isinstance(dynamics, RobotDynamics):

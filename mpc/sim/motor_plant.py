@@ -24,7 +24,7 @@ Physics per sub-step (implicit Euler in the twist and the wheel speeds):
 
 - each motor: ``T = kt (V - w / kv) / R`` at the wheel (WPILib's model);
 - each wheel: ``J dw/dt = T - tau`` with ``tau`` the floor's reaction (wheel torque
-  units); the body: ``M (du/dt + coriolis(u)) = sum W^T tau`` (:mod:`mpc.robots.force_map`);
+  units); the body: ``M (du/dt + coriolis(u)) = sum W^T tau`` (:mod:`mpc.robots.drive.force_map`);
 - the floor: a stiff regularised contact, ``tau = k (w - W u)`` along each slip
   direction (a Swedish wheel's roller axis, a ball's two actuators, a swerve module's
   rolling and lateral directions), ``k`` such that the contact creeps at
@@ -53,7 +53,7 @@ from mpc.arrays import FloatArray
 from mpc.control.command import Command
 from mpc.errors import SimulationError
 from mpc.robots.base import Robot
-from mpc.robots.force_map import ForceMap, force_map
+from mpc.robots.drive.force_map import ForceMap, force_map
 from mpc.sim.motor_substep import MIN_WHEEL_INERTIA, SubStepModel
 from mpc.sim.plant import PLANT_PRESETS, Plant, PlantConfig
 from mpc.validation import is_finite_number, shown

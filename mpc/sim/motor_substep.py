@@ -14,7 +14,7 @@ import numpy as np
 
 from mpc.arrays import BoolArray, FloatArray, IntArray
 from mpc.robots.base import Robot
-from mpc.robots.force_map import ForceMap
+from mpc.robots.drive.force_map import ForceMap
 
 #: [kg m^2] the plant's wheel inertia at least (massless wheels that slide with their current
 #: held have no speed to settle at).

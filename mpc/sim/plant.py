@@ -9,7 +9,7 @@ point the wrong way while a swerve module is still steering.
 Casters (robots whose steer angles are states): the plant integrates each steer
 angle from the commanded steer rate (limited to ``max_steer_rate``), and the robot
 moves by the least-squares forward map of the actual drive and steer rates at the
-actual angles (:meth:`~mpc.robots.caster.CasterRobot.joint_twist`): joint rates
+actual angles (:meth:`~mpc.robots.wheels.caster.robot.CasterRobot.joint_twist`): joint rates
 that do not agree on one rigid motion mean slip. :attr:`Plant.steer_angles` is what
 a caster robot's controller measures.
 """

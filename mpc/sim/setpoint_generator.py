@@ -24,7 +24,7 @@ Written from the published description. Each tick, from the previous setpoint
      limit; exact roots of a quadratic here).
 4. **Module acceleration, as this project bounds it**: ``max_wheel_accel`` limits the
    change of the module's velocity *vector*, ``|v_i(s) - v_i(0)| <= dt *
-   max_wheel_accel`` (see :mod:`mpc.robots.swerve`), which is stricter than 254's
+   max_wheel_accel`` (see :mod:`mpc.robots.wheels.swerve.robot`), which is stricter than 254's
    speed-change limit (a module turning at constant speed changes velocity but not
    speed), so the step is finished with :func:`~mpc.control.clamp.clamp_command`,
    which shortens it along the same segment.

@@ -51,6 +51,7 @@ from mpc.model.jit import jitted
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
+from mpc.robots.drive.motor_limits import stage_limits, update_stage_limits
 from mpc.robots.limits import (
     StageLimits,
     leading_rows,
@@ -59,7 +60,6 @@ from mpc.robots.limits import (
     stage_values,
     trailing_rows,
 )
-from mpc.robots.motor_limits import stage_limits, update_stage_limits
 from mpc.solvers.base import SolveResult
 from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
 from mpc.solvers.hessian_reuse import COST_TOLERANCE, SENSITIVITY_TOLERANCE, HessianReuse

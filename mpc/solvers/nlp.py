@@ -22,7 +22,7 @@ from mpc.arrays import FloatArray
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
-from mpc.robots.motor_nlp import nlp_stage_limits
+from mpc.robots.drive.motor_nlp import nlp_stage_limits
 from mpc.solvers.base import SolveResult
 
 

@@ -20,7 +20,7 @@ from mpc.buffered import BufferedFunction
 from mpc.model.layout import TickInput
 from mpc.model.tracking import TrackingModel
 from mpc.profiling import TickProfile
-from mpc.robots.motor_limits import stage_limits, update_stage_limits
+from mpc.robots.drive.motor_limits import stage_limits, update_stage_limits
 from mpc.solvers.base import SolveResult
 from mpc.solvers.qp_structure import assemble_qp, fill_inequality_bounds, fill_limit_values
 

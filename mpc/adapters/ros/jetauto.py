@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike
 
 from mpc.control.command import Command
 from mpc.errors import ControllerError
-from mpc.robots.conventions import CONVENTIONS
+from mpc.robots.description.conventions import CONVENTIONS
 from trajectories.rosbag import require_rosbags
 
 require_rosbags()

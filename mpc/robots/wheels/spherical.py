@@ -36,9 +36,9 @@ from numpy.typing import ArrayLike
 from mpc.arrays import FloatArray, listed, readonly
 from mpc.errors import RobotError
 from mpc.plausibility import SIZE, WHEEL_ACCEL, WHEEL_RADIUS, WHEEL_SPEED, check_plausible
-from mpc.robots.constant_jacobian import ConstantJacobianRobot
-from mpc.robots.mobility import WheelSpec
-from mpc.robots.registry import register, register_sampler, register_wheel_set
+from mpc.robots.description.mobility import WheelSpec
+from mpc.robots.description.registry import register, register_sampler, register_wheel_set
+from mpc.robots.wheels.constant_jacobian import ConstantJacobianRobot
 from mpc.validation import body_points, checked_arguments, metres, real_array
 
 
@@ -184,7 +184,7 @@ def spherical(
 def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_wheel_speed: float,
                     max_steer_rate: float | None, max_wheel_accel: float | None,
                     name: str) -> SphericalRobot:
-    """Balls of a wheel set (:mod:`mpc.robots.wheel_set`)."""
+    """Balls of a wheel set (:mod:`mpc.robots.description.wheel_set`)."""
     return spherical(positions=[[spec.x, spec.y] for spec in specs], wheel_radius=wheel_radius,
                      max_wheel_speed=max_wheel_speed, max_wheel_accel=max_wheel_accel,
                      name=name, allow_unusual=True)

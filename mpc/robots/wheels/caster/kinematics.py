@@ -1,6 +1,6 @@
 """A caster vehicle's forward joint kinematics: the body twist of drive and steer rates at
 given steer angles (least squares over the contacts; the residual means slip). The
-conventions are in :mod:`mpc.robots.caster`'s docstring.
+conventions are in :mod:`mpc.robots.wheels.caster.robot`'s docstring.
 """
 
 from __future__ import annotations

@@ -17,8 +17,8 @@ Module ``i`` at body position ``p_i = (x_i, y_i)`` [m] moves at
   ``angle + pi`` and drives backwards instead (exactly 90 degrees does not
   flip); a module at (near) zero speed keeps its angle.
 
-Axle-offset modules (``axle_offset > 0``, Neobotix MPO-700): :mod:`mpc.robots.swerve_axle`.
-Module states (flip rule, modules at rest, aiming): :mod:`mpc.robots.swerve_states`.
+Axle-offset modules (``axle_offset > 0``, Neobotix MPO-700): :mod:`mpc.robots.wheels.swerve.axle`.
+Module states (flip rule, modules at rest, aiming): :mod:`mpc.robots.wheels.swerve.states`.
 """
 
 from __future__ import annotations
@@ -44,11 +44,16 @@ from mpc.plausibility import (
     check_plausible,
 )
 from mpc.robots.base import PlanarModules, Robot, SpeedRows, WheelCommands, as_twists
+from mpc.robots.description.mobility import WheelSpec
+from mpc.robots.description.registry import (
+    register,
+    register_sampler,
+    register_wheel_set,
+    steer_rate,
+)
 from mpc.robots.limits import StageLimits
-from mpc.robots.mobility import WheelSpec
-from mpc.robots.registry import register, register_sampler, register_wheel_set, steer_rate
-from mpc.robots.swerve_axle import axle_forward_kinematics, axle_speed_ratio
-from mpc.robots.swerve_limits import (
+from mpc.robots.wheels.swerve.axle import axle_forward_kinematics, axle_speed_ratio
+from mpc.robots.wheels.swerve.limits import (
     MOVING_MODULE_SPEED,
     STOPPED_MODULE_SPEED,
     linearised_stage_limits,
@@ -57,7 +62,7 @@ from mpc.robots.swerve_limits import (
     steering_fraction,
     update_linearised,
 )
-from mpc.robots.swerve_states import aimed_angles, module_states
+from mpc.robots.wheels.swerve.states import aimed_angles, module_states
 from mpc.validation import body_points, checked_arguments, metres, positive, shown
 
 __all__ = ["SwerveRobot", "swerve", "wrap_angle"]
@@ -265,7 +270,7 @@ class SwerveRobot(Robot):
                      polygon_sides: int | None) -> StageLimits:
         """Each module's speed disk linearised around the plan the solver starts from and
         its acceleration disk a constant 16-gon
-        (:func:`~mpc.robots.swerve_limits.linearised_stage_limits`), or with
+        (:func:`~mpc.robots.wheels.swerve.limits.linearised_stage_limits`), or with
         ``polygon_sides`` the constant polygon of :meth:`qp_speed_rows`. Always the
         polygon with an axle offset, and with a motor model: there the linearised disks'
         bolder plans took a motor 0.6 % over its current limit on the motor plant (the
@@ -281,7 +286,7 @@ class SwerveRobot(Robot):
 
     def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
         """A regular polygon midway between the ones inscribed in and circumscribed about
-        each module's disk (:func:`~mpc.robots.swerve_limits.qp_speed_rows`)."""
+        each module's disk (:func:`~mpc.robots.wheels.swerve.limits.qp_speed_rows`)."""
         return qp_speed_rows(self, polygon_sides)
 
     def casadi_limits(self, twist: ca.SX, bounds: FloatArray) -> tuple[ca.SX, FloatArray,
@@ -370,7 +375,7 @@ def swerve(
         max_steer_rate: steering rate limit [rad/s].
         max_wheel_accel: [rad/s^2] or None (bounds the module velocity vector's change).
         axle_offset: the wheel's offset along its axle from the steer axis [m] >= 0
-            (MPO-700-style modules; see :mod:`mpc.robots.swerve_axle`), 0 for centred
+            (MPO-700-style modules; see :mod:`mpc.robots.wheels.swerve.axle`), 0 for centred
             modules.
         allow_unusual: accept sizes and limits beyond any real robot's
             (:mod:`mpc.plausibility`); otherwise they raise RobotError naming the likely
@@ -391,7 +396,7 @@ def swerve(
 def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_wheel_speed: float,
                     max_steer_rate: float | None, max_wheel_accel: float | None,
                     name: str) -> SwerveRobot:
-    """Steered or axle-offset modules of a wheel set (:mod:`mpc.robots.wheel_set`), one
+    """Steered or axle-offset modules of a wheel set (:mod:`mpc.robots.description.wheel_set`), one
     lever for every module."""
     levers = {spec.lever or 0.0 for spec in specs}
     if len(levers) != 1:

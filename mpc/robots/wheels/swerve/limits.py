@@ -33,7 +33,7 @@ import numpy.typing as npt
 from mpc.arrays import FloatArray, IntArray
 from mpc.errors import RobotError
 from mpc.robots.limits import SpeedRows, StageLimits, outermost
-from mpc.robots.swerve_modules import SwerveModules
+from mpc.robots.wheels.swerve.modules import SwerveModules
 from mpc.validation import integer_at_least
 
 #: The NLP's steering rows, in module speed over its nominal limit (``a = v / max``,

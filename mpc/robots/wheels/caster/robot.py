@@ -37,7 +37,7 @@ Limits: drive rate ``|phidot_i| <= max_wheel_speed`` and steer rate
 the change of drive rate the change of twist asks for at the present angle,
 ``|D_i(beta) (xi_k - xi_{k-1})| <= max_wheel_accel dt`` (the angle's own contribution
 to the drive rate's change is not counted). How the solvers use them:
-:mod:`mpc.robots.caster_limits`.
+:mod:`mpc.robots.wheels.caster.limits`.
 
 In the :class:`~mpc.robots.base.Robot` interface a caster is a "wheel" whose velocity
 map ``W_i`` is its axis velocity over ``r`` (``wheel_dim`` 2): ``wheel_speeds(twist)``
@@ -68,18 +68,18 @@ from mpc.plausibility import (
     WHEEL_SPEED,
     check_plausible,
 )
-from mpc.robots import caster_limits
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
-from mpc.robots.caster_checks import (
+from mpc.robots.description.mobility import WheelSpec
+from mpc.robots.description.registry import register, register_wheel_set, steer_rate
+from mpc.robots.limits import StageLimits
+from mpc.robots.wheels.caster import limits as caster_limits
+from mpc.robots.wheels.caster.checks import (
     check_distinct_contacts,
     check_positions,
     joint_vector,
     per_caster,
 )
-from mpc.robots.caster_kinematics import joint_twist
-from mpc.robots.limits import StageLimits
-from mpc.robots.mobility import WheelSpec
-from mpc.robots.registry import register, register_wheel_set, steer_rate
+from mpc.robots.wheels.caster.kinematics import joint_twist
 from mpc.validation import checked_arguments, integer_at_least
 
 
@@ -344,7 +344,7 @@ def caster(
 def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_wheel_speed: float,
                     max_steer_rate: float | None, max_wheel_accel: float | None,
                     name: str) -> CasterRobot:
-    """Casters of a wheel set (:mod:`mpc.robots.wheel_set`)."""
+    """Casters of a wheel set (:mod:`mpc.robots.description.wheel_set`)."""
     return caster(positions=[[spec.x, spec.y] for spec in specs],
                   offset=[spec.offset or 0.0 for spec in specs], wheel_radius=wheel_radius,
                   max_wheel_speed=max_wheel_speed,

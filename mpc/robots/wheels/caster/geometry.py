@@ -1,6 +1,6 @@
 """What the caster helper modules (rows, prediction, clamp) read of a caster robot.
 
-:class:`~mpc.robots.caster.CasterRobot` satisfies it; the helpers take this protocol so
+:class:`~mpc.robots.wheels.caster.robot.CasterRobot` satisfies it; the helpers take this protocol so
 that they need not import the robot class that imports them.
 """
 

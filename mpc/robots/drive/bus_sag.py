@@ -1,6 +1,6 @@
 """The battery bus under the power a plan draws: the scale ``B(P) / E`` of the voltage
 rows' bound along the plan the solver starts from, its slope, and the power's gradient on
-the twists (for the Newton step of :func:`mpc.robots.motor_limits.update_stage_limits`).
+the twists (for the Newton step of :func:`mpc.robots.drive.motor_limits.update_stage_limits`).
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mpc.arrays import FloatArray
-from mpc.robots.force_map import ForceMap
+from mpc.robots.drive.force_map import ForceMap
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,7 +83,7 @@ def sag(forces: ForceMap, twists: FloatArray, previous: FloatArray, change_times
 
 
 def bus_voltages(open_circuit: float, resistance: float, power: FloatArray) -> FloatArray:
-    """:func:`~mpc.robots.dynamics.bus_voltage` for an array of powers [W]."""
+    """:func:`~mpc.robots.drive.dynamics.bus_voltage` for an array of powers [W]."""
     disc = np.maximum(open_circuit * open_circuit - 4.0 * resistance * np.maximum(power, 0.0),
                       0.0)
     return 0.5 * (open_circuit + np.sqrt(disc))

@@ -1,7 +1,7 @@
 """Wheel types by name: how a robot description (a TOML file, a dict) becomes a robot.
 
 Each wheel-type module registers its factories here (``register("swerve", swerve)``);
-:func:`~mpc.robots.files.from_dict` looks them up. A factory takes keyword
+:func:`~mpc.robots.description.files.from_dict` looks them up. A factory takes keyword
 arguments only, ``name`` among them; its other parameters are the keys a
 description may hold, and those without a default are required.
 """
@@ -64,7 +64,7 @@ def robot_types() -> tuple[str, ...]:
 
 
 #: Builders of a robot from a wheel set of one of the mobility analysis's wheel kinds
-#: (:mod:`mpc.robots.wheel_set`), registered by the wheel type that drives those wheels.
+#: (:mod:`mpc.robots.description.wheel_set`), registered by the wheel type that drives those wheels.
 _WHEEL_SETS: dict[str, Callable[..., Robot]] = {}
 
 
@@ -96,7 +96,7 @@ def steer_rate(kind: str, max_steer_rate: float | None) -> float:
 
 #: Random robot descriptions by name, for Monte-Carlo sweeps (``mpc-bench sweep --kinds``):
 #: each takes a seeded generator and returns a description for
-#: :func:`~mpc.robots.files.from_dict` without ``max_wheel_accel`` and ``name``.
+#: :func:`~mpc.robots.description.files.from_dict` without ``max_wheel_accel`` and ``name``.
 _SAMPLERS: dict[str, Callable[[np.random.Generator], dict[str, Any]]] = {}
 
 

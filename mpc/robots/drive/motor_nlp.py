@@ -1,4 +1,4 @@
-"""The motor limits in the exact NLP: the rows of :mod:`mpc.robots.motor_limits` as CasADi
+"""The motor limits in the exact NLP: the rows of :mod:`mpc.robots.drive.motor_limits` as CasADi
 expressions, with the Coriolis term, a steered wheel's drive direction ``v / |v|`` and the
 battery's sag of the plan itself (no linearisation)."""
 
@@ -9,7 +9,7 @@ import numpy as np
 
 from mpc.arrays import FloatArray
 from mpc.robots.base import Robot
-from mpc.robots.force_map import ForceMap, force_map
+from mpc.robots.drive.force_map import ForceMap, force_map
 
 #: [rad/s] smoothing of a steered wheel's direction ``v / sqrt(|v|^2 + eps^2)``.
 DIRECTION_SMOOTHING = 1e-3

@@ -1,7 +1,7 @@
 """A powered caster's limits for the solvers and the clamp, with the steer angles as states.
 
 The joint rates are linear in the twist for given steer angles (see
-:mod:`mpc.robots.caster`)::
+:mod:`mpc.robots.wheels.caster.robot`)::
 
     phidot_i  = D_i(beta_i) xi,  D_i = [cos b, sin b, px sin b - py cos b] / r
     betadot_i = S_i(beta_i) xi,  S_i = [-sin b, cos b, px cos b + py sin b - d] / d
@@ -39,8 +39,8 @@ import numpy as np
 from mpc.arrays import FloatArray
 from mpc.buffered import BufferedFunction
 from mpc.errors import RobotError
-from mpc.robots.caster_geometry import CasterGeometry
 from mpc.robots.limits import StageLimits
+from mpc.robots.wheels.caster.geometry import CasterGeometry
 
 #: Relative slack under which a joint counts as within its limit (rounding).
 _SLACK = 1e-12

@@ -2,10 +2,10 @@
 
 :class:`RobotDynamics` holds numbers only (SI units); attach it to any robot with
 :meth:`~mpc.robots.Robot.with_dynamics` (or a ``[dynamics]`` table in a robot file) and
-the solvers add the motor rows of :mod:`mpc.robots.motor_limits`; without it a robot
+the solvers add the motor rows of :mod:`mpc.robots.drive.motor_limits`; without it a robot
 keeps its kinematic limits alone. Every drive wheel (a Swedish wheel, a swerve module's
 drive, each actuator of a driven ball) has the same gearbox: ``motor`` (a
-:class:`~mpc.robots.motor.DCMotor` of ``count`` motors on one shaft) behind ``gearing``.
+:class:`~mpc.robots.drive.motor.DCMotor` of ``count`` motors on one shaft) behind ``gearing``.
 
 A robot file::
 
@@ -34,7 +34,7 @@ from typing import Any, Protocol
 
 from mpc.errors import RobotError
 from mpc.plausibility import MASS, check_plausible
-from mpc.robots.motor import MOTOR_PRESETS, DCMotor
+from mpc.robots.drive.motor import MOTOR_PRESETS, DCMotor
 from mpc.validation import integer_at_least, non_negative, positive, shown
 
 #: [m/s^2] gravity for the wheels' normal loads.

@@ -1,6 +1,6 @@
 """What the swerve helper modules (rows, states, axle offset) read of a swerve robot.
 
-:class:`~mpc.robots.swerve.SwerveRobot` satisfies it; the helpers take this protocol so
+:class:`~mpc.robots.wheels.swerve.robot.SwerveRobot` satisfies it; the helpers take this protocol so
 that they need not import the robot class that imports them.
 """
 

@@ -15,8 +15,8 @@ import numpy as np
 
 from mpc.angles import wrap_angle
 from mpc.arrays import FloatArray
-from mpc.robots.swerve_limits import STOPPED_MODULE_SPEED, turns
-from mpc.robots.swerve_modules import SwerveModules
+from mpc.robots.wheels.swerve.limits import STOPPED_MODULE_SPEED, turns
+from mpc.robots.wheels.swerve.modules import SwerveModules
 
 
 def module_states(velocities: FloatArray, steer_angles: FloatArray | None,

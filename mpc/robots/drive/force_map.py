@@ -22,7 +22,7 @@ loss). A failed wheel (derated to 0) takes no share. The force the floor puts on
 axis, ``|tau| / (r cos gamma)``; a swerve module along its torque vector, ``tau / r``;
 the two actuators of a ball add up at its one contact). The drive torque a motor gives
 is the effort along the wheel's rolling direction plus the wheel's own inertia
-``J dw/dt`` (``J``: :attr:`~mpc.robots.dynamics.RobotDynamics.wheel_inertia`); the
+``J dw/dt`` (``J``: :attr:`~mpc.robots.drive.dynamics.RobotDynamics.wheel_inertia`); the
 contact force does not include it.
 
 Static normal loads: the weight ``m g`` shared so that the loads balance about the body
@@ -42,7 +42,7 @@ import numpy as np
 
 from mpc.arrays import FloatArray, IntArray, readonly
 from mpc.errors import RobotError
-from mpc.robots.dynamics import GRAVITY, RobotDynamics
+from mpc.robots.drive.dynamics import GRAVITY, RobotDynamics
 
 
 class DrivenRobot(Protocol):

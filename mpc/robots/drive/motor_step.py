@@ -1,5 +1,5 @@
 """The first command within the motor limits: the clamp's step fraction and the
-feedforward a command carries (:mod:`mpc.robots.motor_limits` has the plan's rows)."""
+feedforward a command carries (:mod:`mpc.robots.drive.motor_limits` has the plan's rows)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import numpy.typing as npt
 
 from mpc.arrays import FloatArray
 from mpc.robots.base import Robot
-from mpc.robots.dynamics import bus_voltage
-from mpc.robots.force_map import AT_REST, ForceMap, force_map
+from mpc.robots.drive.dynamics import bus_voltage
+from mpc.robots.drive.force_map import AT_REST, ForceMap, force_map
 
 #: The share of each headroom (``headroom``, ``voltage_headroom``) the final clamp keeps for
 #: the first command (the plan keeps it all): the rest absorbs the plan's linearisation

@@ -17,7 +17,7 @@ of ``count`` motors on one shaft::
 shaft speed; :meth:`DCMotor.with_reduction` moves both to the far side of a
 gear reduction (torque times ``gearing``, speed divided by it).
 
-:class:`SysIdMotor` (SysId's ``kS, kV, kA`` per wheel) is in :mod:`mpc.robots.sysid_motor`.
+:class:`SysIdMotor` (SysId's ``kS, kV, kA`` per wheel) is in :mod:`mpc.robots.drive.sysid_motor`.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import math
 from dataclasses import dataclass, replace
 
 from mpc.errors import RobotError
-from mpc.robots.sysid_motor import SysIdMotor, Value
+from mpc.robots.drive.sysid_motor import SysIdMotor, Value
 from mpc.validation import integer_at_least, non_negative, positive, shown
 
 __all__ = ["MOTOR_PRESETS", "DCMotor", "SysIdMotor", "Value"]

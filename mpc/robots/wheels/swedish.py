@@ -32,9 +32,9 @@ from mpc.plausibility import (
     WHEEL_SPEED,
     check_plausible,
 )
-from mpc.robots.constant_jacobian import ConstantJacobianRobot
-from mpc.robots.mobility import WheelSpec
-from mpc.robots.registry import register, register_sampler, register_wheel_set
+from mpc.robots.description.mobility import WheelSpec
+from mpc.robots.description.registry import register, register_sampler, register_wheel_set
+from mpc.robots.wheels.constant_jacobian import ConstantJacobianRobot
 from mpc.validation import (
     MAX_COORDINATE,
     MAX_WHEELS,
@@ -296,8 +296,8 @@ register("mecanum", mecanum)
 def _from_wheel_set(specs: Sequence[WheelSpec], *, wheel_radius: float, max_wheel_speed: float,
                     max_steer_rate: float | None, max_wheel_accel: float | None,
                     name: str) -> SwedishRobot:
-    """Swedish wheels of a wheel set (:mod:`mpc.robots.wheel_set`): wheel ``(x, y)`` rolling
-    along ``heading`` has ``alpha = atan2(y, x)``, ``l = |(x, y)|`` and
+    """Swedish wheels of a wheel set (:mod:`mpc.robots.description.wheel_set`): wheel
+    ``(x, y)`` rolling along ``heading`` has ``alpha = atan2(y, x)``, ``l = |(x, y)|`` and
     ``beta = heading + pi / 2 - alpha``."""
     radius, speed, accel = wheel_limits(wheel_radius, max_wheel_speed, max_wheel_accel)
     wheels = []

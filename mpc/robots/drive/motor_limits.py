@@ -1,6 +1,6 @@
 """Motor-aware limits: battery voltage, motor current and traction as rows on the plan.
 
-For a robot with :class:`~mpc.robots.dynamics.RobotDynamics`, every stage ``k`` of a plan
+For a robot with :class:`~mpc.robots.drive.dynamics.RobotDynamics`, every stage ``k`` of a plan
 of twists (``u_{-1}``: the last command) gets, on top of the kinematic rows, per wheel::
 
     |V_end|, |V_start| <= (1 - voltage_headroom) V_bus   (battery voltage)
@@ -10,7 +10,7 @@ and per contact ``|F_c| <= (1 - headroom) mu N_c`` (traction), where over the ch
 from ``u_{k-1}`` to ``u_k`` (``change_times[k]`` seconds, a constant acceleration):
 
 - the body acceleration is ``a_k = (u_k - u_{k-1}) / change_times[k] + coriolis(ubar_k)``
-  (:mod:`mpc.robots.force_map`), the wheel torque ``T = D (u_k - u_{k-1}) / dt + E c``
+  (:mod:`mpc.robots.drive.force_map`), the wheel torque ``T = D (u_k - u_{k-1}) / dt + E c``
   (minimum-norm efforts plus wheel inertia) and the contact force ``F = C a_k``;
 - the voltage a wheel's gearbox needs, ``V = w / kv + R T / kt``, is affine in time over
   the change, so it is bounded at both ends: at the speed the change ends with
@@ -35,10 +35,10 @@ lateral force when the current limit is below the traction limit. The NLP uses t
 components along ``e = v / |v|`` exactly. Traction: a disk, a polygon in the QP
 (turned to the planned force, the edge facing it tangent to the disk).
 
-The rows themselves are built once in :mod:`mpc.robots.motor_rows`, the bus's sag in
-:mod:`mpc.robots.bus_sag`; this module lays them on the stages and refills them each tick.
-The NLP's exact versions are in :mod:`mpc.robots.motor_nlp`; the first command is kept
-within the same limits by the clamp (:mod:`mpc.robots.motor_step`), the present wheel
+The rows themselves are built once in :mod:`mpc.robots.drive.motor_rows`, the bus's sag in
+:mod:`mpc.robots.drive.bus_sag`; this module lays them on the stages and refills them each tick.
+The NLP's exact versions are in :mod:`mpc.robots.drive.motor_nlp`; the first command is kept
+within the same limits by the clamp (:mod:`mpc.robots.drive.motor_step`), the present wheel
 speeds being the last command's.
 """
 
@@ -51,10 +51,10 @@ import numpy.typing as npt
 
 from mpc.arrays import FloatArray
 from mpc.robots.base import Robot
-from mpc.robots.bus_sag import bus_voltages, sag
-from mpc.robots.force_map import AT_REST, ForceMap, force_map
+from mpc.robots.drive.bus_sag import bus_voltages, sag
+from mpc.robots.drive.force_map import AT_REST, ForceMap, force_map
+from mpc.robots.drive.motor_rows import DRIVE, FIXED, FORCE, TRACTION_SIDES, MotorRows, motor_rows
 from mpc.robots.limits import StageLimits
-from mpc.robots.motor_rows import DRIVE, FIXED, FORCE, TRACTION_SIDES, MotorRows, motor_rows
 
 __all__ = ["LINEARISE_CORIOLIS", "TRACTION_SIDES", "MotorRows", "MotorStageLimits",
            "bus_voltages", "motor_rows", "stage_limits", "update_stage_limits"]

@@ -26,7 +26,7 @@ from scipy.linalg import lapack
 
 from mpc.arrays import FloatArray
 from mpc.robots.checks import as_twists
-from mpc.robots.swerve_modules import SwerveModules
+from mpc.robots.wheels.swerve.modules import SwerveModules
 
 
 def axle_speed_ratio(robot: SwerveModules, twist: ArrayLike) -> FloatArray | float:

@@ -1,6 +1,6 @@
 """The motor rows of a robot: its voltage, current and traction rows as one table, before
 the change time and the plan the solver starts from enter (the math is in
-:mod:`mpc.robots.motor_limits`, which refills them each tick).
+:mod:`mpc.robots.drive.motor_limits`, which refills them each tick).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from mpc.arrays import BoolArray, FloatArray
-from mpc.robots.force_map import ForceMap, apothem
+from mpc.robots.drive.force_map import ForceMap, apothem
 
 #: Sides of the polygon standing in for a 2-D contact's traction disk in the QP, turned
 #: each tick so that one edge faces the force the plan it starts from asks of the contact.

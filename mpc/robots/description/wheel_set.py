@@ -1,7 +1,7 @@
 """Robots from a wheel-set description (``type = "wheels"``), refused unless omnidirectional.
 
 A robot file may list its wheels by the types of the mobility analysis
-(:mod:`mpc.robots.mobility`: ``fixed``, ``steered``, ``caster``, ``swedish``,
+(:mod:`mpc.robots.description.mobility`: ``fixed``, ``steered``, ``caster``, ``swedish``,
 ``spherical``, ``axle_offset``; positions ``x``, ``y`` [m] in the body frame) with the
 limits shared by every wheel::
 
@@ -21,11 +21,11 @@ Loading first runs the mobility analysis: a wheel set whose manoeuvrability
 sliding constraint) cannot follow an arbitrary pose trajectory and is refused with a
 one-line error naming its degree of mobility and degree of steerability. An
 omnidirectional set of one wheel type becomes the robot of the wheel type registered for
-it (:func:`~mpc.robots.registry.register_wheel_set`): casters a
-:class:`~mpc.robots.caster.CasterRobot`, steered or axle-offset modules a
-:class:`~mpc.robots.swerve.SwerveRobot` (one lever for every module), balls a
-:class:`~mpc.robots.spherical.SphericalRobot`, Swedish wheels a
-:class:`~mpc.robots.swedish.SwedishRobot` (``heading`` the rolling direction,
+it (:func:`~mpc.robots.description.registry.register_wheel_set`): casters a
+:class:`~mpc.robots.wheels.caster.robot.CasterRobot`, steered or axle-offset modules a
+:class:`~mpc.robots.wheels.swerve.robot.SwerveRobot` (one lever for every module), balls a
+:class:`~mpc.robots.wheels.spherical.SphericalRobot`, Swedish wheels a
+:class:`~mpc.robots.wheels.swedish.SwedishRobot` (``heading`` the rolling direction,
 ``gamma`` the roller angle).
 """
 
@@ -45,8 +45,8 @@ from mpc.plausibility import (
     check_plausible,
 )
 from mpc.robots.base import Robot
-from mpc.robots.mobility import parse_wheels, require_omnidirectional
-from mpc.robots.registry import register, wheel_set_builder
+from mpc.robots.description.mobility import parse_wheels, require_omnidirectional
+from mpc.robots.description.registry import register, wheel_set_builder
 
 
 def wheel_set(

@@ -12,13 +12,13 @@ arguments of its factory::
     max_wheel_accel = 40.0      # [rad/s^2], optional
 
 ``type = "swedish"`` takes ``[[wheels]]`` tables with the fields of
-:class:`~mpc.robots.swedish.SwedishWheel`; ``type = "caster"`` the arguments of
-:func:`~mpc.robots.caster.caster` (``positions``, ``offset``, ``max_steer_rate``, ...);
+:class:`~mpc.robots.wheels.swedish.SwedishWheel`; ``type = "caster"`` the arguments of
+:func:`~mpc.robots.wheels.caster.robot.caster` (``positions``, ``offset``, ``max_steer_rate``, ...);
 ``type = "swerve"`` an optional ``axle_offset`` [m]; ``type = "wheels"`` a wheel set by
-the mobility analysis's types (:mod:`mpc.robots.wheel_set`), refused with a one-line
+the mobility analysis's types (:mod:`mpc.robots.description.wheel_set`), refused with a one-line
 error naming its degree of mobility and steerability when it cannot follow an arbitrary
 pose trajectory. An optional ``[dynamics]`` table describes mass, motors, battery and
-traction (:mod:`mpc.robots.dynamics`). Unknown keys are an error.
+traction (:mod:`mpc.robots.drive.dynamics`). Unknown keys are an error.
 
 Sizes and limits beyond any real robot's (a wheelbase over 5 m, a wheel radius over
 0.5 m, a wheel speed limit over 1000 rad/s, a mass over 100 t, ...: :mod:`mpc.plausibility`)
@@ -36,8 +36,8 @@ from typing import Any
 
 from mpc.errors import RobotError
 from mpc.robots.base import Robot
-from mpc.robots.dynamics import dynamics_from_dict
-from mpc.robots.registry import robot_type
+from mpc.robots.description.registry import robot_type
+from mpc.robots.drive.dynamics import dynamics_from_dict
 from mpc.validation import file_text, parsed, shown
 
 if sys.version_info >= (3, 11):
@@ -45,11 +45,27 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-#: Names of the shipped layouts, usable with :func:`preset`.
+#: Names of the project's layouts, usable with :func:`preset` (every shipped preset is,
+#: :func:`shipped_presets`).
 PRESETS: tuple[str, ...] = ("omni3", "omni4", "mecanum", "swerve", "ball3", "caster4", "mpo700")
-#: The founding documents' robots, usable with :func:`preset` too; each has its source's
-#: wheel order, signs and units in :data:`mpc.robots.conventions.CONVENTIONS`.
+#: The founding documents' robots; each has its source's wheel order, signs and units in
+#: :data:`mpc.robots.description.conventions.CONVENTIONS`.
 SEED_PRESETS: tuple[str, ...] = ("jetauto", "kosen-mecanum", "kosen-omni4", "swedish3")
+_MOTORS = "-motors"  # the suffix of a layout's file with motors (:func:`motor_preset`)
+
+
+def _presets_folder() -> Any:
+    return resources.files("mpc.robots.description").joinpath("presets")
+
+
+def shipped_presets() -> tuple[str, ...]:
+    """Every preset :func:`preset` takes: :data:`PRESETS`, :data:`SEED_PRESETS`, then any
+    other file in the presets folder (a new wheel type's), by name."""
+    files = sorted(entry.name.removesuffix(".toml") for entry in _presets_folder().iterdir()
+                   if entry.name.endswith(".toml") and not entry.name.endswith(
+                       f"{_MOTORS}.toml"))
+    return PRESETS + SEED_PRESETS + tuple(name for name in files
+                                          if name not in PRESETS + SEED_PRESETS)
 
 
 def from_dict(description: Mapping[str, Any], source: str = "robot description") -> Robot:
@@ -87,14 +103,13 @@ def load(path: str | Path) -> Robot:
 
 
 def preset(name: str, **overrides: Any) -> Robot:
-    """A shipped robot by name, one of :data:`PRESETS` or :data:`SEED_PRESETS`;
-    ``overrides`` replace its file's top-level keys (``preset("jetauto", max_wheel_speed=2.0
-    * 2 * math.pi)``: a 2 rev/s motor limit), checked as a robot file's keys are."""
-    if name not in PRESETS + SEED_PRESETS:
-        raise RobotError(f"unknown robot preset {name!r}; expected one of "
-                         f"{list(PRESETS + SEED_PRESETS)}")
-    folder = resources.files("mpc.robots").joinpath("presets")
-    text = folder.joinpath(f"{name}.toml").read_text("utf-8")
+    """A shipped robot by name, one of :func:`shipped_presets`; ``overrides`` replace its
+    file's top-level keys (``preset("jetauto", max_wheel_speed=2.0 * 2 * math.pi)``: a 2
+    rev/s motor limit), checked as a robot file's keys are."""
+    names = shipped_presets()
+    if name not in names:
+        raise RobotError(f"unknown robot preset {name!r}; expected one of {list(names)}")
+    text = _presets_folder().joinpath(f"{name}.toml").read_text("utf-8")
     return from_dict({**tomllib.loads(text), **overrides}, source=f"preset {name!r}")
 
 
@@ -110,6 +125,5 @@ def motor_preset(name: str) -> Robot:
     if name not in MOTOR_ROBOT_PRESETS:
         raise RobotError(f"no motor preset {name!r}; expected one of "
                          f"{list(MOTOR_ROBOT_PRESETS)}")
-    folder = resources.files("mpc.robots").joinpath("presets")
-    text = folder.joinpath(f"{name}-motors.toml").read_text("utf-8")
+    text = _presets_folder().joinpath(f"{name}{_MOTORS}.toml").read_text("utf-8")
     return from_dict(tomllib.loads(text), source=f"motor preset {name!r}")
