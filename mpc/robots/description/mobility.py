@@ -53,7 +53,7 @@ steered wheels the rule is ``dm = 3``.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -70,17 +70,36 @@ RANK_TOLERANCE = 1e-9
 _DRAWS = 3
 _SEED = 20240516
 
+class WheelKind(NamedTuple):
+    """One of the analysis's wheel types: its keys besides ``type``, the sliding
+    constraint it adds, and what else its values must satisfy."""
+
+    required: frozenset[str]
+    optional: frozenset[str] = frozenset()
+    #: ``"fixed"``: a sliding row along ``heading``; ``"steered"``: one that turns with its
+    #: steer angle; ``None``: none (it can roll or slide every way the body moves it).
+    sliding: str | None = None
+    #: (a key, a condition on its value (0 when absent), what the error says of it), or
+    #: None.
+    rule: tuple[str, Callable[[float], bool], str] | None = None
+
+
+#: The wheel types by name.
+WHEEL_KINDS: dict[str, WheelKind] = {
+    "fixed": WheelKind(frozenset({"x", "y", "heading"}), sliding="fixed"),
+    "steered": WheelKind(frozenset({"x", "y"}), frozenset({"heading"}), sliding="steered"),
+    "caster": WheelKind(frozenset({"x", "y", "offset"}), frozenset({"heading"}), rule=(
+        "offset", lambda offset: offset > 0.0, "must be > 0 (the contact trails the steer axis)")),
+    "swedish": WheelKind(frozenset({"x", "y", "heading"}), frozenset({"gamma"}), rule=(
+        "gamma", lambda gamma: abs(math.cos(gamma)) >= 1e-9,
+        "must not be +-pi/2 (rollers parallel to the axle: that is a fixed wheel, type 'fixed')")),
+    "spherical": WheelKind(frozenset({"x", "y"})),
+    "axle_offset": WheelKind(frozenset({"x", "y", "lever"}), frozenset({"heading"}),
+                             sliding="steered"),
+}
 #: Per wheel type: (required keys, optional keys) besides ``type``.
 WHEEL_KEYS: dict[str, tuple[frozenset[str], frozenset[str]]] = {
-    "fixed": (frozenset({"x", "y", "heading"}), frozenset()),
-    "steered": (frozenset({"x", "y"}), frozenset({"heading"})),
-    "caster": (frozenset({"x", "y", "offset"}), frozenset({"heading"})),
-    "swedish": (frozenset({"x", "y", "heading"}), frozenset({"gamma"})),
-    "spherical": (frozenset({"x", "y"}), frozenset()),
-    "axle_offset": (frozenset({"x", "y", "lever"}), frozenset({"heading"})),
-}
-#: Wheel types whose sliding constraint turns with a steer angle.
-_STEERED = ("steered", "axle_offset")
+    name: (kind.required, kind.optional) for name, kind in WHEEL_KINDS.items()}
 
 
 class Mobility(NamedTuple):
@@ -148,12 +167,9 @@ def _parse_wheel(table: object, where: str) -> WheelSpec:
         values[key] = bounded(f"{where}.{key}", table[key],
                               MAX_COORDINATE if angle else MAX_LENGTH,
                               "[rad]" if angle else "[m]", RobotError)
-    if kind == "caster" and values["offset"] <= 0.0:
-        raise RobotError(f"{where}.offset must be > 0 (the contact trails the steer axis), "
-                         f"got {table['offset']!r}")
-    if kind == "swedish" and abs(math.cos(values.get("gamma", 0.0))) < 1e-9:
-        raise RobotError(f"{where}.gamma must not be +-pi/2 (rollers parallel to the axle: "
-                         "that is a fixed wheel, type 'fixed')")
+    rule = WHEEL_KINDS[kind].rule
+    if rule is not None and not rule[1](values.get(rule[0], 0.0)):
+        raise RobotError(f"{where}.{rule[0]} {rule[2]}, got {shown(table[rule[0]])}")
     return WheelSpec(kind=kind, **values)
 
 
@@ -194,8 +210,9 @@ def wheel_mobility(wheels: Sequence[WheelSpec]) -> Mobility:
     size = float(np.hypot(points[:, 0], points[:, 1]).max(initial=0.0))
     points = points / (size if size > 0.0 else 1.0)
     kinds = [w.kind for w in wheels]
-    fixed = np.array([k == "fixed" for k in kinds])
-    steered = np.array([k in _STEERED for k in kinds])
+    sliding = [WHEEL_KINDS[k].sliding for k in kinds]
+    fixed = np.array([s == "fixed" for s in sliding])
+    steered = np.array([s == "steered" for s in sliding])
     headings = np.array([w.heading if w.heading is not None else 0.0 for w in wheels])
     fixed_rows = _sliding_rows(points[fixed], headings[fixed])
     rank_fixed = _rank(fixed_rows)
