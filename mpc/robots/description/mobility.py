@@ -15,6 +15,8 @@ axle_offset    x, y, lever, (heading)    as steered (see below)
 caster         x, y, offset, (heading)   none: the free steer rate absorbs it
 swedish        x, y, heading, (gamma)    none: the rollers absorb it
 spherical      x, y                      none
+slider         x, y, (heading)           none while the slider is free (its rate absorbs
+                                         it; at a stroke end it is a steered wheel)
 =============  ========================  ==================================================
 
 With ``v(P) = (vx - omega*y, vy + omega*x)`` the row of a wheel at steer or rolling
@@ -96,6 +98,9 @@ WHEEL_KINDS: dict[str, WheelKind] = {
     "spherical": WheelKind(frozenset({"x", "y"})),
     "axle_offset": WheelKind(frozenset({"x", "y", "lever"}), frozenset({"heading"}),
                              sliding="steered"),
+    # a steered wheel on a radial slider: the slider takes up the axle's motion, so a unit
+    # whose slider is free adds no sliding constraint (at an end it is a steered wheel)
+    "slider": WheelKind(frozenset({"x", "y"}), frozenset({"heading"})),
 }
 #: Per wheel type: (required keys, optional keys) besides ``type``.
 WHEEL_KEYS: dict[str, tuple[frozenset[str], frozenset[str]]] = {
