@@ -160,8 +160,8 @@ DATA = Path(__file__).parent / "data"
          "--speeds apply to the built-in shapes"),
         (["--trajectory", str(DATA / "minimal.traj"), "--layouts", "mecanum"],
          "--layouts apply to the built-in shapes"),
-        (["--plant", "motor", "--robot", str(DATA.parent.parent / "mpc" / "robots" / "presets"
-                                               / "omni3.toml"), "--layouts", "mecanum",
+        (["--plant", "motor", "--robot", str(DATA.parent.parent / "mpc" / "robots" / "description"
+                                               / "presets" / "omni3.toml"), "--layouts", "mecanum",
           "--quick"], "--plant motor drives robots through their motor models"),
     ],
 )

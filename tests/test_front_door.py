@@ -98,7 +98,8 @@ def test_files_that_are_not_utf8_or_too_large_are_named(tmp_path: Path,
         load(tmp_path)  # a folder
     marked = tmp_path / "marked.toml"
     marked.write_bytes(b"\xef\xbb\xbf" + (Path(__file__).parent.parent / "mpc" / "robots"
-                                          / "presets" / "mecanum.toml").read_bytes())
+                                          / "description" / "presets" / "mecanum.toml"
+                                          ).read_bytes())
     assert load(marked).n_wheels == 4  # a byte-order mark is fine
     import mpc.validation
 
