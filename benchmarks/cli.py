@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from benchmarks.eta import EtaEstimator, format_seconds
 from benchmarks.executor import RunPool, check_pool_options
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.progress import Progress
@@ -58,6 +59,7 @@ from benchmarks.scenarios import (
     robots,
     seed,
 )
+from benchmarks.verdict import verdict
 from mpc.errors import MpcError, ReportError
 from mpc.plot.results import counted
 from mpc.robots import motor_preset
@@ -251,39 +253,52 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     out = claim(args.out, writes, args.force)
     started = time.perf_counter()
     failed: list[dict[str, Any]] = []
-    with RunPool(args.workers, args.scheduler) as pool, Progress(total, "runs") as progress:
-        progress.print(f"mpc-bench: {counted(len(scenarios), 'scenario')} x "
-                       f"{counted(len(controllers), 'controller')} "
-                       f"({total} runs), plant {args.plant}, horizon {args.horizon}, "
-                       f"dt {args.dt} s, on {pool.description}")
-        for note in pool.notes:
-            progress.print(f"mpc-bench: note: {note}")
-        if skipped:
-            progress.print(f"mpc-bench: note: not run, as they do not apply: {', '.join(skipped)}")
-        runs = run_all(scenarios, controllers, settings, args.duration, args.skip, args.plant,
-                       args.seed, progress.advance, pool, failed,
-                       command_ramp=None if args.command_ramp else False)
-    document = results_document(
-        runs,
-        command=" ".join(["mpc-bench", *argv]),
-        settings={"horizon": args.horizon, "dt": args.dt, "polygon_sides": args.polygon_sides,
-                  "duration": args.duration,
-                  "plant": args.plant, "command_ramp": args.plant == "motor" and args.command_ramp,
-                  "skip": args.skip, "headings": headings,
-                  "seed": args.seed,
-                  "trajectory_files": [str(file.path) for file in files]},
-    )
-    if failed:  # kept beside the runs, out of the tables and figures
-        document["meta"]["failed_runs"] = [
-            {key: value for key, value in run.items() if key != "traceback"} for run in failed]
-    (out / "results.json").write_text(json.dumps(document))
-    write_csv(runs, out / "results.csv")
-    print()
-    print(summary_table(runs))
-    print(f"\nwrote {out / 'results.json'} and {out / 'results.csv'} "
-          f"({time.perf_counter() - started:.0f} s)")
-    if not args.no_report:
-        _write_report(document, out / "report", args.workers or os.cpu_count() or 1)
+    workers = args.workers or os.cpu_count() or 1
+    estimator = EtaEstimator()
+    if not args.no_report:  # the report's figures: one per run, one per scenario, two more
+        estimator.plan_report(total, len(scenarios) + 2)
+    with Progress(total, "runs", estimator=estimator) as progress:
+        with RunPool(args.workers, args.scheduler) as pool:
+            progress.print(f"mpc-bench: {counted(len(scenarios), 'scenario')} x "
+                           f"{counted(len(controllers), 'controller')} "
+                           f"({total} runs), plant {args.plant}, horizon {args.horizon}, "
+                           f"dt {args.dt} s, on {pool.description}")
+            for note in pool.notes:
+                progress.print(f"mpc-bench: note: {note}")
+            if skipped:
+                progress.print(f"mpc-bench: note: not run, as they do not apply: "
+                               f"{', '.join(skipped)}")
+            runs = run_all(scenarios, controllers, settings, args.duration, args.skip,
+                           args.plant, args.seed, progress.advance, pool, failed,
+                           command_ramp=None if args.command_ramp else False,
+                           estimator=estimator)
+        document = results_document(
+            runs,
+            command=" ".join(["mpc-bench", *argv]),
+            settings={"horizon": args.horizon, "dt": args.dt,
+                      "polygon_sides": args.polygon_sides, "duration": args.duration,
+                      "plant": args.plant,
+                      "command_ramp": args.plant == "motor" and args.command_ramp,
+                      "skip": args.skip, "headings": headings,
+                      "seed": args.seed,
+                      "trajectory_files": [str(file.path) for file in files]},
+        )
+        if failed:  # kept beside the runs, out of the tables and figures
+            document["meta"]["failed_runs"] = [
+                {key: value for key, value in run.items() if key != "traceback"}
+                for run in failed]
+        (out / "results.json").write_text(json.dumps(document))
+        write_csv(runs, out / "results.csv")
+        progress.print("")
+        progress.print(summary_table(runs))
+        progress.print(f"\nwrote {out / 'results.json'} and {out / 'results.csv'} "
+                       f"({time.perf_counter() - started:.0f} s)")
+        index = None
+        if not args.no_report and runs:
+            index = _write_report(document, out / "report", workers, progress)
+    shown = index if index is not None else out / "results.json"
+    print(f"mpc-bench: {verdict(runs)}; {'report' if index else 'results'}: {shown} "
+          f"({format_seconds(time.perf_counter() - started)} in all)")
     if failed:
         print(f"mpc-bench: {len(failed)} run(s) failed (listed in results.json meta.failed_runs)",
               file=sys.stderr)
@@ -291,16 +306,33 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     return 0
 
 
-def _write_report(document: dict[str, Any], folder: Path, workers: int = 1) -> None:
+def _write_report(document: dict[str, Any], folder: Path, workers: int = 1,
+                  progress: Progress | None = None) -> Path:
+    """The report of ``document`` in ``folder``, its figures counted on ``progress`` (a
+    display of its own if None); returns the page's path."""
     from benchmarks.report import write_report  # matplotlib only when asked for
 
-    with Progress(0, "report figures") as progress:
-        def on_figure(done: int, total: int) -> None:
-            every = not progress.live and (done == total or done % 10 == 0)
-            progress.update(done, total, f"report: {done}/{total} figures" if every else None)
+    runs = document["runs"]
+    if progress is None:
+        own_eta = EtaEstimator()
+        own_eta.plan_runs([], workers)
+        scenarios = {tuple(run.get(key) for key in ("layout", "trajectory", "heading", "speed"))
+                     for run in runs}
+        own_eta.plan_report(len(runs), len(scenarios) + 2)
+        with Progress(0, "report", estimator=own_eta) as own:
+            return _write_report(document, folder, workers, own)
+    estimator = progress.estimator
+    if estimator is not None:
+        estimator.report_started()
+    progress.stage("report figures", 0)
 
-        index = write_report(document, folder, on_figure=on_figure, workers=workers)
-    print(f"wrote {index}")
+    def on_figure(done: int, total: int) -> None:
+        if estimator is not None:
+            estimator.report_progress(done, total)
+        every = not progress.live and (done == total or done % 10 == 0)
+        progress.update(done, total, f"report: {done}/{total} figures" if every else None)
+
+    return write_report(document, folder, on_figure=on_figure, workers=workers)
 
 
 def _report_parser() -> Parser:
@@ -333,9 +365,10 @@ def report(argv: list[str]) -> int:
     folder = claim(Path(args.out) if args.out else mine, ("index.html",),
                    args.force or args.out is None)
     try:
-        _write_report(document, folder, args.workers or os.cpu_count() or 1)
+        index = _write_report(document, folder, args.workers or os.cpu_count() or 1)
     except ReportError as error:  # a damaged field found while drawing: name the file
         raise ReportError(f"results file {str(path)!r}: {error}") from None
+    print(f"wrote {index}")
     return 0
 
 

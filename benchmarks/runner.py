@@ -33,6 +33,7 @@ from trajectories import SampledTrajectory, Trajectory, Waypoints, feasibility, 
 from trajectories.sampled import _SampledHeading  # a sampled theta is described by the samples
 
 if TYPE_CHECKING:
+    from benchmarks.eta import EtaEstimator
     from benchmarks.executor import RunPool
 
 
@@ -123,6 +124,7 @@ def run_all(
     pool: RunPool | None = None,
     failed: list[dict[str, Any]] | None = None,
     command_ramp: bool | None = None,
+    estimator: EtaEstimator | None = None,
 ) -> list[dict[str, Any]]:
     """Simulate every scenario with every controller on ``pool`` (default: in this
     process); print one line per run as it finishes; return the runs in plan order.
@@ -130,6 +132,8 @@ def run_all(
     A run that raised is left out of the result and appended to ``failed`` (its labels and
     an ``"error"``), and the other runs go on. ``command_ramp``: what the MPCs are told of
     the wheel loops (:attr:`~benchmarks.executor.RunSpec.command_ramp`; None: per plant).
+    ``estimator`` (if any) learns the runs' times for the ETA
+    (:meth:`benchmarks.executor.RunPool.run`).
     """
     from benchmarks.executor import MPC_CONTROLLERS, RunPool, RunSpec
     from benchmarks.executor import optimal_lap as yardstick
@@ -151,7 +155,8 @@ def run_all(
     widths = {key: max(len(str(spec.labels[key])) for spec in specs) if specs else 0
               for key in ("layout", "trajectory", "heading", "speed")}
     widths["controller"] = max((len(name) for _, name in plan), default=0)
-    results = executor.run(specs, log, line=functools.partial(_run_line, widths=widths))
+    results = executor.run(specs, log, line=functools.partial(_run_line, widths=widths),
+                           estimator=estimator)
     if failed is not None:
         failed.extend(result for result in results if "error" in result)
     return [result for result in results if "error" not in result]
