@@ -8,7 +8,7 @@
     mpc-bench --trajectory FILE  run a Choreo .traj on its own robot (or a CSV on the layouts)
     mpc-bench COMMAND [options]  one of :data:`COMMANDS` (``mpc-bench --help`` lists them)
 
-No option is matched by a prefix (``--speed 2`` is an error); a command refuses to write
+No option is matched by a prefix (``--control`` is an error); a command refuses to write
 into an ``--out`` folder that holds its results already, unless given ``--force``. On a
 terminal, long commands draw a progress bar with an ETA (:mod:`benchmarks.progress`);
 elsewhere they print one plain line per finished run. Shell completion, if
@@ -35,6 +35,7 @@ from typing import Any
 
 from benchmarks.eta import EtaEstimator, format_seconds
 from benchmarks.executor import RunPool, check_pool_options
+from benchmarks.options import add_list_option
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.progress import Progress
 from benchmarks.reference_files import file_scenarios, read_reference
@@ -55,6 +56,7 @@ from benchmarks.scenarios import (
     check_plan_sizes,
     choose,
     csv_reference,
+    did_you_mean,
     parse_speeds,
     robots,
     seed,
@@ -86,19 +88,21 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
         epilog="Other commands: " + ", ".join(name for name in COMMANDS if name != "run")
                + " (mpc-bench --help lists them; mpc-bench COMMAND --help for each).",
     )
-    parser.add_argument("--layouts", help=f"comma list of {', '.join(PRESETS)} "
-                                          f"(default: {', '.join(DEFAULT_LAYOUTS)})")
-    parser.add_argument("--trajectories",
-                        help=f"comma list of {', '.join(ALL_TRAJECTORIES)} "
-                             f"(default: {', '.join(TRAJECTORIES)})")
-    parser.add_argument("--speeds", help="comma list of inside (peak wheel speed 0.8 x limit), "
-                                         "beyond (1.3 x) or peak ratios like 1.1 (default: both)")
-    parser.add_argument("--controllers",
-                        help=f"comma list of {', '.join(CONTROLLERS)} "
-                             f"(default: {', '.join(DEFAULT_CONTROLLERS)})")
-    parser.add_argument("--heading", metavar="HEADINGS",
-                        help=f"comma list of heading profiles, {', '.join(HEADINGS)} "
-                             f"(default: {','.join(DEFAULT_HEADINGS)})")
+    add_list_option(parser, "--layouts",
+                    help=f"comma list of {', '.join(PRESETS)} "
+                         f"(default: {', '.join(DEFAULT_LAYOUTS)})")
+    add_list_option(parser, "--trajectories",
+                    help=f"comma list of {', '.join(ALL_TRAJECTORIES)} "
+                         f"(default: {', '.join(TRAJECTORIES)})")
+    add_list_option(parser, "--speeds",
+                    help="comma list of inside (peak wheel speed 0.8 x limit), beyond (1.3 x) "
+                         "or peak ratios like 1.1 (default: both)")
+    add_list_option(parser, "--controllers",
+                    help=f"comma list of {', '.join(CONTROLLERS)} "
+                         f"(default: {', '.join(DEFAULT_CONTROLLERS)})")
+    add_list_option(parser, "--headings",
+                    help=f"comma list of heading profiles, {', '.join(HEADINGS)} "
+                         f"(default: {','.join(DEFAULT_HEADINGS)})")
     parser.add_argument("--horizon", type=int, default=20, help="MPC horizon in ticks (20)")
     parser.add_argument("--dt", type=float, default=0.05, help="control tick [s] (0.05)")
     parser.add_argument("--polygon-sides", type=int,
@@ -187,9 +191,9 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     shapes = args.trajectories is not None or not files  # files alone: only the files
     if files and not shapes:
         own_robots = all(file.robot is not None for file in files)  # Choreo files only
-        ignored = [flag for flag, value in (("--speeds", args.speeds), ("--heading", args.heading),
-                                            ("--layouts", args.layouts if own_robots else None))
-                   if value is not None]
+        given = (("--speeds", args.speeds), ("--headings", args.headings),
+                 ("--layouts", args.layouts if own_robots else None))
+        ignored = [flag for flag, value in given if value is not None]
         if ignored:
             raise ScenarioError(f"{' and '.join(ignored)} apply to the built-in shapes; files "
                                 "given with --trajectory run as timed, a .traj on its own "
@@ -198,7 +202,7 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     if args.quick:  # defaults for what was not given (a given value is kept, checked above)
         args.layouts = "mecanum" if args.layouts is None else args.layouts
         args.trajectories = "figure8" if args.trajectories is None else args.trajectories
-        args.heading = "fixed" if args.heading is None else args.heading
+        args.headings = "fixed" if args.headings is None else args.headings
         args.duration = 3.0 if args.duration is None else args.duration
     if args.skip is not None and args.duration is not None and args.skip > 0.5 * args.duration:
         raise ScenarioError(f"--skip {args.skip:g} s must be at most half of --duration "
@@ -225,7 +229,7 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
                           TRAJECTORIES)
     controllers = choose("--controllers", "controller", args.controllers, CONTROLLERS,
                          DEFAULT_CONTROLLERS)
-    headings = choose("--heading", "heading", args.heading, HEADINGS, DEFAULT_HEADINGS)
+    headings = choose("--headings", "heading", args.headings, HEADINGS, DEFAULT_HEADINGS)
     speeds = parse_speeds(args.speeds)
     for file in files:
         if file.robot is not None and args.plant == "motor":
@@ -448,6 +452,7 @@ def main(argv: list[str] | None = None) -> int:
             _complete()
         argv = sys.argv[1:]
     argv = list(argv)
+    prog = f"mpc-bench {argv[0]}" if argv and argv[0] in COMMANDS else "mpc-bench"
     try:
         if argv and argv[0] in ("-h", "--help"):
             command_parser().print_help()
@@ -461,15 +466,16 @@ def main(argv: list[str] | None = None) -> int:
             command = COMMANDS[argv[0]]
             return command.function(command.main)(argv[1:])  # type: ignore[no-any-return]
         if argv and not argv[0].startswith("-"):
-            raise ScenarioError(f"unknown command {argv[0]!r}; commands: "
-                                f"{', '.join(COMMANDS)} (or options of run: mpc-bench --help)")
+            raise ScenarioError(f"unknown command {argv[0]!r}{did_you_mean(argv[0], COMMANDS)}; "
+                                f"commands: {', '.join(COMMANDS)} (or options of run: "
+                                "mpc-bench --help)")
         return run(argv, prog="mpc-bench")
     except (MpcError, OSError) as error:
         # Every bad option, file or value raises one of the project's errors (the
         # report's ReportError included) or an OSError: one line, no traceback.
         # Anything else is a bug and keeps its traceback.
-        print(f"mpc-bench: error: {error}", file=sys.stderr)
+        print(f"{prog}: error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("mpc-bench: interrupted", file=sys.stderr)
+        print(f"{prog}: interrupted", file=sys.stderr)
         return 130
