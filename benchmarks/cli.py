@@ -140,10 +140,23 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
     add_force_argument(parser)
     parser.add_argument("--no-report", action="store_true", help="skip the figures and HTML page")
     parser.add_argument("--quick", action="store_true",
-                        help="smoke run in seconds: mecanum, figure8, fixed heading, 3 s per "
-                             "run (with --trajectory: 3 s of each file)")
+                        help="a run in seconds that shows the difference: mecanum and "
+                             "swerve, figure8, fixed heading, beyond the limits, 6 s per "
+                             "run, the default controllers but mpc-ipopt (with "
+                             "--trajectory: 3 s of each file)")
     add_pool_arguments(parser)
     return parser
+
+
+#: What ``--quick`` runs, unless given: the scenarios that tell MPC from the baselines
+#: (beyond the wheel limits, where clipping or desaturating a P law falls behind), with
+#: every default controller but the exact IPOPT path (mpc-daqp solves its problem).
+QUICK: dict[str, str] = {
+    "layouts": "mecanum,swerve", "trajectories": "figure8", "headings": "fixed",
+    "speeds": "beyond",
+    "controllers": ",".join(name for name in DEFAULT_CONTROLLERS if name != "mpc-ipopt")}
+QUICK_DURATION = 6.0  # [s] a run of --quick: 1 s of settling, then 5 s measured
+QUICK_FILE_DURATION = 3.0  # [s] of each --trajectory file under --quick
 
 
 def _check_run_numbers(args: argparse.Namespace) -> None:
@@ -200,10 +213,11 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
                                 "robot (add --trajectories to run shapes too)")
     _check_run_numbers(args)
     if args.quick:  # defaults for what was not given (a given value is kept, checked above)
-        args.layouts = "mecanum" if args.layouts is None else args.layouts
-        args.trajectories = "figure8" if args.trajectories is None else args.trajectories
-        args.headings = "fixed" if args.headings is None else args.headings
-        args.duration = 3.0 if args.duration is None else args.duration
+        for name, value in QUICK.items():
+            if getattr(args, name) is None:
+                setattr(args, name, value)
+        if args.duration is None:  # a file runs a short stretch of itself
+            args.duration = QUICK_DURATION if shapes else QUICK_FILE_DURATION
     if args.skip is not None and args.duration is not None and args.skip > 0.5 * args.duration:
         raise ScenarioError(f"--skip {args.skip:g} s must be at most half of --duration "
                             f"{args.duration:g} s (the tracking errors are taken over the "

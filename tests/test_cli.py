@@ -33,16 +33,17 @@ def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_quick_run_writes_results_and_report(quick_run: Path) -> None:
     document = json.loads((quick_run / "results.json").read_text())
     runs = document["runs"]
-    # mecanum x figure8 x fixed heading x {inside, beyond} x every default controller that
-    # applies (the setpoint generator is for swerve)
-    shown = set(DEFAULT_CONTROLLERS) - {"ff-p-setpoint"}
-    assert len(runs) == 2 * len(shown)
+    # {mecanum, swerve} x figure8 x fixed heading x beyond x every default controller but
+    # mpc-ipopt that applies (the setpoint generator is for swerve)
+    shown = set(DEFAULT_CONTROLLERS) - {"mpc-ipopt"}
+    assert len(runs) == 2 * len(shown) - 1
     assert {run["controller"] for run in runs} == shown
-    assert {run["speed"] for run in runs} == {"inside", "beyond"}
+    assert {(run["layout"], run["speed"]) for run in runs} == {("mecanum", "beyond"),
+                                                               ("swerve", "beyond")}
     assert document["meta"]["machine"]["cpu_count"] >= 1
     for run in runs:
         series = run["series"]
-        assert len(series["time"]) == len(series["pose"]) == len(series["wheel_command"]) == 60
+        assert len(series["time"]) == len(series["pose"]) == len(series["wheel_command"]) == 120
         assert run["metrics"]["limit_violations"] == 0 or run["controller"].startswith("ff-")
     with (quick_run / "results.csv").open() as handle:
         rows = list(csv.DictReader(handle))
@@ -56,6 +57,15 @@ def test_quick_run_writes_results_and_report(quick_run: Path) -> None:
     assert (quick_run / "report" / "summary.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_quick_shows_mpc_ahead_of_every_baseline(quick_run: Path) -> None:
+    runs = json.loads((quick_run / "results.json").read_text())["runs"]
+    for layout in ("mecanum", "swerve"):
+        errors = {run["controller"]: run["metrics"]["rms_position_error"] for run in runs
+                  if run["layout"] == layout}
+        best_baseline = min(v for k, v in errors.items() if k.startswith("ff-"))
+        assert errors["mpc-daqp"] < 0.8 * best_baseline, errors
+
+
 def test_mpc_never_exceeds_a_limit_beyond_the_limits(quick_run: Path) -> None:
     runs = json.loads((quick_run / "results.json").read_text())["runs"]
     for run in runs:
@@ -67,8 +77,7 @@ def test_report_subcommand_rebuilds_the_report(quick_run: Path, tmp_path: Path) 
     assert main(["report", str(quick_run / "results.json"), "--out", str(tmp_path / "again")]) == 0
     assert (tmp_path / "again" / "index.html").exists()
     figures = list((tmp_path / "again" / "figures").glob("*.png"))
-    assert len(figures) == 2 * (len(DEFAULT_CONTROLLERS) - 1)
-    assert not (tmp_path / "again" / "pace.png").exists()  # 3 s runs: no lap to time
+    assert len(figures) == 2 * (len(DEFAULT_CONTROLLERS) - 1) - 1
 
 
 def test_polygon_sides_reach_the_swerve_qp(tmp_path: Path) -> None:
