@@ -21,14 +21,16 @@ from dataclasses import dataclass
 
 #: Prior cost of a tick of each controller kind, relative to the others (a substring of
 #: the kind's name; the first match counts, 1 otherwise): used until the kind has a run.
-PRIOR_FACTORS: tuple[tuple[str, float], ...] = (("ipopt", 40.0), ("path", 2.0),
-                                                ("mpc", 1.5))
-#: Prior seconds of CPU to draw one run's figure, until the report has drawn one [s].
-RUN_FIGURE_SECONDS = 1.4
-#: Prior seconds to draw one of the report's other figures (scenarios, summary) [s].
-OTHER_FIGURE_SECONDS = 0.8
-#: Prior seconds to start the report's figure processes and write the results [s].
-REPORT_START_SECONDS = 4.0
+#: A tick of a fast path or a baseline costs mostly the simulation around it.
+PRIOR_FACTORS: tuple[tuple[str, float], ...] = (("ipopt", 12.0), ("path", 1.4))
+#: The report's costs in ticks of a run of prior factor 1 (so they follow the machine's
+#: speed and load as the runs saw them): drawing one run's figure (CPU), one of the
+#: other figures (scenarios, summary; drawn one at a time) and starting the report.
+RUN_FIGURE_TICKS = 600.0
+OTHER_FIGURE_TICKS = 200.0
+REPORT_START_TICKS = 1700.0
+#: Seconds of a tick of prior factor 1 when no run was timed (a report drawn alone) [s].
+DEFAULT_TICK_SECONDS = 0.003
 
 
 def prior_factor(kind: str) -> float:
@@ -96,20 +98,30 @@ class EtaEstimator:
         if len(self._seconds) == len(self.runs):
             self._runs_ended_at = now
 
-    def _rates(self) -> dict[str, float]:
-        """Seconds per tick of every planned kind: its own runs', or a prior from the others'."""
-        spent: dict[str, list[float]] = {}
+    def _spent(self) -> dict[str, tuple[float, float]]:
+        """Seconds and ticks of the finished runs, per kind."""
+        spent: dict[str, tuple[float, float]] = {}
         for position, seconds in self._seconds.items():
             run = self.runs[position]
-            totals = spent.setdefault(run.kind, [0.0, 0.0])
-            totals[0] += seconds
-            totals[1] += max(run.ticks, 1.0)
-        own = {kind: seconds / ticks for kind, (seconds, ticks) in spent.items()}
-        if not own:
+            before = spent.get(run.kind, (0.0, 0.0))
+            spent[run.kind] = (before[0] + seconds, before[1] + max(run.ticks, 1.0))
+        return spent
+
+    def tick_seconds(self) -> float | None:
+        """Seconds of a tick of prior factor 1 as the finished runs price it (weighted by
+        their ticks); None before any run has finished [s]."""
+        spent = self._spent()
+        ticks = sum(ticks for _, ticks in spent.values())
+        if not ticks:
+            return None
+        return sum(seconds / prior_factor(kind) for kind, (seconds, _) in spent.items()) / ticks
+
+    def _rates(self) -> dict[str, float]:
+        """Seconds per tick of every planned kind: its own runs', or a prior from the others'."""
+        unit = self.tick_seconds()
+        if unit is None:
             return {}
-        # one tick of prior factor 1, as the kinds seen so far price it (weighted by ticks)
-        ticks = sum(totals[1] for totals in spent.values())
-        unit = sum(own[kind] / prior_factor(kind) * spent[kind][1] for kind in own) / ticks
+        own = {kind: seconds / ticks for kind, (seconds, ticks) in self._spent().items()}
         return {run.kind: own.get(run.kind, unit * prior_factor(run.kind)) for run in self.runs}
 
     def runs_left(self) -> float | None:
@@ -157,29 +169,31 @@ class EtaEstimator:
         self._report_done = done
 
     def report_left(self) -> float:
-        """Seconds the report still needs [s]: its priors until it has drawn figures, then
-        the pace of its own figures (the runs' in parallel, then the others in turn)."""
+        """Seconds the report still needs [s]: priors in ticks of the runs until it has drawn
+        figures, then the pace of its own figures (the runs' in parallel, then the others
+        one at a time)."""
         if self._report is None:
             return 0.0
         run_figures, others = self._report
         done, stamps, now = self._report_done, self._report_stamps, self.clock()
         parallel = min(self.workers, max(run_figures, 1))
+        tick = self.tick_seconds() or DEFAULT_TICK_SECONDS
         drawn_runs = min(done, run_figures)
         if drawn_runs >= 2:  # wall seconds between run figures, the workers all drawing
             run_pace = (stamps[drawn_runs - 1] - stamps[0]) / (drawn_runs - 1)
         else:
-            run_pace = RUN_FIGURE_SECONDS / parallel
+            run_pace = RUN_FIGURE_TICKS * tick / parallel
         drawn_others = done - drawn_runs
         if drawn_others >= 1:
             begin = stamps[run_figures - 1] if run_figures else (
                 self._report_started_at or now)
             other_pace = (stamps[done - 1] - begin) / drawn_others
         else:  # the prior, scaled as the run figures' pace is to its prior
-            other_pace = OTHER_FIGURE_SECONDS * run_pace * parallel / RUN_FIGURE_SECONDS
+            other_pace = OTHER_FIGURE_TICKS / RUN_FIGURE_TICKS * run_pace * parallel
         if done == 0:
             began = self._report_started_at
-            start = (REPORT_START_SECONDS if began is None
-                     else max(REPORT_START_SECONDS - (now - began), 0.0))
+            start = REPORT_START_TICKS * tick
+            start = start if began is None else max(start - (now - began), 0.0)
             return start + run_figures * run_pace + others * other_pace
         left = (run_figures - drawn_runs) * run_pace + (others - drawn_others) * other_pace
         return max(left - (now - stamps[-1]), 0.0)
