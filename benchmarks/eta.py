@@ -26,9 +26,9 @@ PRIOR_FACTORS: tuple[tuple[str, float], ...] = (("ipopt", 12.0), ("path", 1.4))
 #: The report's costs in ticks of a run of prior factor 1 (so they follow the machine's
 #: speed and load as the runs saw them): drawing one run's figure (CPU), one of the
 #: other figures (scenarios, summary; drawn one at a time) and starting the report.
-RUN_FIGURE_TICKS = 600.0
-OTHER_FIGURE_TICKS = 200.0
-REPORT_START_TICKS = 1700.0
+RUN_FIGURE_TICKS = 450.0
+OTHER_FIGURE_TICKS = 180.0
+REPORT_START_TICKS = 1500.0
 #: Seconds of a tick of prior factor 1 when no run was timed (a report drawn alone) [s].
 DEFAULT_TICK_SECONDS = 0.003
 
