@@ -276,7 +276,8 @@ def _parser() -> Parser:
     add_list_option(parser, "--controllers",
                     help=f"comma list of {', '.join(CONTROLLERS)} "
                          f"(default: {', '.join(DEFAULT_CONTROLLERS)})")
-    add_list_option(parser, "--headings", default="fixed", choices=("fixed", "tangent"),
+    add_list_option(parser, "--headings", metavar="HEADING", default="fixed",
+                    choices=("fixed", "tangent"),
                     help="the reference's heading, one of fixed, tangent (fixed)")
     parser.add_argument("--ratio", type=float, default=1.0,
                         help="the reference's peak need / the motor model (1.0)")

@@ -270,15 +270,17 @@ def table(rows: list[dict[str, Any]]) -> str:
 def _parser() -> Parser:
     parser = Parser(prog="mpc-bench qp-replay", description=__doc__.split("\n")[0])
     # one scenario is recorded: each list option takes one name here
-    add_list_option(parser, "--layouts", default="swerve",
+    add_list_option(parser, "--layouts", metavar="LAYOUT", default="swerve",
                     help=f"one of {', '.join(PRESETS)} (swerve)")
-    add_list_option(parser, "--trajectories", old=("--trajectory",), default="figure8",
+    add_list_option(parser, "--trajectories", old=("--trajectory",), metavar="TRAJECTORY",
+                    default="figure8",
                     help=f"one of {', '.join(TRAJECTORIES)} (figure8)")
-    add_list_option(parser, "--headings", default="fixed",
+    add_list_option(parser, "--headings", metavar="HEADING", default="fixed",
                     help=f"one of {', '.join(HEADINGS)} (fixed)")
-    add_list_option(parser, "--speeds", default="beyond",
+    add_list_option(parser, "--speeds", metavar="SPEED", default="beyond",
                     help="inside (0.8 x the wheel limits) or beyond (1.3 x) (beyond)")
-    add_list_option(parser, "--modes", default="time", help=f"one of {', '.join(MODES)} (time)")
+    add_list_option(parser, "--modes", metavar="MODE", default="time",
+                    help=f"one of {', '.join(MODES)} (time)")
     parser.add_argument("--ticks", type=int, default=200,
                         help=f"ticks recorded (200, at most {MAX_TICKS})")
     add_list_option(parser, "--solvers", help=f"comma list of {', '.join(SOLVERS)} (default: all)")

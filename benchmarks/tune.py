@@ -353,7 +353,8 @@ def _parser() -> Parser:
                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--robot", default="omni3",
                         help=f"a preset ({', '.join(PRESETS)}) or a robot TOML file (omni3)")
-    add_list_option(parser, "--modes", dest="mode", choices=("time", "path"), default="time",
+    add_list_option(parser, "--modes", dest="mode", metavar="MODE", choices=("time", "path"),
+                    default="time",
                     help="the controller mode tuned, one of time, path (time)")
     parser.add_argument("--objective", choices=("pose", "baseline"), default="pose",
                         help="pose: the pose error in one metric; baseline: against the best "
