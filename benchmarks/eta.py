@@ -22,13 +22,15 @@ from dataclasses import dataclass
 #: Prior cost of a tick of each controller kind, relative to the others (a substring of
 #: the kind's name; the first match counts, 1 otherwise): used until the kind has a run.
 #: A tick of a fast path or a baseline costs mostly the simulation around it.
-PRIOR_FACTORS: tuple[tuple[str, float], ...] = (("ipopt", 12.0), ("path", 1.4))
-#: The report's costs in ticks of a run of prior factor 1 (so they follow the machine's
-#: speed and load as the runs saw them): drawing one run's figure (CPU), one of the
-#: other figures (scenarios, summary; drawn one at a time) and starting the report.
-RUN_FIGURE_TICKS = 450.0
-OTHER_FIGURE_TICKS = 180.0
+PRIOR_FACTORS: tuple[tuple[str, float], ...] = (("ipopt", 9.0), ("path", 1.4))
+#: The report's costs in ticks of a run of prior factor 1, so that they follow the
+#: machine's speed and load as the runs saw them: drawing one run's figure (CPU) and
+#: starting the report (reading the runs, starting the drawing processes).
+RUN_FIGURE_TICKS = 400.0
 REPORT_START_TICKS = 1500.0
+#: Prior seconds to draw one of the report's other figures (scenarios, summary; drawn one
+#: at a time in this process), until one is drawn: they did not follow the runs' speed [s].
+OTHER_FIGURE_SECONDS = 0.8
 #: Seconds of a tick of prior factor 1 when no run was timed (a report drawn alone) [s].
 DEFAULT_TICK_SECONDS = 0.003
 
@@ -188,8 +190,8 @@ class EtaEstimator:
             begin = stamps[run_figures - 1] if run_figures else (
                 self._report_started_at or now)
             other_pace = (stamps[done - 1] - begin) / drawn_others
-        else:  # the prior, scaled as the run figures' pace is to its prior
-            other_pace = OTHER_FIGURE_TICKS / RUN_FIGURE_TICKS * run_pace * parallel
+        else:
+            other_pace = OTHER_FIGURE_SECONDS
         if done == 0:
             began = self._report_started_at
             start = REPORT_START_TICKS * tick

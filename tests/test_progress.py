@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from benchmarks.eta import (
-    OTHER_FIGURE_TICKS,
+    OTHER_FIGURE_SECONDS,
     REPORT_START_TICKS,
     RUN_FIGURE_TICKS,
     EtaEstimator,
@@ -122,15 +122,14 @@ def test_eta_counts_the_report_from_priors_then_from_its_figures() -> None:
     estimator.run_finished(0, 1.0)
     tick = 0.1  # [s] the run's: the report's priors are in ticks of the runs
     assert estimator.tick_seconds() == pytest.approx(tick)
-    prior = tick * (REPORT_START_TICKS + 4 * RUN_FIGURE_TICKS / 2 + 3 * OTHER_FIGURE_TICKS)
+    prior = tick * (REPORT_START_TICKS + 4 * RUN_FIGURE_TICKS / 2) + 3 * OTHER_FIGURE_SECONDS
     assert estimator.eta() == pytest.approx(prior)
     estimator.report_started()
     for done, at in enumerate((3.0, 4.0, 5.0), start=1):  # run figures 1 s apart
         clock.now = at
         estimator.report_progress(done, 7)
-    # one run figure left at 1 s; the others' prior scaled as the run figures' pace is
-    scaled = OTHER_FIGURE_TICKS / RUN_FIGURE_TICKS * 1.0 * 2
-    assert estimator.eta() == pytest.approx(1.0 + 3 * scaled)
+    # one run figure left at 1 s, then the others at their prior
+    assert estimator.eta() == pytest.approx(1.0 + 3 * OTHER_FIGURE_SECONDS)
     for done, at in ((4, 6.0), (5, 8.0)):  # then one other figure took 2 s
         clock.now = at
         estimator.report_progress(done, 7)
