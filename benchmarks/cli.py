@@ -8,11 +8,15 @@
     mpc-bench --trajectory FILE  run a Choreo .traj on its own robot (or a CSV on the layouts)
     mpc-bench COMMAND [options]  one of :data:`COMMANDS` (``mpc-bench --help`` lists them)
 
-No option is matched by a prefix (``--control`` is an error); a command refuses to write
-into an ``--out`` folder that holds its results already, unless given ``--force``. On a
-terminal, long commands draw a progress bar with an ETA (:mod:`benchmarks.progress`);
-elsewhere they print one plain line per finished run. Shell completion, if
-``argcomplete`` is installed: ``eval "$(register-python-argcomplete mpc-bench)"``.
+A list is taken by the same plural option in every command (:mod:`benchmarks.options`);
+no option is matched by a prefix (``--control`` is an error), and a mistyped option,
+name or command gets the closest known one. A command refuses to write into an ``--out``
+folder that holds its results already, unless given ``--force``. On a terminal, long
+commands draw a progress bar with one ETA (:mod:`benchmarks.progress`; the benchmark's
+learned per controller kind and counting its report, :mod:`benchmarks.eta`); elsewhere
+they print one plain line per finished run, ending with the ETA. The benchmark ends with
+a one-line verdict (:mod:`benchmarks.verdict`) and the report's path. Shell completion,
+if ``argcomplete`` is installed: ``eval "$(register-python-argcomplete mpc-bench)"``.
 
 Runs are independent: ``--workers N`` spreads them over N local processes (default:
 the machine's cores) and ``--scheduler tcp://HOST:PORT`` over a Dask cluster, with the
