@@ -8,11 +8,15 @@
     mpc-bench --trajectory FILE  run a Choreo .traj on its own robot (or a CSV on the layouts)
     mpc-bench COMMAND [options]  one of :data:`COMMANDS` (``mpc-bench --help`` lists them)
 
-No option is matched by a prefix (``--speed 2`` is an error); a command refuses to write
-into an ``--out`` folder that holds its results already, unless given ``--force``. On a
-terminal, long commands draw a progress bar with an ETA (:mod:`benchmarks.progress`);
-elsewhere they print one plain line per finished run. Shell completion, if
-``argcomplete`` is installed: ``eval "$(register-python-argcomplete mpc-bench)"``.
+A list is taken by the same plural option in every command (:mod:`benchmarks.options`);
+no option is matched by a prefix (``--control`` is an error), and a mistyped option,
+name or command gets the closest known one. A command refuses to write into an ``--out``
+folder that holds its results already, unless given ``--force``. On a terminal, long
+commands draw a progress bar with one ETA (:mod:`benchmarks.progress`; the benchmark's
+learned per controller kind and counting its report, :mod:`benchmarks.eta`); elsewhere
+they print one plain line per finished run, ending with the ETA. The benchmark ends with
+a one-line verdict (:mod:`benchmarks.verdict`) and the report's path. Shell completion,
+if ``argcomplete`` is installed: ``eval "$(register-python-argcomplete mpc-bench)"``.
 
 Runs are independent: ``--workers N`` spreads them over N local processes (default:
 the machine's cores) and ``--scheduler tcp://HOST:PORT`` over a Dask cluster, with the
@@ -33,11 +37,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from benchmarks.eta import EtaEstimator, format_seconds
 from benchmarks.executor import RunPool, check_pool_options
+from benchmarks.options import add_list_option
 from benchmarks.outdir import add_force_argument, claim
+from benchmarks.plan import run_all
 from benchmarks.progress import Progress
 from benchmarks.reference_files import file_scenarios, read_reference
-from benchmarks.runner import build_scenarios, results_document, run_all, summary_table, write_csv
+from benchmarks.runner import build_scenarios, results_document, summary_table, write_csv
 from benchmarks.scenarios import (
     ALL_TRAJECTORIES,
     CONTROLLERS,
@@ -54,10 +61,12 @@ from benchmarks.scenarios import (
     check_plan_sizes,
     choose,
     csv_reference,
+    did_you_mean,
     parse_speeds,
     robots,
     seed,
 )
+from benchmarks.verdict import verdict
 from mpc.errors import MpcError, ReportError
 from mpc.plot.results import counted
 from mpc.robots import motor_preset
@@ -84,19 +93,21 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
         epilog="Other commands: " + ", ".join(name for name in COMMANDS if name != "run")
                + " (mpc-bench --help lists them; mpc-bench COMMAND --help for each).",
     )
-    parser.add_argument("--layouts", help=f"comma list of {', '.join(LAYOUTS)} "
-                                          f"(default: {', '.join(DEFAULT_LAYOUTS)})")
-    parser.add_argument("--trajectories",
-                        help=f"comma list of {', '.join(ALL_TRAJECTORIES)} "
-                             f"(default: {', '.join(TRAJECTORIES)})")
-    parser.add_argument("--speeds", help="comma list of inside (peak wheel speed 0.8 x limit), "
-                                         "beyond (1.3 x) or peak ratios like 1.1 (default: both)")
-    parser.add_argument("--controllers",
-                        help=f"comma list of {', '.join(CONTROLLERS)} "
-                             f"(default: {', '.join(DEFAULT_CONTROLLERS)})")
-    parser.add_argument("--heading", metavar="HEADINGS",
-                        help=f"comma list of heading profiles, {', '.join(HEADINGS)} "
-                             f"(default: {','.join(DEFAULT_HEADINGS)})")
+    add_list_option(parser, "--layouts",
+                    help=f"comma list of {', '.join(LAYOUTS)} "
+                         f"(default: {', '.join(DEFAULT_LAYOUTS)})")
+    add_list_option(parser, "--trajectories",
+                    help=f"comma list of {', '.join(ALL_TRAJECTORIES)} "
+                         f"(default: {', '.join(TRAJECTORIES)})")
+    add_list_option(parser, "--speeds",
+                    help="comma list of inside (peak wheel speed 0.8 x limit), beyond (1.3 x) "
+                         "or peak ratios like 1.1 (default: both)")
+    add_list_option(parser, "--controllers",
+                    help=f"comma list of {', '.join(CONTROLLERS)} "
+                         f"(default: {', '.join(DEFAULT_CONTROLLERS)})")
+    add_list_option(parser, "--headings",
+                    help=f"comma list of heading profiles, {', '.join(HEADINGS)} "
+                         f"(default: {','.join(DEFAULT_HEADINGS)})")
     parser.add_argument("--horizon", type=int, default=20, help="MPC horizon in ticks (20)")
     parser.add_argument("--dt", type=float, default=0.05, help="control tick [s] (0.05)")
     parser.add_argument("--polygon-sides", type=int,
@@ -134,10 +145,23 @@ def _parser(prog: str = "mpc-bench run", add_help: bool = True) -> Parser:
     add_force_argument(parser)
     parser.add_argument("--no-report", action="store_true", help="skip the figures and HTML page")
     parser.add_argument("--quick", action="store_true",
-                        help="smoke run in seconds: mecanum, figure8, fixed heading, 3 s per "
-                             "run (with --trajectory: 3 s of each file)")
+                        help="a run in seconds that shows the difference: mecanum and "
+                             "swerve, figure8, fixed heading, beyond the limits, 6 s per "
+                             "run, the default controllers but mpc-ipopt (with "
+                             "--trajectory: 3 s of each file)")
     add_pool_arguments(parser)
     return parser
+
+
+#: What ``--quick`` runs, unless given: the scenarios that tell MPC from the baselines
+#: (beyond the wheel limits, where clipping or desaturating a P law falls behind), with
+#: every default controller but the exact IPOPT path (mpc-daqp solves its problem).
+QUICK: dict[str, str] = {
+    "layouts": "mecanum,swerve", "trajectories": "figure8", "headings": "fixed",
+    "speeds": "beyond",
+    "controllers": ",".join(name for name in DEFAULT_CONTROLLERS if name != "mpc-ipopt")}
+QUICK_DURATION = 6.0  # [s] a run of --quick: 1 s of settling, then 5 s measured
+QUICK_FILE_DURATION = 3.0  # [s] of each --trajectory file under --quick
 
 
 def _check_run_numbers(args: argparse.Namespace) -> None:
@@ -185,19 +209,20 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     shapes = args.trajectories is not None or not files  # files alone: only the files
     if files and not shapes:
         own_robots = all(file.robot is not None for file in files)  # Choreo files only
-        ignored = [flag for flag, value in (("--speeds", args.speeds), ("--heading", args.heading),
-                                            ("--layouts", args.layouts if own_robots else None))
-                   if value is not None]
+        given = (("--speeds", args.speeds), ("--headings", args.headings),
+                 ("--layouts", args.layouts if own_robots else None))
+        ignored = [flag for flag, value in given if value is not None]
         if ignored:
             raise ScenarioError(f"{' and '.join(ignored)} apply to the built-in shapes; files "
                                 "given with --trajectory run as timed, a .traj on its own "
                                 "robot (add --trajectories to run shapes too)")
     _check_run_numbers(args)
     if args.quick:  # defaults for what was not given (a given value is kept, checked above)
-        args.layouts = "mecanum" if args.layouts is None else args.layouts
-        args.trajectories = "figure8" if args.trajectories is None else args.trajectories
-        args.heading = "fixed" if args.heading is None else args.heading
-        args.duration = 3.0 if args.duration is None else args.duration
+        for name, value in QUICK.items():
+            if getattr(args, name) is None:
+                setattr(args, name, value)
+        if args.duration is None:  # a file runs a short stretch of itself
+            args.duration = QUICK_DURATION if shapes else QUICK_FILE_DURATION
     if args.skip is not None and args.duration is not None and args.skip > 0.5 * args.duration:
         raise ScenarioError(f"--skip {args.skip:g} s must be at most half of --duration "
                             f"{args.duration:g} s (the tracking errors are taken over the "
@@ -223,7 +248,7 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
                           TRAJECTORIES)
     controllers = choose("--controllers", "controller", args.controllers, CONTROLLERS,
                          DEFAULT_CONTROLLERS)
-    headings = choose("--heading", "heading", args.heading, HEADINGS, DEFAULT_HEADINGS)
+    headings = choose("--headings", "heading", args.headings, HEADINGS, DEFAULT_HEADINGS)
     speeds = parse_speeds(args.speeds)
     for file in files:
         if file.robot is not None and args.plant == "motor":
@@ -251,39 +276,52 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     out = claim(args.out, writes, args.force)
     started = time.perf_counter()
     failed: list[dict[str, Any]] = []
-    with RunPool(args.workers, args.scheduler) as pool, Progress(total, "runs") as progress:
-        progress.print(f"mpc-bench: {counted(len(scenarios), 'scenario')} x "
-                       f"{counted(len(controllers), 'controller')} "
-                       f"({total} runs), plant {args.plant}, horizon {args.horizon}, "
-                       f"dt {args.dt} s, on {pool.description}")
-        for note in pool.notes:
-            progress.print(f"mpc-bench: note: {note}")
-        if skipped:
-            progress.print(f"mpc-bench: note: not run, as they do not apply: {', '.join(skipped)}")
-        runs = run_all(scenarios, controllers, settings, args.duration, args.skip, args.plant,
-                       args.seed, progress.advance, pool, failed,
-                       command_ramp=None if args.command_ramp else False)
-    document = results_document(
-        runs,
-        command=" ".join(["mpc-bench", *argv]),
-        settings={"horizon": args.horizon, "dt": args.dt, "polygon_sides": args.polygon_sides,
-                  "duration": args.duration,
-                  "plant": args.plant, "command_ramp": args.plant == "motor" and args.command_ramp,
-                  "skip": args.skip, "headings": headings,
-                  "seed": args.seed,
-                  "trajectory_files": [str(file.path) for file in files]},
-    )
-    if failed:  # kept beside the runs, out of the tables and figures
-        document["meta"]["failed_runs"] = [
-            {key: value for key, value in run.items() if key != "traceback"} for run in failed]
-    (out / "results.json").write_text(json.dumps(document))
-    write_csv(runs, out / "results.csv")
-    print()
-    print(summary_table(runs))
-    print(f"\nwrote {out / 'results.json'} and {out / 'results.csv'} "
-          f"({time.perf_counter() - started:.0f} s)")
-    if not args.no_report:
-        _write_report(document, out / "report", args.workers or os.cpu_count() or 1)
+    workers = args.workers or os.cpu_count() or 1
+    estimator = EtaEstimator()
+    if not args.no_report:  # the report's figures: one per run, one per scenario, two more
+        estimator.plan_report(total, len(scenarios) + 2)
+    with Progress(total, "runs", estimator=estimator) as progress:
+        with RunPool(args.workers, args.scheduler) as pool:
+            progress.print(f"mpc-bench: {counted(len(scenarios), 'scenario')} x "
+                           f"{counted(len(controllers), 'controller')} "
+                           f"({total} runs), plant {args.plant}, horizon {args.horizon}, "
+                           f"dt {args.dt} s, on {pool.description}")
+            for note in pool.notes:
+                progress.print(f"mpc-bench: note: {note}")
+            if skipped:
+                progress.print(f"mpc-bench: note: not run, as they do not apply: "
+                               f"{', '.join(skipped)}")
+            runs = run_all(scenarios, controllers, settings, args.duration, args.skip,
+                           args.plant, args.seed, progress.advance, pool, failed,
+                           command_ramp=None if args.command_ramp else False,
+                           estimator=estimator)
+        document = results_document(
+            runs,
+            command=" ".join(["mpc-bench", *argv]),
+            settings={"horizon": args.horizon, "dt": args.dt,
+                      "polygon_sides": args.polygon_sides, "duration": args.duration,
+                      "plant": args.plant,
+                      "command_ramp": args.plant == "motor" and args.command_ramp,
+                      "skip": args.skip, "headings": headings,
+                      "seed": args.seed,
+                      "trajectory_files": [str(file.path) for file in files]},
+        )
+        if failed:  # kept beside the runs, out of the tables and figures
+            document["meta"]["failed_runs"] = [
+                {key: value for key, value in run.items() if key != "traceback"}
+                for run in failed]
+        (out / "results.json").write_text(json.dumps(document))
+        write_csv(runs, out / "results.csv")
+        progress.print("")
+        progress.print(summary_table(runs))
+        progress.print(f"\nwrote {out / 'results.json'} and {out / 'results.csv'} "
+                       f"({time.perf_counter() - started:.0f} s)")
+        index = None
+        if not args.no_report and runs:
+            index = _write_report(document, out / "report", workers, progress)
+    shown = index if index is not None else out / "results.json"
+    print(f"mpc-bench: {verdict(runs)}; {'report' if index else 'results'}: {shown} "
+          f"({format_seconds(time.perf_counter() - started)} in all)")
     if failed:
         print(f"mpc-bench: {len(failed)} run(s) failed (listed in results.json meta.failed_runs)",
               file=sys.stderr)
@@ -291,16 +329,33 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
     return 0
 
 
-def _write_report(document: dict[str, Any], folder: Path, workers: int = 1) -> None:
+def _write_report(document: dict[str, Any], folder: Path, workers: int = 1,
+                  progress: Progress | None = None) -> Path:
+    """The report of ``document`` in ``folder``, its figures counted on ``progress`` (a
+    display of its own if None); returns the page's path."""
     from benchmarks.report import write_report  # matplotlib only when asked for
 
-    with Progress(0, "report figures") as progress:
-        def on_figure(done: int, total: int) -> None:
-            every = not progress.live and (done == total or done % 10 == 0)
-            progress.update(done, total, f"report: {done}/{total} figures" if every else None)
+    runs = document["runs"]
+    if progress is None:
+        own_eta = EtaEstimator()
+        own_eta.plan_runs([], workers)
+        scenarios = {tuple(run.get(key) for key in ("layout", "trajectory", "heading", "speed"))
+                     for run in runs}
+        own_eta.plan_report(len(runs), len(scenarios) + 2)
+        with Progress(0, "report", estimator=own_eta) as own:
+            return _write_report(document, folder, workers, own)
+    estimator = progress.estimator
+    if estimator is not None:
+        estimator.report_started()
+    progress.stage("report figures", 0)
 
-        index = write_report(document, folder, on_figure=on_figure, workers=workers)
-    print(f"wrote {index}")
+    def on_figure(done: int, total: int) -> None:
+        if estimator is not None:
+            estimator.report_progress(done, total)
+        every = not progress.live and (done == total or done % 10 == 0)
+        progress.update(done, total, f"report: {done}/{total} figures" if every else None)
+
+    return write_report(document, folder, on_figure=on_figure, workers=workers)
 
 
 def _report_parser() -> Parser:
@@ -333,9 +388,10 @@ def report(argv: list[str]) -> int:
     folder = claim(Path(args.out) if args.out else mine, ("index.html",),
                    args.force or args.out is None)
     try:
-        _write_report(document, folder, args.workers or os.cpu_count() or 1)
+        index = _write_report(document, folder, args.workers or os.cpu_count() or 1)
     except ReportError as error:  # a damaged field found while drawing: name the file
         raise ReportError(f"results file {str(path)!r}: {error}") from None
+    print(f"wrote {index}")
     return 0
 
 
@@ -415,6 +471,7 @@ def main(argv: list[str] | None = None) -> int:
             _complete()
         argv = sys.argv[1:]
     argv = list(argv)
+    prog = f"mpc-bench {argv[0]}" if argv and argv[0] in COMMANDS else "mpc-bench"
     try:
         if argv and argv[0] in ("-h", "--help"):
             command_parser().print_help()
@@ -428,15 +485,16 @@ def main(argv: list[str] | None = None) -> int:
             command = COMMANDS[argv[0]]
             return command.function(command.main)(argv[1:])  # type: ignore[no-any-return]
         if argv and not argv[0].startswith("-"):
-            raise ScenarioError(f"unknown command {argv[0]!r}; commands: "
-                                f"{', '.join(COMMANDS)} (or options of run: mpc-bench --help)")
+            raise ScenarioError(f"unknown command {argv[0]!r}{did_you_mean(argv[0], COMMANDS)}; "
+                                f"commands: {', '.join(COMMANDS)} (or options of run: "
+                                "mpc-bench --help)")
         return run(argv, prog="mpc-bench")
     except (MpcError, OSError) as error:
         # Every bad option, file or value raises one of the project's errors (the
         # report's ReportError included) or an OSError: one line, no traceback.
         # Anything else is a bug and keeps its traceback.
-        print(f"mpc-bench: error: {error}", file=sys.stderr)
+        print(f"{prog}: error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("mpc-bench: interrupted", file=sys.stderr)
+        print(f"{prog}: interrupted", file=sys.stderr)
         return 130

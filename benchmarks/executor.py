@@ -32,6 +32,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from benchmarks.eta import EtaEstimator, PlannedRun, prior_factor
 from benchmarks.runner import Scenario, default_duration, pack_run
 from benchmarks.scenarios import _MPC as MPC_CONTROLLERS  # (solver, mode) by name
 from benchmarks.scenarios import (
@@ -224,11 +225,28 @@ def optimal_lap(robot: str | Mapping[str, Any], trajectory: Mapping[str, Any]) -
     return Scenario("", built, "", build_trajectory(trajectory, built), "", "").optimal_lap
 
 
+def _ticks(spec: RunSpec) -> float:
+    """The ticks a run simulates (its duration, or the default's estimate from the spec)."""
+    period = spec.trajectory.get("period") or 10.0
+    target = max(period, spec.optimal_lap or period)
+    length = spec.duration or max(6.0, 2.2 * target + spec.skip)
+    return length / spec.settings.dt
+
+
 def _cost(spec: RunSpec) -> float:
     """A rough relative cost, to start the longest runs first (shorter tail)."""
-    period = spec.trajectory.get("period") or 10.0
-    ticks = (spec.duration or 2.2 * (spec.optimal_lap or period) + spec.skip) / spec.settings.dt
-    return ticks * (8.0 if "ipopt" in spec.controller else 1.0) * spec.settings.horizon
+    return _ticks(spec) * prior_factor(spec.controller) * spec.settings.horizon
+
+
+def start_order(specs: Sequence[RunSpec]) -> list[int]:
+    """The order a pool starts ``specs`` in: the costliest run of each controller first
+    (so that the ETA has seen every kind early), then the rest longest first."""
+    order = sorted(range(len(specs)), key=lambda i: -_cost(specs[i]))
+    first: dict[str, int] = {}
+    for index in order:
+        first.setdefault(specs[index].controller, index)
+    leading = set(first.values())
+    return [*first.values(), *(index for index in order if index not in leading)]
 
 
 def _worker_init() -> None:
@@ -324,27 +342,34 @@ class RunPool:
                                 "must guard its entry with if __name__ == '__main__'") from None
 
     def run(self, specs: Sequence[RunSpec], log: Callable[[str], None] | None = None,
-            line: Callable[[Mapping[str, Any]], str] | None = None) -> list[dict[str, Any]]:
+            line: Callable[[Mapping[str, Any]], str] | None = None,
+            estimator: EtaEstimator | None = None) -> list[dict[str, Any]]:
         """Every spec's result, in the order of ``specs``; with ``log`` and ``line``, a line
-        per run as it finishes: ``[done/total] <line(result)> (seconds, eta)``."""
+        per run as it finishes: ``[done/total] <line(result)> (seconds)``. ``estimator``
+        (if any) is given the runs in the order they start and each one's time."""
         results: list[dict[str, Any]] = [{}] * len(specs)
-        started, done = time.perf_counter(), 0
+        local = self._local(len(specs))
+        order = list(range(len(specs))) if local else start_order(specs)
+        position = {index: place for place, index in enumerate(order)}
+        if estimator is not None:
+            estimator.plan_runs([PlannedRun(specs[i].controller, _ticks(specs[i]))
+                                 for i in order], 1 if local else self.workers)
+        done = 0
 
         def finished(index: int, outcome: tuple[dict[str, Any], float]) -> None:
             nonlocal done
             results[index], seconds = outcome
             done += 1
+            if estimator is not None:
+                estimator.run_finished(position[index], seconds)
             if log is not None:
-                eta = (time.perf_counter() - started) / done * (len(specs) - done)
                 text = (line or _names)(results[index])
-                log(f"[{done:{len(str(len(specs)))}d}/{len(specs)}] {text} "
-                    f"({seconds:.1f} s, eta {eta:.0f} s)")
+                log(f"[{done:{len(str(len(specs)))}d}/{len(specs)}] {text} ({seconds:.1f} s)")
 
-        if self._local(len(specs)):
+        if local:
             for index, spec in enumerate(specs):
                 finished(index, execute(spec))
             return results
-        order = sorted(range(len(specs)), key=lambda i: -_cost(specs[i]))  # longest first
         futures = {self._pool().submit(execute, specs[i]): i for i in order}
         try:
             for future in cf.as_completed(futures):

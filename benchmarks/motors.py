@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.options import add_list_option
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
 from benchmarks.scenarios import Parser, ScenarioError, choose, seed
@@ -260,14 +261,15 @@ def perf(layouts: list[str], ticks: int, repeats: int, horizon: int = 20,
 
 def _parser() -> Parser:
     parser = Parser(prog="mpc-bench motors", description=__doc__.split("\n")[0])
-    parser.add_argument("--layouts",
-                        help=f"comma list of {', '.join(MOTOR_ROBOT_PRESETS)} (default: all)")
-    parser.add_argument("--trajectories", help="comma list of circle, figure8 (default: both)")
-    parser.add_argument("--controllers",
-                        help=f"comma list of {', '.join(CONTROLLERS)} "
-                             f"(default: {', '.join(DEFAULT_CONTROLLERS)})")
-    parser.add_argument("--heading", default="fixed", choices=("fixed", "tangent"),
-                        help="the reference's heading (fixed)")
+    add_list_option(parser, "--layouts",
+                    help=f"comma list of {', '.join(MOTOR_ROBOT_PRESETS)} (default: all)")
+    add_list_option(parser, "--trajectories", help="comma list of circle, figure8 (default: both)")
+    add_list_option(parser, "--controllers",
+                    help=f"comma list of {', '.join(CONTROLLERS)} "
+                         f"(default: {', '.join(DEFAULT_CONTROLLERS)})")
+    add_list_option(parser, "--headings", metavar="HEADING", default="fixed",
+                    choices=("fixed", "tangent"),
+                    help="the reference's heading, one of fixed, tangent (fixed)")
     parser.add_argument("--ratio", type=float, default=1.0,
                         help="the reference's peak need / the motor model (1.0)")
     parser.add_argument("--size", type=float, default=1.0, help="shape size [m] (1.0)")
@@ -323,7 +325,7 @@ def main(argv: list[str]) -> int:
     started = time.perf_counter()
     try:
         rows = run(layouts, trajectories, controllers, ratio=args.ratio, size=args.size,
-                   heading=args.heading, laps=args.laps, skip=args.skip, seed=args.seed,
+                   heading=args.headings, laps=args.laps, skip=args.skip, seed=args.seed,
                    command_ramp=args.command_ramp, log=lambda line: print(line, flush=True))
     except MpcError as error:  # e.g. a run too long: name the flags that set it
         raise ScenarioError(f"--size {args.size:g} m, --laps {args.laps:g}, --ratio "
@@ -335,7 +337,7 @@ def main(argv: list[str]) -> int:
     (out / "motors.json").write_text(json.dumps(
         {"command": " ".join(["mpc-bench", "motors", *argv]), "machine": machine(),
          "settings": {"ratio": args.ratio, "size": args.size, "laps": args.laps,
-                      "skip": args.skip, "seed": args.seed, "heading": args.heading,
+                      "skip": args.skip, "seed": args.seed, "heading": args.headings,
                       "command_ramp": args.command_ramp},
          "rows": rows}, indent=1))
     print(f"\nwrote {out / 'motors.json'} ({time.perf_counter() - started:.0f} s)")

@@ -48,6 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from benchmarks import peers
+from benchmarks.options import add_list_option
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
 from benchmarks.scenarios import (
@@ -699,24 +700,28 @@ def _commit() -> str | None:
 
 def _parser() -> Parser:
     parser = Parser(prog="mpc-bench perf", description=__doc__.split("\n")[0])
-    parser.add_argument("--sections", help=f"comma list of {', '.join(SECTIONS)} (default: all)")
-    parser.add_argument("--horizons", help="horizons of the horizons section (10,20,50,100)")
+    add_list_option(parser, "--sections",
+                    help=f"comma list of {', '.join(SECTIONS)} (default: all)")
+    add_list_option(parser, "--horizons", help="horizons of the horizons section (10,20,50,100)")
     parser.add_argument("--profile-horizons",
                         help="horizons the tick is split into phases at (20)")
     parser.add_argument("--profile-scenario", metavar="LAYOUT,MODE,SPEED",
                         help=f"the scenario the tick is split in, e.g. swerve,path,beyond "
                              f"(default: {REFERENCE_LAYOUT},time,inside)")
-    parser.add_argument("--solvers", help=f"comma list of {', '.join(SOLVERS)} (default: all)")
-    parser.add_argument("--layouts", help=f"scenarios: comma list of {', '.join(PRESETS)} "
-                                          "(default: all)")
-    parser.add_argument("--modes", help=f"scenarios: comma list of {', '.join(MODES)} "
-                                        "(default: both)")
-    parser.add_argument("--speeds", help="scenarios: inside (0.8 x limits), beyond (1.3 x) or "
-                                         "peak ratios like 1.1 (default: inside,beyond)")
-    parser.add_argument("--trajectories", help=f"scenarios: comma list of "
-                                               f"{', '.join(TRAJECTORIES)} (default: figure8)")
-    parser.add_argument("--headings", help=f"scenarios: comma list of {', '.join(HEADINGS)} "
-                                           "(default: fixed)")
+    add_list_option(parser, "--solvers",
+                    help=f"comma list of {', '.join(SOLVERS)} (default: all)")
+    add_list_option(parser, "--layouts",
+                    help=f"scenarios: comma list of {', '.join(PRESETS)} (default: all)")
+    add_list_option(parser, "--modes",
+                    help=f"scenarios: comma list of {', '.join(MODES)} (default: both)")
+    add_list_option(parser, "--speeds",
+                    help="scenarios: inside (0.8 x limits), beyond (1.3 x) or peak ratios "
+                         "like 1.1 (default: inside,beyond)")
+    add_list_option(parser, "--trajectories",
+                    help=f"scenarios: comma list of {', '.join(TRAJECTORIES)} "
+                         "(default: figure8)")
+    add_list_option(parser, "--headings",
+                    help=f"scenarios: comma list of {', '.join(HEADINGS)} (default: fixed)")
     parser.add_argument("--jit", action="store_true",
                         help="scenarios: build the daqp controllers with jit=True (their "
                              "CasADi terms compiled to C) instead of the default")

@@ -30,6 +30,7 @@ from typing import Any
 import daqp
 import numpy as np
 
+from benchmarks.options import add_list_option
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
 from benchmarks.scenarios import (
@@ -268,18 +269,21 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 def _parser() -> Parser:
     parser = Parser(prog="mpc-bench qp-replay", description=__doc__.split("\n")[0])
-    parser.add_argument("--layout", default="swerve", help=f"one of {', '.join(PRESETS)} "
-                                                           "(swerve)")
-    parser.add_argument("--trajectory", default="figure8",
-                        help=f"one of {', '.join(TRAJECTORIES)} (figure8)")
-    parser.add_argument("--heading", default="fixed", help=f"one of {', '.join(HEADINGS)} "
-                                                           "(fixed)")
-    parser.add_argument("--speed", default="beyond",
-                        help="inside (0.8 x the wheel limits) or beyond (1.3 x) (beyond)")
-    parser.add_argument("--mode", default="time", help=f"one of {', '.join(MODES)} (time)")
+    # one scenario is recorded: each list option takes one name here
+    add_list_option(parser, "--layouts", metavar="LAYOUT", default="swerve",
+                    help=f"one of {', '.join(PRESETS)} (swerve)")
+    add_list_option(parser, "--trajectories", old=("--trajectory",), metavar="TRAJECTORY",
+                    default="figure8",
+                    help=f"one of {', '.join(TRAJECTORIES)} (figure8)")
+    add_list_option(parser, "--headings", metavar="HEADING", default="fixed",
+                    help=f"one of {', '.join(HEADINGS)} (fixed)")
+    add_list_option(parser, "--speeds", metavar="SPEED", default="beyond",
+                    help="inside (0.8 x the wheel limits) or beyond (1.3 x) (beyond)")
+    add_list_option(parser, "--modes", metavar="MODE", default="time",
+                    help=f"one of {', '.join(MODES)} (time)")
     parser.add_argument("--ticks", type=int, default=200,
                         help=f"ticks recorded (200, at most {MAX_TICKS})")
-    parser.add_argument("--solvers", help=f"comma list of {', '.join(SOLVERS)} (default: all)")
+    add_list_option(parser, "--solvers", help=f"comma list of {', '.join(SOLVERS)} (default: all)")
     parser.add_argument("--out", default="bench-out", metavar="DIR",
                         help="writes qp_replay.json here (bench-out)")
     add_force_argument(parser)
@@ -289,17 +293,18 @@ def _parser() -> Parser:
 def _one(flag: str, kind: str, value: str, valid: tuple[str, ...] | list[str]) -> str:
     names = choose(flag, kind, value, valid)
     if len(names) != 1:
-        raise ScenarioError(f"{flag} takes one {kind}, got {value!r}")
+        raise ScenarioError(f"{flag} takes one {kind} here (qp-replay records one scenario), "
+                            f"got {value!r}")
     return names[0]
 
 
 def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
-    layout = _one("--layout", "layout", args.layout, PRESETS)
-    shape = _one("--trajectory", "trajectory", args.trajectory, TRAJECTORIES)
-    heading = _one("--heading", "heading", args.heading, HEADINGS)
-    speed = _one("--speed", "speed", args.speed, list(SPEEDS))
-    mode = _one("--mode", "mode", args.mode, list(MODES))
+    layout = _one("--layouts", "layout", args.layouts, PRESETS)
+    shape = _one("--trajectories", "trajectory", args.trajectories, TRAJECTORIES)
+    heading = _one("--headings", "heading", args.headings, HEADINGS)
+    speed = _one("--speeds", "speed", args.speeds, list(SPEEDS))
+    mode = _one("--modes", "mode", args.modes, list(MODES))
     solvers = list(dict.fromkeys(["daqp", *choose("--solvers", "solver", args.solvers,
                                                   SOLVERS)]))  # daqp first, as replay runs
     if not SETTLE < args.ticks <= MAX_TICKS:

@@ -10,8 +10,9 @@ rate of tangent and spinning profiles, scales with 1 / period).
 from __future__ import annotations
 
 import argparse
+import difflib
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NoReturn
@@ -69,15 +70,43 @@ SHAPE_SIZE = 1.0
 _PROBE_PERIOD = 10.0
 
 
+def did_you_mean(word: str, known: Iterable[str]) -> str:
+    """`` (did you mean X?)`` for the closest of ``known`` to a mistyped ``word``, or ``""``."""
+    close = difflib.get_close_matches(word, list(known), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]}?)" if close else ""
+
+
 class Parser(argparse.ArgumentParser):
-    """argparse, but a bad option is one line on stderr (no usage dump) and exit code 2, and
-    no option is matched by a prefix (``--speed 2`` is an error, not ``--speeds 2``)."""
+    """argparse, but a bad option is one line on stderr (no usage dump) and exit code 2, a
+    mistyped option or choice gets the closest known one, and no option is matched by a
+    prefix (``--control`` is an error, not ``--controllers``)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs.setdefault("allow_abbrev", False)
         if isinstance(kwargs.get("description"), str):  # docstring markup is not for a terminal
             kwargs["description"] = kwargs["description"].replace("``", "")
         super().__init__(*args, **kwargs)
+
+    def options(self) -> list[str]:
+        """The option strings ``--help`` shows (hidden aliases left out)."""
+        return [option for action in self._actions if action.help != argparse.SUPPRESS
+                for option in action.option_strings]
+
+    def parse_args(self, args: Sequence[str] | None = None,  # type: ignore[override]
+                   namespace: argparse.Namespace | None = None) -> argparse.Namespace:
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            hints = "".join(did_you_mean(word.split("=")[0], self.options())
+                            for word in extras if word.startswith("--"))
+            self.error(f"unrecognized arguments: {' '.join(extras)}{hints}")
+        return parsed
+
+    def _check_value(self, action: argparse.Action, value: Any) -> None:
+        if action.choices is not None and value not in action.choices:
+            choices = ", ".join(map(str, action.choices))
+            raise argparse.ArgumentError(
+                action, f"invalid choice: {value!r} (choose from {choices})"
+                        f"{did_you_mean(str(value), map(str, action.choices))}")
 
     def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
@@ -119,8 +148,9 @@ def choose(flag: str, kind: str, requested: str | None, valid: tuple[str, ...] |
                                for name in requested.split(",") if name.strip()))
     unknown = [name for name in names if name not in valid]
     if unknown or not names:
+        hint = did_you_mean(unknown[0], valid) if len(unknown) == 1 else ""
         raise ScenarioError(
-            f"{flag}: unknown {kind} {', '.join(unknown) or repr(requested)}; valid: "
+            f"{flag}: unknown {kind} {', '.join(unknown) or repr(requested)}{hint}; valid: "
             f"{', '.join(valid)}"
         )
     return names
@@ -139,8 +169,8 @@ def parse_speeds(requested: str | None) -> dict[str, float]:
             ratio = float(item)
         except ValueError:
             raise ScenarioError(
-                f"--speeds: unknown speed {item!r}; valid: {', '.join(SPEEDS)} or a peak ratio "
-                "like 1.2"
+                f"--speeds: unknown speed {item!r}{did_you_mean(item, SPEEDS)}; valid: "
+                f"{', '.join(SPEEDS)} or a peak ratio like 1.2"
             ) from None
         if not 0 < ratio <= MAX_SPEED_RATIO:
             raise ScenarioError(f"--speeds: a peak ratio must be a number > 0 and at most "

@@ -34,6 +34,7 @@ import numpy as np
 
 from benchmarks.cli import add_pool_arguments
 from benchmarks.executor import RunPool, RunSpec, check_pool_options
+from benchmarks.options import add_list_option
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.progress import Progress
 from benchmarks.scenarios import CONTROLLERS, Parser, ScenarioError, Settings, choose, seed
@@ -154,9 +155,9 @@ def _parser() -> Parser:
                     epilog=__doc__.split("\n\n", 1)[1],
                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--runs", type=int, default=100, help="random cases (100)")
-    parser.add_argument("--kinds", help=f"comma list of {', '.join(KINDS)} (default: all)")
-    parser.add_argument("--controllers", default="mpc-daqp",
-                        help=f"comma list of {', '.join(CONTROLLERS)} (mpc-daqp)")
+    add_list_option(parser, "--kinds", help=f"comma list of {', '.join(KINDS)} (default: all)")
+    add_list_option(parser, "--controllers", default="mpc-daqp",
+                    help=f"comma list of {', '.join(CONTROLLERS)} (mpc-daqp)")
     parser.add_argument("--seed", type=seed, default=0, help="seed of every random draw (0)")
     parser.add_argument("--no-faults", action="store_true", help="ideal plant")
     parser.add_argument("--duration", type=float, default=10.0, help="seconds per run (10)")

@@ -24,7 +24,7 @@ at most 1 deg above the baseline's: the benchmark's criterion of a win.
 
 Scenarios (default): the robot's circle and figure-eight, fixed and tangent heading,
 inside (0.8 x) and 1.3 x beyond the wheel limits, with mpc-daqp (time mode) or
-mpc-path (--mode path). Search space, log-uniform (defaults in brackets): heading
+mpc-path (--modes path). Search space, log-uniform (defaults in brackets): heading
 weight pose_theta in [1, 500] (50), terminal = terminal_scale x pose with terminal_scale
 in [0.5, 10] (2), twist xy [0.01, 10] (1) and theta [0.001, 1] (0.1), rate xy
 [0.01, 5] (0.2) and theta [0.001, 0.5] (0.02); path mode adds contour [200, 20000]
@@ -47,6 +47,7 @@ from typing import Any
 
 from benchmarks.cli import add_pool_arguments
 from benchmarks.executor import RunPool, RunSpec, check_pool_options, optimal_lap
+from benchmarks.options import add_list_option
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.progress import Progress
 from benchmarks.runner import build_scenarios, describe_robot, run_pace
@@ -143,7 +144,7 @@ class Tuner:
         self.robot_spec = args.robot if args.robot in PRESETS else describe_robot(robot)
         self.mode, self.args, self.pool = args.mode, args, pool
         trajectories = choose("--trajectories", "trajectory", args.trajectories, TRAJECTORIES)
-        headings = choose("--heading", "heading", args.heading, HEADINGS, ("fixed", "tangent"))
+        headings = choose("--headings", "heading", args.headings, HEADINGS, ("fixed", "tangent"))
         self.scenarios = build_scenarios({robot.name: robot}, trajectories,
                                          parse_speeds(args.speeds), headings, None)
         self.trajectories = [{"shape": s.trajectory_name, "heading": s.heading,
@@ -352,8 +353,9 @@ def _parser() -> Parser:
                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--robot", default="omni3",
                         help=f"a preset ({', '.join(PRESETS)}) or a robot TOML file (omni3)")
-    parser.add_argument("--mode", choices=("time", "path"), default="time",
-                        help="the controller mode tuned (time)")
+    add_list_option(parser, "--modes", dest="mode", metavar="MODE", choices=("time", "path"),
+                    default="time",
+                    help="the controller mode tuned, one of time, path (time)")
     parser.add_argument("--objective", choices=("pose", "baseline"), default="pose",
                         help="pose: the pose error in one metric; baseline: against the best "
                              "baseline per scenario (time mode; see below)")
@@ -362,9 +364,9 @@ def _parser() -> Parser:
                         help="trials evaluated at once (1; more for big clusters: the sampler "
                              "then proposes with fewer results, results depend on it)")
     parser.add_argument("--seed", type=seed, default=0, help="sampler seed (0)")
-    parser.add_argument("--trajectories", help="comma list (default: circle,figure8)")
-    parser.add_argument("--heading", help="comma list of headings (default: fixed,tangent)")
-    parser.add_argument("--speeds", help="comma list (default: inside,beyond)")
+    add_list_option(parser, "--trajectories", help="comma list (default: circle,figure8)")
+    add_list_option(parser, "--headings", help="comma list of headings (default: fixed,tangent)")
+    add_list_option(parser, "--speeds", help="comma list (default: inside,beyond)")
     parser.add_argument("--heading-scale", type=float, default=2.0, metavar="DEG",
                         help="heading RMS that costs as much as 10 mm of position RMS (2)")
     parser.add_argument("--horizon", type=int, default=20, help="MPC horizon (20)")
@@ -386,7 +388,7 @@ def main(argv: list[str]) -> int:
     if args.trials < 2 or args.batch < 1 or not args.heading_scale > 0:
         raise ScenarioError("--trials must be >= 2, --batch >= 1, --heading-scale > 0")
     if args.objective == "baseline" and args.mode == "path":
-        raise ScenarioError("--objective baseline compares time-mode runs: use --mode time")
+        raise ScenarioError("--objective baseline compares time-mode runs: use --modes time")
     if args.horizon < 1 or not args.dt > 0 or (args.duration is not None
                                                and not args.duration > args.skip >= 0):
         raise ScenarioError("--horizon must be >= 1, --dt > 0, --duration > --skip >= 0")

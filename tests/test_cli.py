@@ -33,16 +33,17 @@ def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_quick_run_writes_results_and_report(quick_run: Path) -> None:
     document = json.loads((quick_run / "results.json").read_text())
     runs = document["runs"]
-    # mecanum x figure8 x fixed heading x {inside, beyond} x every default controller that
-    # applies (the setpoint generator is for swerve)
-    shown = set(DEFAULT_CONTROLLERS) - {"ff-p-setpoint"}
-    assert len(runs) == 2 * len(shown)
+    # {mecanum, swerve} x figure8 x fixed heading x beyond x every default controller but
+    # mpc-ipopt that applies (the setpoint generator is for swerve)
+    shown = set(DEFAULT_CONTROLLERS) - {"mpc-ipopt"}
+    assert len(runs) == 2 * len(shown) - 1
     assert {run["controller"] for run in runs} == shown
-    assert {run["speed"] for run in runs} == {"inside", "beyond"}
+    assert {(run["layout"], run["speed"]) for run in runs} == {("mecanum", "beyond"),
+                                                               ("swerve", "beyond")}
     assert document["meta"]["machine"]["cpu_count"] >= 1
     for run in runs:
         series = run["series"]
-        assert len(series["time"]) == len(series["pose"]) == len(series["wheel_command"]) == 60
+        assert len(series["time"]) == len(series["pose"]) == len(series["wheel_command"]) == 120
         assert run["metrics"]["limit_violations"] == 0 or run["controller"].startswith("ff-")
     with (quick_run / "results.csv").open() as handle:
         rows = list(csv.DictReader(handle))
@@ -56,6 +57,15 @@ def test_quick_run_writes_results_and_report(quick_run: Path) -> None:
     assert (quick_run / "report" / "summary.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_quick_shows_mpc_ahead_of_every_baseline(quick_run: Path) -> None:
+    runs = json.loads((quick_run / "results.json").read_text())["runs"]
+    for layout in ("mecanum", "swerve"):
+        errors = {run["controller"]: run["metrics"]["rms_position_error"] for run in runs
+                  if run["layout"] == layout}
+        best_baseline = min(v for k, v in errors.items() if k.startswith("ff-"))
+        assert errors["mpc-daqp"] < 0.8 * best_baseline, errors
+
+
 def test_mpc_never_exceeds_a_limit_beyond_the_limits(quick_run: Path) -> None:
     runs = json.loads((quick_run / "results.json").read_text())["runs"]
     for run in runs:
@@ -67,8 +77,7 @@ def test_report_subcommand_rebuilds_the_report(quick_run: Path, tmp_path: Path) 
     assert main(["report", str(quick_run / "results.json"), "--out", str(tmp_path / "again")]) == 0
     assert (tmp_path / "again" / "index.html").exists()
     figures = list((tmp_path / "again" / "figures").glob("*.png"))
-    assert len(figures) == 2 * (len(DEFAULT_CONTROLLERS) - 1)
-    assert not (tmp_path / "again" / "pace.png").exists()  # 3 s runs: no lap to time
+    assert len(figures) == 2 * (len(DEFAULT_CONTROLLERS) - 1) - 1
 
 
 def test_polygon_sides_reach_the_swerve_qp(tmp_path: Path) -> None:
@@ -95,7 +104,7 @@ def test_robot_file_and_csv_trajectory(tmp_path: Path) -> None:
     path.write_text("t,x,y,theta\n0,0,0,0\n2,0.5,0.2,0.3\n4,1.0,0.0,0.0\n")
     out = tmp_path / "out"
     code = main(["--layouts", "mecanum", "--trajectories", "circle", "--speeds", "0.5",
-                 "--heading", "fixed", "--controllers", "mpc-osqp,ff-p-desat",
+                 "--headings", "fixed", "--controllers", "mpc-osqp,ff-p-desat",
                  "--robot", str(robot),
                  "--trajectory-csv", str(path), "--duration", "2", "--no-report",
                  "--out", str(out)])
@@ -117,8 +126,8 @@ DATA = Path(__file__).parent / "data"
          "--layouts: unknown layout tank; valid: omni3, omni4, mecanum, swerve"),
         (["--controllers", "pid"],
          "--controllers: unknown controller pid; valid: mpc-daqp, mpc-tuned, mpc-osqp"),
-        (["--heading", "sideways"],
-         "--heading: unknown heading sideways; valid: fixed, tangent, spin"),
+        (["--headings", "sideways"],
+         "--headings: unknown heading sideways; valid: fixed, tangent, spin"),
         (["--trajectories", "square"],
          "--trajectories: unknown trajectory square; valid: circle, figure8"),
         (["--speeds", "fast"], "--speeds: unknown speed 'fast'"),
@@ -131,11 +140,12 @@ DATA = Path(__file__).parent / "data"
         (["--polygon-sides", "5"], "--polygon-sides must be an even integer 4 to 256, got 5"),
         (["--polygon-sides", "200000"], "--polygon-sides must be an even integer 4 to 256"),
         (["--bogus"], "unrecognized arguments: --bogus"),
-        (["--speed", "2"], "unrecognized arguments: --speed 2"),  # not --speeds: no prefixes
+        (["--control", "ff-p-clip"], "unrecognized arguments: --control ff-p-clip (did you "
+                                      "mean --controllers?)"),  # no prefixes
         (["--trajectory", "/no/such/path.traj"], "'/no/such/path.traj'"),
         (["--trajectory", "/no/such/auto.json"],
          "trajectory file '/no/such/auto.json': expected a Choreo .traj or a waypoint .csv"),
-        (["prf"], "unknown command 'prf'; commands: run, report, perf"),
+        (["prf"], "unknown command 'prf' (did you mean perf?); commands: run, report, perf"),
         (["--skip", "-1", "--quick"], "--skip must be a finite number >= 0 [s], got -1.0"),
         (["--quick", "--duration", "0"], "--duration must be > 0 and at most"),
         (["--duration", "1e12"], "--duration must be > 0 and at most 250000 s"),
@@ -213,7 +223,7 @@ def test_every_command_and_option_is_in_the_tree() -> None:
     options = {option for action in choices["perf"]._actions for option in action.option_strings}
     assert {"--sections", "--out", "--force"} <= options
     with pytest.raises(SystemExit):  # a subcommand's options take no prefix either
-        main(["perf", "--section", "horizons"])
+        main(["perf", "--sect", "horizons"])
 
 
 def test_shell_completion_offers_commands_and_options(tmp_path: Path) -> None:
@@ -249,7 +259,7 @@ def test_a_second_run_into_the_same_folder_is_refused(quick_run: Path,
 def test_force_overwrites(tmp_path: Path) -> None:
     def run(*extra: str) -> int:
         return main(["--layouts", "omni3", "--trajectories", "circle", "--speeds", "inside",
-                     "--heading", "fixed", "--controllers", "ff-p-clip", "--duration", "1",
+                     "--headings", "fixed", "--controllers", "ff-p-clip", "--duration", "1",
                      "--no-report", "--workers", "1", "--out", str(tmp_path), *extra])
 
     assert run("--seed", "1") == 0
@@ -370,7 +380,7 @@ def test_trajectory_files_with_shapes_and_csv(tmp_path: Path) -> None:
     out = tmp_path / "out"
     assert main(["--trajectory", str(choreo_file(tmp_path)), "--trajectory", str(csv_path),
                  "--layouts", "omni3,mecanum", "--trajectories", "circle", "--speeds", "inside",
-                 "--heading", "fixed", "--controllers", "ff-p-desat", "--duration", "1",
+                 "--headings", "fixed", "--controllers", "ff-p-desat", "--duration", "1",
                  "--no-report", "--workers", "1", "--out", str(out)]) == 0
     runs = json.loads((out / "results.json").read_text())["runs"]
     assert {(run["layout"], run["trajectory"], run["heading"]) for run in runs} == {
@@ -458,9 +468,94 @@ def test_a_skip_without_a_duration_is_kept_whole(tmp_path: Path,
                                                  capsys: pytest.CaptureFixture[str]) -> None:
     """Without --duration a run lasts its laps after the skip: the skip is not halved
     (it was: --skip 100 scored from 62 s on, while the settings said 100)."""
-    assert main(["--layouts", "mecanum", "--trajectories", "circle", "--heading", "fixed",
+    assert main(["--layouts", "mecanum", "--trajectories", "circle", "--headings", "fixed",
                  "--controllers", "ff-p-clip", "--speeds", "inside", "--skip", "12",
                  "--no-report", "--out", str(tmp_path)]) == 0
     run = json.loads((tmp_path / "results.json").read_text())["runs"][0]
     assert run["skip"] == 12.0
     capsys.readouterr()
+
+
+def _command_parsers() -> dict[str, argparse.ArgumentParser]:
+    return {name: command.function(command.parser)() for name, command in COMMANDS.items()}
+
+
+def test_every_list_option_has_one_name_in_every_command() -> None:
+    from benchmarks.options import LIST_OPTIONS
+
+    plurals = {flag.removeprefix("--"): flag for flag in LIST_OPTIONS}
+    singulars = {old: flag for flag, olds in LIST_OPTIONS.items() for old in olds}
+    seen: dict[str, set[str]] = {}
+    for name, parser in _command_parsers().items():
+        shown = [action for action in parser._actions if action.help != argparse.SUPPRESS]
+        for action in shown:
+            for option in action.option_strings:  # no old spelling of a list option shown
+                assert option not in singulars, f"{name} {option}: spell it {singulars[option]}"
+            if action.dest in plurals or action.dest == "mode":  # a list of names
+                seen.setdefault(action.dest, set()).update(action.option_strings)
+        for action in parser._actions:  # an old spelling stores where the new one does
+            if action.help == argparse.SUPPRESS and action.option_strings[0] in singulars:
+                new = singulars[action.option_strings[0]]
+                assert any(new in a.option_strings and a.dest == action.dest for a in shown)
+    # the same list, the same name everywhere: --layouts in run, perf, motors, qp-replay
+    assert seen["layouts"] == {"--layouts"}
+    assert seen["headings"] == {"--headings"}
+    assert seen["mode"] == {"--modes"}  # tune's --modes stores its one mode as mode
+    assert {"layouts", "trajectories", "headings", "speeds", "controllers", "modes",
+            "solvers"} <= set(seen)
+    commands = {name for name, parser in _command_parsers().items()
+                if any("--headings" in a.option_strings for a in parser._actions)}
+    assert commands == {"run", "perf", "qp-replay", "motors", "tune"}
+
+
+def test_old_singular_spellings_still_work_hidden_with_a_note(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from benchmarks import perf, qp_replay
+
+    args = perf._parser().parse_args(["--heading", "fixed", "--layouts", "mecanum"])
+    assert args.headings == "fixed" and args.layouts == "mecanum"
+    assert "mpc-bench perf: note: --heading is now spelled --headings" in capsys.readouterr().err
+    args = qp_replay._parser().parse_args(["--layout", "mecanum", "--speed", "inside"])
+    assert (args.layouts, args.speeds, args.trajectories) == ("mecanum", "inside", "figure8")
+    with pytest.raises(SystemExit):
+        perf._parser().print_help()
+        raise SystemExit(0)
+    assert "--heading " not in capsys.readouterr().out  # hidden from --help
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--layots", "mecanum"],
+         "mpc-bench: error: unrecognized arguments: --layots mecanum (did you mean --layouts?)"),
+        (["perf", "--headigns", "fixed"],
+         "mpc-bench perf: error: unrecognized arguments: --headigns fixed (did you mean "
+         "--headings?)"),
+        (["--layouts", "mecanm"], "--layouts: unknown layout mecanm (did you mean mecanum?)"),
+        (["--controllers", "mpc-dqap"], "unknown controller mpc-dqap (did you mean mpc-daqp?)"),
+        (["--speeds", "beyon"], "--speeds: unknown speed 'beyon' (did you mean beyond?)"),
+        (["--plant", "idael"], "invalid choice: 'idael' (choose from ideal, motor, realistic) "
+                               "(did you mean ideal?)"),
+        (["tune", "--modes", "pth"], "mpc-bench tune: error: argument --modes: invalid choice: "
+                                     "'pth' (choose from time, path) (did you mean path?)"),
+        (["repot", "x.json"], "mpc-bench: error: unknown command 'repot' (did you mean "
+                              "report?)"),
+        (["report", "/no/such/results.json"], "mpc-bench report: error: results file "),
+        (["qp-replay", "--layouts", "swerve,mecanum"],
+         "mpc-bench qp-replay: error: --layouts takes one layout here"),
+        (["motors", "--headings", "spin"], "mpc-bench motors: error: argument --headings: "
+                                           "invalid choice: 'spin'"),
+    ],
+)
+def test_mistakes_get_the_closest_name_and_errors_name_the_command(
+        argv: list[str], message: str, capsys: pytest.CaptureFixture[str],
+        tmp_path: Path) -> None:
+    writes = argv[0] not in ("report", "repot")
+    with pytest.raises(SystemExit) as exit_info:
+        raise SystemExit(main([*argv, "--out", str(tmp_path / "out")] if writes else argv))
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    command = f"mpc-bench {argv[0]}" if argv[0] in COMMANDS else "mpc-bench"
+    assert err.startswith(f"{command}: error: ") and message in err, err
+    assert err.count("\n") == 1
+    assert not (tmp_path / "out").exists()

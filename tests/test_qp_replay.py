@@ -107,7 +107,7 @@ def test_too_few_ticks_or_qps_of_many_sizes_are_errors(
 
 def test_the_command_writes_its_table_and_document(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert qp_replay.main(["--layout", "mecanum", "--ticks", "10", "--solvers", "daqp",
+    assert qp_replay.main(["--layouts", "mecanum", "--ticks", "10", "--solvers", "daqp",
                            "--out", str(tmp_path)]) == 0
     printed = capsys.readouterr().out
     assert "10 QPs of 160 rows and 60 columns" in printed and "daqp " in printed
@@ -116,15 +116,15 @@ def test_the_command_writes_its_table_and_document(
     assert document["scenario"]["rows"] == 160
     assert [row["solver"] for row in document["solvers"]] == ["daqp"]
     with pytest.raises(ScenarioError, match="already holds results"):
-        qp_replay.main(["--layout", "mecanum", "--ticks", "10", "--out", str(tmp_path)])
+        qp_replay.main(["--layouts", "mecanum", "--ticks", "10", "--out", str(tmp_path)])
 
 
 @pytest.mark.parametrize("argv, message", [
     (["--ticks", "3"], "--ticks must be in"),
     (["--ticks", "501"], "--ticks must be in 6..500"),
-    (["--layout", "swerve,mecanum"], "--layout takes one layout"),
+    (["--layouts", "swerve,mecanum"], "--layouts takes one layout"),
     (["--solvers", "cplex"], "unknown solver"),
-    (["--speed", "fast"], "unknown speed"),
+    (["--speeds", "fast"], "unknown speed"),
 ])
 def test_bad_options_are_one_line_errors(tmp_path: Path, argv: list[str],
                                          message: str) -> None:
