@@ -118,7 +118,8 @@ def test_index_shows_metadata_escaped(report: tuple[Path, list[tuple[int, int]]]
 
 def _full_table(page: str) -> str:
     """The page's full table (the headline has a table of its own)."""
-    return page[page.index('<table class="summary">'):page.index("</table></div>")]
+    start = page.index('<table class="summary">')
+    return page[start:page.index("</table></div>", start)]
 
 
 def test_index_formats_table_values(report: tuple[Path, list[tuple[int, int]]]) -> None:
