@@ -11,9 +11,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 from matplotlib.ticker import ScalarFormatter
 
 from .headline import (
@@ -41,6 +43,8 @@ def colour(controllers: Sequence[str], name: str) -> str:
 
 # --------------------------------------------------------------------------- headline
 
+#: Shade of the band below the error floor on log plots.
+FLOOR_COLOUR = "0.88"
 #: Of a row's height, the span the controllers' offset markers share.
 _ROW_SPREAD = 0.64
 
@@ -83,9 +87,7 @@ def _dot_panel(ax: Axes, rows: Sequence[Sequence[tuple[str, float]]], offsets: d
         low, high = min(shown) / 1.8, max(shown) * 1.8
         log_axis(ax, "x", low, high)
         if below:
-            ax.axvspan(low, floor, color="0.9", zorder=0)
-            ax.text(floor, -0.5, f" < {floor:g} {unit}", va="top", ha="right",
-                    fontsize="x-small", color="0.35", rotation=90)
+            ax.axvspan(low, floor, color=FLOOR_COLOUR, zorder=0)
     ax.grid(True, axis="x", alpha=0.4)
 
 
@@ -100,8 +102,7 @@ def headline_figure(headline: Headline, runs: Sequence[Run]) -> Figure:
     ranked = list(dict.fromkeys(entry[0] for ranking in rankings for entry in ranking.entries))
     offsets = _offsets(ranked)
     count = max(len(rankings), 1)
-    figure = new_figure(12.4, min(1.9 + 0.27 * count + 0.1 * len(ranked), 14.0),
-                        constrained=True)
+    figure = new_figure(8.4, min(2.1 + 0.27 * count, 14.0), constrained=True)
     position, heading = figure.subplots(1, 2, sharey=True)
     rows_position = [[(name, 1e3 * rms) for name, rms, _ in r.entries] for r in rankings]
     rows_heading = [[(name, math.degrees(metric_value(runs[i], "rms_heading_error")))
@@ -116,15 +117,17 @@ def headline_figure(headline: Headline, runs: Sequence[Run]) -> Figure:
     heading.set_xlabel("RMS heading error [deg] (log)")
     position.set_title("position error", fontsize="medium")
     heading.set_title("heading error", fontsize="medium")
-    handles = [Line2D([], [], marker="o" if is_mpc(name) else "s", ls="",
+    handles: list[Artist] = [Line2D([], [], marker="o" if is_mpc(name) else "s", ls="",
                       color=colour(controllers, name), label=name) for name in ranked]
     handles.append(Line2D([], [], marker="o", ls="", color="w", mec="k", ms=8,
                           label=f"lowest (ties within {TIE_TOLERANCE:.0%} too)"))
+    handles.append(Patch(color=FLOOR_COLOUR, label=f"below the floor ({1e3 * POSITION_FLOOR:g} "
+                         f"mm, {math.degrees(HEADING_FLOOR):g} deg): drawn at it as <"))
     figure.legend(handles=handles, loc="outside lower center", fontsize="small",
-                  ncols=min(len(handles), 5))
+                  ncols=min(len(handles), 4))
     focus = headline.focus if headline.single is None else "after the settling time"
-    figure.suptitle(f"RMS errors {focus}: each row a scenario (the reference's peak wheel "
-                    "speed / limit), each dot a controller", fontsize="medium")
+    figure.suptitle(f"RMS errors {focus}: a row per scenario, a dot per controller",
+                    fontsize="medium")
     return figure
 
 
@@ -170,7 +173,7 @@ def scenario_figure(runs: Sequence[Run], series: Sequence[Series], controllers: 
         low = floor / 2.0 if below else min(floor, peak) / 2.0
         log_axis(errors, "y", low, max(peak, floor) * 2.0)
         if below:
-            errors.axhspan(low, floor, color="0.88", zorder=0.6,
+            errors.axhspan(low, floor, color=FLOOR_COLOUR, zorder=0.6,
                            label=f"below {floor:g} mm (floor): drawn on it")
     errors.set_xlabel("time [s]")
     errors.set_ylabel("position error, time-indexed [mm] (log);\ndashed: path followers' "

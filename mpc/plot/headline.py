@@ -136,11 +136,10 @@ class Comparison:
         wins, ties, losses: scenarios where MPC's RMS position error is lower, ties
             (:func:`ties`), is higher.
         position_ratios: per scenario, MPC's RMS position error / the best baseline's
-            (scenarios where MPC's is below the floor are left out: counted in
-            ``below_floor``).
-        heading_ratios: the same for the RMS heading error (each the best of its side).
-        below_floor: scenarios where MPC's RMS position error is below the floor.
-        baseline_median: the best baseline's median RMS position error [m].
+            (scenarios where either is below the floor are left out: a ratio of rounding).
+        position: per scenario, (MPC's, the best baseline's) RMS position error [m].
+        heading: per scenario, (MPC's, the best baseline's) RMS heading error [rad], each
+            the best of its side (NaN where a side has none).
     """
 
     scenarios: int
@@ -148,15 +147,25 @@ class Comparison:
     ties: int
     losses: int
     position_ratios: tuple[float, ...]
-    heading_ratios: tuple[float, ...]
-    below_floor: int
-    baseline_median: float
+    position: tuple[tuple[float, float], ...]
+    heading: tuple[tuple[float, float], ...]
 
-    @staticmethod
-    def median(values: Sequence[float]) -> float:
-        """The median of finite ``values``, NaN if none."""
-        finite = [value for value in values if math.isfinite(value)]
-        return float(np.median(finite)) if finite else math.nan
+    @property
+    def below_floor(self) -> int:
+        """Scenarios where MPC's RMS position error is below :data:`POSITION_FLOOR`."""
+        return sum(ours < POSITION_FLOOR for ours, _ in self.position)
+
+    def medians(self, metric: str) -> tuple[float, float]:
+        """(MPC's, the best baseline's) median of ``metric`` (``"position"`` [m] or
+        ``"heading"`` [rad]) over the scenarios; NaN where none is finite."""
+        pairs = self.position if metric == "position" else self.heading
+        return (median([ours for ours, _ in pairs]), median([theirs for _, theirs in pairs]))
+
+
+def median(values: Sequence[float]) -> float:
+    """The median of the finite ``values``, NaN if none."""
+    finite = [value for value in values if math.isfinite(value)]
+    return float(np.median(finite)) if finite else math.nan
 
 
 def _best(runs: Sequence[Run], members: Sequence[int], key: str) -> float:
@@ -168,10 +177,10 @@ def _best(runs: Sequence[Run], members: Sequence[int], key: str) -> float:
 def compare(runs: Sequence[Run], chosen: Sequence[Ranking]) -> Comparison | None:
     """MPC against the best baseline in the ``chosen`` scenarios; None when the runs lack
     either side (no MPC variant, or nothing else)."""
-    wins = ties_ = losses = below = 0
-    position: list[float] = []
-    heading: list[float] = []
-    baselines: list[float] = []
+    wins = ties_ = losses = 0
+    ratios: list[float] = []
+    position: list[tuple[float, float]] = []
+    heading: list[tuple[float, float]] = []
     for ranking in chosen:
         indices = [index for _, _, index in ranking.entries]
         mpc = [i for i in indices if is_mpc(str(runs[i]["controller"]))]
@@ -180,24 +189,21 @@ def compare(runs: Sequence[Run], chosen: Sequence[Ranking]) -> Comparison | None
                         _best(runs, others, "rms_position_error"))
         if not (math.isfinite(ours) and math.isfinite(theirs)):
             continue
-        baselines.append(theirs)
-        below += ours < POSITION_FLOOR
         if ties(ours, theirs, POSITION_FLOOR):
             ties_ += 1
         elif ours < theirs:
             wins += 1
         else:
             losses += 1
-        if ours >= POSITION_FLOOR and theirs > 0:  # below the floor a ratio means nothing
-            position.append(ours / theirs)
-        ours_h, theirs_h = (_best(runs, mpc, "rms_heading_error"),
-                            _best(runs, others, "rms_heading_error"))
-        if math.isfinite(ours_h) and ours_h >= HEADING_FLOOR and theirs_h > 0:
-            heading.append(ours_h / theirs_h)
-    if wins + ties_ + losses == 0:
+        if min(ours, theirs) >= POSITION_FLOOR:
+            ratios.append(ours / theirs)
+        position.append((ours, theirs))
+        heading.append((_best(runs, mpc, "rms_heading_error"),
+                        _best(runs, others, "rms_heading_error")))
+    if not position:
         return None
-    return Comparison(wins + ties_ + losses, wins, ties_, losses, tuple(position),
-                      tuple(heading), below, Comparison.median(baselines))
+    return Comparison(len(position), wins, ties_, losses, tuple(ratios), tuple(position),
+                      tuple(heading))
 
 
 @dataclass(frozen=True)
@@ -227,24 +233,29 @@ class Headline:
 
     @property
     def sentence(self) -> str:
-        """The headline in words: MPC against the best baseline (wins, median ratios), path
-        mode against the optimal lap; or who won where, without a baseline to compare;
-        or, for a single run, its errors."""
+        """The headline in words (:attr:`sentences` joined)."""
+        return " ".join(self.sentences)
+
+    @property
+    def sentences(self) -> tuple[str, ...]:
+        """The headline in words, the answer first: MPC against the best baseline in focus
+        (wins, median ratio and errors); then inside the limits; then path mode against the
+        optimal lap. Without a baseline to compare, who won where; for a single run, its
+        errors."""
         if self.single is not None:
-            return _single_sentence(self.single)
+            return (_single_sentence(self.single),)
         lead = self.focus[0].upper() + self.focus[1:]
-        paths = (f" In path mode: {self._paths()}." if self.followers else "")
+        paths = (f"In path mode: {self._paths()}.",) if self.followers else ()
         if self.comparison is not None:
-            text = f"{lead}, {_comparison_text(self.comparison)}"
-            if self.inside is not None:
-                text += f" Inside the limits, {_inside_text(self.inside)}"
-            return text + paths
+            inside = () if self.inside is None else (
+                f"Inside the limits, {_comparison_text(self.inside, inside=True)}",)
+            return (f"{lead}, {_comparison_text(self.comparison)}", *inside, *paths)
         if not self.wins:
             if self.followers:
                 return (f"{lead}, no controller that keeps the reference's clock to rank. "
-                        f"Following the path: {self._paths()}.")
-            return f"No controller has a finite RMS position error {self.focus}."
-        return f"{lead}, {self._wins_text()}{paths}"
+                        f"Following the path: {self._paths()}.",)
+            return (f"No controller has a finite RMS position error {self.focus}.",)
+        return (f"{lead}, {self._wins_text()}", *paths)
 
     def _wins_text(self) -> str:
         total = len(self.rankings)
@@ -275,49 +286,36 @@ class Headline:
 
 
 def _ratio_text(values: Sequence[float]) -> str:
-    """``"0.31\u00d7 (0.20-0.52\u00d7)"``: the median and range of ratios."""
-    median = Comparison.median(values)
+    """``"a median 0.31\u00d7 (0.20-0.52\u00d7)"``: the median and range of ratios."""
     finite = [value for value in values if math.isfinite(value)]
-    if not finite:
-        return "-"
     if len(finite) == 1:
-        return f"{median:.2g}\u00d7"
-    return f"a median {median:.2g}\u00d7 ({min(finite):.2g}-{max(finite):.2g}\u00d7)"
+        return f"{finite[0]:.2g}\u00d7"
+    return f"a median {median(finite):.2g}\u00d7 ({min(finite):.2g}-{max(finite):.2g}\u00d7)"
 
 
-def _comparison_text(comparison: Comparison) -> str:
+def _medians_text(comparison: Comparison, metric: str) -> str:
+    """``"1.2 deg (MPC) against 3.4 deg"``: the medians of both sides, floors shown."""
+    floor, scale, unit = ((POSITION_FLOOR, 1e3, "mm") if metric == "position"
+                          else (HEADING_FLOOR, 180.0 / math.pi, "deg"))
+    ours, theirs = comparison.medians(metric)
+    return f"{floored(ours, floor, scale, unit)} against {floored(theirs, floor, scale, unit)}"
+
+
+def _comparison_text(comparison: Comparison, inside: bool = False) -> str:
     n = comparison.scenarios
     scenario = "scenario" if n == 1 else "scenarios"
-    text = (f"MPC (the best of its variants in each scenario) has a lower RMS position error "
-            f"than the best baseline in {comparison.wins} of {n} {scenario}")
+    text = ("MPC" if inside else "MPC (the best of its variants in each scenario)") + (
+        f" has a lower RMS position error than the best baseline in {comparison.wins} of "
+        f"{n} {scenario}")
     if comparison.ties:
         text += f", ties in {comparison.ties}"
     if comparison.losses:
-        text += f", a higher one in {comparison.losses}"
-    text += "."
-    if comparison.position_ratios:
-        text += (f" MPC's RMS position error is {_ratio_text(comparison.position_ratios)} "
-                 "the best baseline's")
-        if comparison.heading_ratios:
-            text += f", its RMS heading error {_ratio_text(comparison.heading_ratios)}"
-        text += "."
-    return text
-
-
-def _inside_text(comparison: Comparison) -> str:
-    n = comparison.scenarios
-    floor = f"{1e3 * POSITION_FLOOR:g} mm"
-    text = (f"MPC's RMS position error is lower than the best baseline's in {comparison.wins} "
-            f"of {n}, ties in {comparison.ties}")
-    if comparison.below_floor:
-        text += f" (below {floor} in {comparison.below_floor})"
-    if comparison.position_ratios:
-        where = "elsewhere " if comparison.below_floor else ""
-        text += f", {where}{_ratio_text(comparison.position_ratios)} the best baseline's"
-    baseline = comparison.baseline_median
-    if math.isfinite(baseline):
-        text += (f"; the best baseline's median is "
-                 f"{floored(baseline, POSITION_FLOOR, 1e3, 'mm')}")
+        text += f", has a higher one in {comparison.losses}"
+    if comparison.position_ratios and not inside:
+        text += f"; {_ratio_text(comparison.position_ratios)} the best baseline's"
+    text += f". Median RMS position error {_medians_text(comparison, 'position')}"
+    if any(math.isfinite(ours) for ours, _ in comparison.heading):
+        text += f", heading error {_medians_text(comparison, 'heading')}"
     return text + "."
 
 

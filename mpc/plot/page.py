@@ -18,11 +18,13 @@ from typing import Any
 from .headline import (
     HEADING_FLOOR,
     POSITION_FLOOR,
+    TIE_TOLERANCE,
     Comparison,
     Headline,
     Ranking,
     floored,
     follows_path,
+    median,
 )
 from .results import (
     Run,
@@ -58,9 +60,10 @@ table.meta td, table.meta th { text-align: left; }
 img { max-width: 100%; height: auto; border: 1px solid #ddd; }
 div.first { display: flex; gap: 0.8em; align-items: flex-start; }
 div.first figure { margin: 0; flex: 1 1 0; min-width: 0; }
-div.first div.side { flex: 0 0 25em; }
+div.first div.side { flex: 0 0 27em; }
+table.wins td { white-space: nowrap; }
 nav.toc { font-size: 0.9em; margin: 0.1em 0 0.4em; }
-table.versus td, table.versus th, table.wins td, table.wins th { font-size: 0.95em; }
+table.versus th.row { text-align: left; font-weight: normal; background: #f8f8f8; }
 caption { text-align: left; font-size: 0.92em; color: #444; }
 figcaption { font-size: 0.85em; color: #444; }
 section.run, section.scenario { margin-top: 1.5em; }
@@ -88,10 +91,8 @@ class ScenarioFigure:
 
 def _median_text(values: Sequence[float], floor: float, scale: float) -> str:
     """The median of finite ``values`` [SI] scaled, ``< floor`` below the floor."""
-    median = Comparison.median(values)
-    if not math.isfinite(median):
-        return "-"
-    return floored(median, floor, scale, "").strip()
+    value = median(values)
+    return floored(value, floor, scale, "").strip() if math.isfinite(value) else "-"
 
 
 def _controllers_table(headline: Headline, runs: Sequence[Run]) -> str:
@@ -113,42 +114,45 @@ def _controllers_table(headline: Headline, runs: Sequence[Run]) -> str:
                     f"<td>{_e(_median_text(position, POSITION_FLOOR, 1e3))}</td>"
                     f"<td>{_e(_median_text(heading, HEADING_FLOOR, 180.0 / math.pi))}</td></tr>")
     return (f'<table class="wins"><caption>Each controller {_e(headline.focus)} '
-            f"({counted(len(headline.rankings), 'scenario')})</caption><thead><tr>"
-            "<th>controller</th><th>lowest RMS pos. err. in</th>"
-            "<th>median RMS pos. err. [mm]</th><th>median RMS heading err. [deg]</th></tr>"
+            f"({counted(len(headline.rankings), 'scenario')}); median RMS errors</caption>"
+            "<thead><tr><th>controller</th><th>lowest in</th>"
+            "<th>position [mm]</th><th>heading [deg]</th></tr>"
             f"</thead><tbody>{''.join(rows)}</tbody></table>")
 
 
-def _versus_row(label: str, comparison: Comparison) -> str:
-    below = str(comparison.below_floor)
-    cells = [label, str(comparison.scenarios), str(comparison.wins), str(comparison.ties),
-             str(comparison.losses), _ratio_cell(comparison.position_ratios), below,
-             _ratio_cell(comparison.heading_ratios)]
-    text = '<td class="text">'
-    return "<tr>" + "".join(f'{text if i == 0 else "<td>"}{_e(cell)}</td>'
-                            for i, cell in enumerate(cells)) + "</tr>"
-
-
-def _ratio_cell(values: Sequence[float]) -> str:
-    median = Comparison.median(values)
-    return f"{median:.2g}\u00d7" if math.isfinite(median) else "-"
+def _versus_cells(comparison: Comparison) -> list[str]:
+    """One column of the MPC-against-baseline table (see :func:`_versus_table`)."""
+    ratios = comparison.position_ratios
+    position = [floored(value, POSITION_FLOOR, 1e3, "") for value in
+                comparison.medians("position")]
+    heading = [floored(value, HEADING_FLOOR, 180.0 / math.pi, "") for value in
+               comparison.medians("heading")]
+    return [str(comparison.scenarios),
+            f"{comparison.wins} / {comparison.ties} / {comparison.losses}",
+            f"{median(ratios):.2g}\u00d7" if ratios else "-",
+            " : ".join(text.strip() for text in position),
+            " : ".join(text.strip() for text in heading)]
 
 
 def _versus_table(headline: Headline) -> str:
-    """MPC (the best variant per scenario) against the best baseline: scenarios where its
-    RMS position error is lower, tied, higher; median ratios of position and heading."""
+    """MPC (the best variant per scenario) against the best baseline, a column beyond and
+    one inside the limits: scenarios, MPC lower / tie / higher in RMS position error, the
+    median ratio, and the median errors of both (position [mm], heading [deg])."""
     if headline.comparison is None:
         return ""
-    rows = [_versus_row(headline.focus, headline.comparison)]
+    columns = [(headline.focus, _versus_cells(headline.comparison))]
     if headline.inside is not None:
-        rows.append(_versus_row("inside the wheel limits", headline.inside))
-    floor = f"{1e3 * POSITION_FLOOR:g} mm"
+        columns.append(("inside the wheel limits", _versus_cells(headline.inside)))
+    names = ("scenarios", "MPC lower / tie / higher", "median ratio MPC : baseline",
+             "median RMS pos. err. [mm], MPC : baseline",
+             "median RMS heading err. [deg], MPC : baseline")
+    head = "".join(f"<th>{_e(title)}</th>" for title, _ in columns)
+    rows = "".join(f'<tr><th class="row">{_e(name)}</th>'
+                   + "".join(f"<td>{_e(cells[i])}</td>" for _, cells in columns) + "</tr>"
+                   for i, name in enumerate(names))
     return ('<table class="versus"><caption>MPC (its best variant per scenario) against the '
-            "best baseline</caption><thead><tr><th>scenarios</th><th>count</th>"
-            "<th>MPC lower</th><th>tie</th><th>MPC higher</th>"
-            "<th>median ratio, RMS pos. err.</th>"
-            f"<th>MPC below {_e(floor)}</th><th>median ratio, RMS heading err.</th></tr></thead>"
-            f"<tbody>{''.join(rows)}</tbody></table>")
+            f"best baseline, RMS errors</caption><thead><tr><th></th>{head}</tr></thead>"
+            f"<tbody>{rows}</tbody></table>")
 
 
 def _single_table(run: Run) -> str:
@@ -191,8 +195,9 @@ def _headline(headline: Headline, runs: Sequence[Run], settings: Mapping[str, An
                  "brackets: the reference's peak wheel speed / limit), one dot per "
                  "controller (MPC variants as circles above the row's middle, the baselines "
                  "as squares below), the lowest outlined.</figcaption></figure>")
+    rest = "".join(" " + _e(text) for text in headline.sentences[1:])
     return f"""<section id="headline">
-<p class="lead"><b>{_e(headline.sentence)}</b></p>
+<p class="lead"><b>{_e(headline.sentences[0])}</b>{rest}</p>
 {terms}
 <div class="first">
 {first}
@@ -206,14 +211,24 @@ def _headline(headline: Headline, runs: Sequence[Run], settings: Mapping[str, An
 def _scenario_section(item: ScenarioFigure, runs: Sequence[Run], ids: Sequence[str]) -> str:
     ranking = item.ranking
     ratio = f"{ranking.peak_ratio:.2f}" if math.isfinite(ranking.peak_ratio) else "-"
-    ranked = ", ".join(
-        f'<a href="#{_e(ids[index])}">{_e(name)}</a> '
-        f"{_e(floored(rms, POSITION_FLOOR, 1e3, 'mm'))}"
-        for name, rms, index in ranking.entries)
-    order = "" if len(ranking.entries) == 1 else ", lowest first"
-    tie = (f" A tie: {', '.join(ranking.winners)}." if len(ranking.winners) > 1 else "")
+    def link(name: str, index: int) -> str:
+        return f'<a href="#{_e(ids[index])}">{_e(name)}</a>'
+
+    below = [link(name, index) for name, rms, index in ranking.entries if rms < POSITION_FLOOR]
+    above = [f"{link(name, index)} {_e(floored(rms, POSITION_FLOOR, 1e3, 'mm'))}"
+             for name, rms, index in ranking.entries if not rms < POSITION_FLOOR]
+    floor = f"{1e3 * POSITION_FLOOR:g} mm"
+    parts = [f"below {floor} (not ranked): {', '.join(below)}"] if below else []
+    if above:
+        order = "" if len(ranking.entries) == 1 else ", lowest first"
+        parts.append(f"{'above it' if below else 'RMS position error'}{order}: "
+                     f"{', '.join(above)}")
+    tied = [name for name in ranking.winners if ranking.entries[0][1] >= POSITION_FLOOR]
+    tie = f" A tie (within {TIE_TOLERANCE:.0%}): {', '.join(tied)}." if len(tied) > 1 else ""
+    text = "; ".join(parts)
+    text = text[0].upper() + text[1:] if below else text
     return (f'<section class="scenario"><h3>{_e(scenario_title(ranking.scenario, ratio))}</h3>'
-            f"<p>RMS position error{order}: {ranked}.{_e(tie)}</p>"
+            f"<p>{text}.{_e(tie)}</p>"
             f'<img src="{_e(item.src)}" loading="lazy" alt="{_e(" / ".join(ranking.scenario))}"'
             ' width="1000" height="420"></section>')
 
@@ -318,7 +333,8 @@ def html_page(results: Mapping[str, Any], ids: Sequence[str], table: str, headli
         speeds=any(str(run["speed"]) not in ("-", "") for run in runs),
         skip=any(run_skip(run, settings_value(results, "skip")) > 0 for run in runs),
         followers=any(follows_path(run) for run in runs),
-        compared=headline.comparison is not None)
+        compared=headline.comparison is not None,
+        ranked=any(len(ranking.entries) > 1 for ranking in headline.rankings))
     contents = " \u00b7 ".join(f'<a href="#{key}">{name}</a>' for key, name in _CONTENTS)
     return f"""<!DOCTYPE html>
 <html lang="en">

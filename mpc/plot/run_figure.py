@@ -73,13 +73,24 @@ def draw_path(ax: Axes, data: Series, robot: Mapping[str, Any]) -> None:
 
 def wheel_names(run: Run, count: int) -> list[str]:
     """The run's robot's wheel names (``FL``, ``FR``...; ``robot.wheel_names`` of the run
-    record) when it has ``count`` of them, else ``wheel 1..count``."""
+    record) when it has ``count`` of them; for records without them, named from the wheel
+    positions as :attr:`mpc.robots.Robot.wheel_names` does; else ``wheel 1..count``."""
+    from mpc.robots.base import quadrant_names
+
     robot = run.get("robot")
-    names = robot.get("wheel_names") if isinstance(robot, Mapping) else None
+    robot = robot if isinstance(robot, Mapping) else {}
+    names = robot.get("wheel_names")
     if (isinstance(names, list) and len(names) == count
             and all(isinstance(name, str) and name for name in names)):
         return list(names)
-    return [f"wheel {i}" for i in range(1, count + 1)]
+    try:
+        named = quadrant_names(robot.get("wheel_positions", []))
+    except (TypeError, ValueError):
+        named = None
+    if named is not None and len(named) == count:
+        return list(named)
+    unit = "module" if robot.get("kind") in ("swerve", "caster") else "wheel"
+    return [f"{unit} {i}" for i in range(1, count + 1)]
 
 
 def _draw_errors(ax: Axes, data: Series) -> None:

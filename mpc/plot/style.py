@@ -51,27 +51,33 @@ def wrap_degrees(angle: np.ndarray) -> np.ndarray:
     return np.degrees(np.pi - np.mod(np.pi - angle, 2.0 * np.pi))  # type: ignore[no-any-return]
 
 
-#: Mantissas of labelled log ticks, from the sparsest: the first set giving 2-7 ticks is used.
-_LOG_STEPS = ((1.0,), (1.0, 3.0), (1.0, 2.0, 5.0), (1.0, 1.5, 2.0, 3.0, 5.0, 7.0),
-              tuple(range(1, 10)))
+#: Mantissas of labelled log ticks, from the sparsest: the first set giving 3-7 ticks is used
+#: (else the first giving 2).
+_LOG_STEPS: tuple[tuple[float, ...], ...] = (
+    (1.0,), (1.0, 3.0), (1.0, 2.0, 5.0), (1.0, 1.5, 2.0, 3.0, 5.0, 7.0),
+    tuple(float(m) for m in range(1, 10)))
 _MAX_LOG_TICKS = 7
 
 
 def log_ticks(low: float, high: float) -> list[float]:
-    """Labelled ticks for a log axis spanning ``[low, high]`` (> 0): 2-7 values of
-    1, 1-3, 1-2-5 or finer steps per decade, or every n-th decade on wide spans."""
+    """Labelled ticks for a log axis spanning ``[low, high]`` (> 0): 3-7 values (2 where
+    finer steps give too many) of 1, 1-3, 1-2-5 or finer steps per decade, or every n-th
+    decade on wide spans."""
     if not (0 < low < high and math.isfinite(high)):
         return []
     first, last = math.floor(math.log10(low)), math.ceil(math.log10(high))
+    fallback: list[float] = []
     for steps in _LOG_STEPS:
         ticks = [m * 10.0 ** e for e in range(first, last + 1) for m in steps
                  if low <= m * 10.0 ** e * (1 + 1e-9) and m * 10.0 ** e <= high * (1 + 1e-9)]
         if len(ticks) > _MAX_LOG_TICKS:
-            stride = math.ceil(len(ticks) / _MAX_LOG_TICKS)
-            return ticks[::stride] if steps == (1.0,) else _decades(first, last, low, high)
-        if len(ticks) >= 2:
+            if steps == _LOG_STEPS[0]:
+                return ticks[::math.ceil(len(ticks) / _MAX_LOG_TICKS)]
+            return fallback or _decades(first, last, low, high)
+        if len(ticks) >= 3:
             return ticks
-    return [low, high]
+        fallback = fallback or (ticks if len(ticks) == 2 else [])
+    return fallback or [low, high]
 
 
 def _decades(first: int, last: int, low: float, high: float) -> list[float]:
@@ -82,7 +88,7 @@ def _decades(first: int, last: int, low: float, high: float) -> list[float]:
 
 def tick_text(value: float) -> str:
     """A log tick's label: ``0.003``, ``20``, ``1e+05``; no overprinting exponents."""
-    return f"{value:.3g}" if 1e-4 <= value < 1e5 else f"{value:.0e}"
+    return f"{value:.6g}" if 1e-4 <= value < 1e5 else f"{value:.0e}"
 
 
 def log_axis(ax: Axes, which: str, low: float, high: float) -> None:

@@ -58,12 +58,15 @@ _FOLLOWERS = (
 _UNITS = "Lengths are in mm, angles in deg, times in ms unless stated."
 
 
-def _compare_text(mpc: bool) -> str:
+def _compare_text(ranked: bool, mpc: bool) -> str:
     floor_mm, floor_deg = 1e3 * POSITION_FLOOR, math.degrees(HEADING_FLOOR)
     text = (f"Errors below {floor_mm:g} mm (position) or {floor_deg:g} deg (heading) are "
-            f"rounding, not tracking: they are shown as \u201c< {floor_mm:g} mm\u201d and "
-            f"tie with each other. Two errors within {TIE_TOLERANCE:.0%} of the smaller one "
-            "also tie; a tie counts as a win for each.")
+            f"rounding, not tracking: they are shown as \u201c< {floor_mm:g} mm\u201d")
+    if not ranked:
+        return text + "."
+    text += (f" and tie with each other. Two errors within {TIE_TOLERANCE:.0%} of the "
+             "smaller one also tie; in a controller's count of scenarios where it is lowest, "
+             "a tie counts for each.")
     if mpc:
         text += (" MPC is the best of its variants (the controllers named mpc-...) in each "
                  "scenario, the baseline the best of the other controllers in it (the "
@@ -72,17 +75,18 @@ def _compare_text(mpc: bool) -> str:
     return text
 
 
-def terms_paragraphs(speeds: bool, skip: bool, followers: bool, compared: bool) -> list[str]:
+def terms_paragraphs(speeds: bool, skip: bool, followers: bool, compared: bool,
+                     ranked: bool = True) -> list[str]:
     """The terms a report needs, one paragraph each: the speeds (inside and beyond) when
     its runs have them, the settling time when a run has one, the errors, path followers
-    when there are any, the floor and tie rule (with what MPC and the baseline are when
-    ``compared``), the units."""
+    when there are any, the floor, and the tie rule when controllers are ``ranked`` (with
+    what MPC and the baseline are when ``compared``), the units."""
     errors = f"{_SKIP} {_ERRORS}" if skip else _ERRORS
     parts = [_SPEEDS] if speeds else []
     parts.append(errors)
     if followers:
         parts.append(_FOLLOWERS)
-    parts.append(_compare_text(compared))
+    parts.append(_compare_text(ranked, compared))
     parts.append(_UNITS)
     return parts
 
