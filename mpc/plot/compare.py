@@ -27,7 +27,7 @@ from .headline import (
     is_mpc,
     ties,
 )
-from .results import Run, Series, metric_value, pace_of, scenario_of
+from .results import Run, Series, metric_value, pace_of, scenario_of, scenario_title
 from .style import log_axis, new_figure, save, shade_skip
 
 
@@ -251,7 +251,7 @@ def summary_figure(runs: Sequence[Run], dt: float) -> Figure:
     bottom.set_ylabel("tick time p50 [ms]")
     bottom.set_title("Median tick time (log)")
     bottom.set_xticks(np.arange(len(scenarios)))
-    bottom.set_xticklabels([" / ".join(s) for s in scenarios],
+    bottom.set_xticklabels([scenario_title(s) for s in scenarios],
                            rotation=30 if len(scenarios) > 3 else 0,
                            ha="right" if len(scenarios) > 3 else "center")
     bottom.set_xlabel("scenario (layout / trajectory / heading / speed)")

@@ -229,7 +229,7 @@ def _scenario_section(item: ScenarioFigure, runs: Sequence[Run], ids: Sequence[s
     text = text[0].upper() + text[1:] if below else text
     return (f'<section class="scenario"><h3>{_e(scenario_title(ranking.scenario, ratio))}</h3>'
             f"<p>{text}.{_e(tie)}</p>"
-            f'<img src="{_e(item.src)}" loading="lazy" alt="{_e(" / ".join(ranking.scenario))}"'
+            f'<img src="{_e(item.src)}" loading="lazy" alt="{_e(scenario_title(ranking.scenario))}"'
             ' width="1000" height="420"></section>')
 
 
