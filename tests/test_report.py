@@ -479,9 +479,12 @@ def test_figures_have_readable_ticks_and_legends_off_the_data(document, tmp_path
     for figure in (lead_figure, overlay):  # figure legends: beside or below the axes
         legend_box = figure.legends[0].get_window_extent()
         assert not any(legend_box.overlaps(ax.get_window_extent()) for ax in figure.axes)
-    path, errors, wheels = per_run.axes[:3]
+    path, errors, wheels, ticks = per_run.axes[:4]
     assert not path.get_legend().get_window_extent().overlaps(path.get_window_extent())
     twin = [ax for ax in per_run.axes if ax is not errors and ax.bbox.bounds ==
             errors.bbox.bounds]
     assert _data_under(errors.get_legend(), [errors, *twin]) == 0
     assert _data_under(wheels.get_legend(), [wheels]) == 0
+    legend_box = ticks.get_legend().get_window_extent()  # the histogram's bars
+    assert not any(legend_box.overlaps(bar.get_window_extent()) for bar in ticks.patches
+                   if bar.get_height() > 0)

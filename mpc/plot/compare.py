@@ -60,10 +60,10 @@ def _offsets(names: Sequence[str]) -> dict[str, float]:
 
 
 def _dot_panel(ax: Axes, rows: Sequence[Sequence[tuple[str, float]]], offsets: dict[str, float],
-               controllers: Sequence[str], floor: float, unit: str) -> None:
+               controllers: Sequence[str], floor: float) -> bool:
     """One dot per (controller, value [unit]) in each row at the controller's offset, log x;
     the lowest of each row and those tying with it (:func:`ties`) outlined; values below
-    ``floor`` [unit] drawn at it as ``<`` on a shaded band."""
+    ``floor`` (same unit) drawn at it as ``<`` on a shaded band; returns whether any is."""
     shown: list[float] = []
     below = False
     for row, values in enumerate(rows):
@@ -72,13 +72,14 @@ def _dot_panel(ax: Axes, rows: Sequence[Sequence[tuple[str, float]]], offsets: d
         for name, value in values:
             if not (math.isfinite(value) and value >= 0):
                 continue
-            lowest = ties(best, value, floor)
+            lowest = len(offsets) > 1 and ties(best, value, floor)  # one controller: no rank
             under = value < floor
             below |= under
             shown.append(max(value, floor))
             ax.plot(max(value, floor), row + offsets[name], "<" if under else
                     ("o" if is_mpc(name) else "s"), color=colour(controllers, name),
-                    ms=8 if lowest else 5.5, mec="k" if lowest else "none", mew=1.1, zorder=3)
+                    ms=8 if lowest else (7 if under else 5.5), mec="k" if lowest else "none",
+                    mew=1.1, zorder=3)
     ax.set_yticks(np.arange(len(rows)))
     ax.set_ylim(len(rows) - 0.5, -0.5)
     for row in range(len(rows) - 1):
@@ -89,6 +90,7 @@ def _dot_panel(ax: Axes, rows: Sequence[Sequence[tuple[str, float]]], offsets: d
         if below:
             ax.axvspan(low, floor, color=FLOOR_COLOUR, zorder=0)
     ax.grid(True, axis="x", alpha=0.4)
+    return below
 
 
 def headline_figure(headline: Headline, runs: Sequence[Run]) -> Figure:
@@ -107,8 +109,9 @@ def headline_figure(headline: Headline, runs: Sequence[Run]) -> Figure:
     rows_position = [[(name, 1e3 * rms) for name, rms, _ in r.entries] for r in rankings]
     rows_heading = [[(name, math.degrees(metric_value(runs[i], "rms_heading_error")))
                      for name, _, i in r.entries] for r in rankings]
-    _dot_panel(position, rows_position, offsets, controllers, 1e3 * POSITION_FLOOR, "mm")
-    _dot_panel(heading, rows_heading, offsets, controllers, math.degrees(HEADING_FLOOR), "deg")
+    below = _dot_panel(position, rows_position, offsets, controllers, 1e3 * POSITION_FLOOR)
+    below |= _dot_panel(heading, rows_heading, offsets, controllers,
+                        math.degrees(HEADING_FLOOR))
     position.set_yticklabels([" / ".join(label for label in r.scenario[:3] if label != "-")
                               + (f" ({r.peak_ratio:.2f}\u00d7)" if math.isfinite(r.peak_ratio)
                                  else "") for r in rankings], fontsize="small")
@@ -118,11 +121,14 @@ def headline_figure(headline: Headline, runs: Sequence[Run]) -> Figure:
     position.set_title("position error", fontsize="medium")
     heading.set_title("heading error", fontsize="medium")
     handles: list[Artist] = [Line2D([], [], marker="o" if is_mpc(name) else "s", ls="",
-                      color=colour(controllers, name), label=name) for name in ranked]
-    handles.append(Line2D([], [], marker="o", ls="", color="w", mec="k", ms=8,
-                          label=f"lowest (ties within {TIE_TOLERANCE:.0%} too)"))
-    handles.append(Patch(color=FLOOR_COLOUR, label=f"below the floor ({1e3 * POSITION_FLOOR:g} "
-                         f"mm, {math.degrees(HEADING_FLOOR):g} deg): drawn at it as <"))
+                                    color=colour(controllers, name), label=name)
+                             for name in ranked]
+    if len(ranked) > 1:
+        handles.append(Line2D([], [], marker="o", ls="", color="w", mec="k", ms=8,
+                              label=f"lowest (ties within {TIE_TOLERANCE:.0%} too)"))
+    if below:
+        handles.append(Patch(color=FLOOR_COLOUR, label=f"below the floor ({1e3 * POSITION_FLOOR:g}"
+                             f" mm, {math.degrees(HEADING_FLOOR):g} deg): drawn at it as <"))
     figure.legend(handles=handles, loc="outside lower center", fontsize="small",
                   ncols=min(len(handles), 4))
     focus = headline.focus if headline.single is None else "after the settling time"

@@ -197,7 +197,8 @@ def _draw_tick_histogram(ax: Axes, data: Series, run: Run) -> None:
     ax.set_xlabel("tick time [ms]" + (" (log)" if logarithmic else ""))
     ax.set_ylabel("ticks")
     ax.grid(True, alpha=0.4)
-    ax.legend(loc="best", fontsize="small")
+    _headroom(ax)  # "best" would still cover a few short bars
+    ax.legend(loc="upper right", fontsize="small")
 
 
 def run_figure(run: Run, data: Series) -> Figure:
