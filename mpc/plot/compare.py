@@ -67,7 +67,7 @@ def _dot_panel(ax: Axes, rows: Sequence[Sequence[tuple[str, float]]], offsets: d
     shown: list[float] = []
     below = False
     for row, values in enumerate(rows):
-        finite = [value for _, value in values if math.isfinite(value) and value > 0]
+        finite = [value for _, value in values if math.isfinite(value) and value >= 0]
         best = min(finite, default=math.nan)
         for name, value in values:
             if not (math.isfinite(value) and value >= 0):
