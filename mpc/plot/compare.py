@@ -144,9 +144,9 @@ def scenario_figure(runs: Sequence[Run], series: Sequence[Series], controllers: 
                     title: str) -> Figure:
     """Every controller of one scenario on one path plot [m], beside their position errors
     over time [mm] (log; path followers' distance to the path, dashed) with the settling
-    window shaded and errors below the floor drawn on it; the legend right of the plots;
-    1000 x 420 px."""
-    figure = new_figure(10.0, 4.2, constrained=True)
+    window shaded and errors below the floor drawn on it; the legend below the plots;
+    1000 x 460 px."""
+    figure = new_figure(10.0, 4.6, constrained=True)
     path, errors = figure.subplots(1, 2, width_ratios=[1.0, 1.25])
     if series:
         reference = series[0].reference
@@ -188,8 +188,8 @@ def scenario_figure(runs: Sequence[Run], series: Sequence[Series], controllers: 
     errors.set_title("position error", fontsize="medium")
     handles, labels = path.get_legend_handles_labels()
     extra = errors.get_legend_handles_labels()
-    figure.legend(handles + extra[0], labels + extra[1], loc="outside right upper",
-                  fontsize="x-small")
+    figure.legend(handles + extra[0], labels + extra[1], loc="outside lower center",
+                  fontsize="small", ncols=min(len(handles) + len(extra[0]), 6))
     figure.suptitle(title, fontsize="medium")
     return figure
 

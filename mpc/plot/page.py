@@ -230,7 +230,7 @@ def _scenario_section(item: ScenarioFigure, runs: Sequence[Run], ids: Sequence[s
     return (f'<section class="scenario"><h3>{_e(scenario_title(ranking.scenario, ratio))}</h3>'
             f"<p>{text}.{_e(tie)}</p>"
             f'<img src="{_e(item.src)}" loading="lazy" alt="{_e(scenario_title(ranking.scenario))}"'
-            ' width="1000" height="420"></section>')
+            ' width="1000" height="460"></section>')
 
 
 def _key_value_table(caption: str, mapping: object) -> str:
