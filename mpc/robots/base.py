@@ -189,10 +189,10 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
 
     @property
     def wheel_names(self) -> tuple[str, ...]:
-        """Names of the wheels (modules) in their order, for figures and logs: four wheels
-        one to a quadrant of the body frame by quadrant (``FL``, ``FR``, ``RL``, ``RR``,
-        x forward, y left: Mecanum, swerve modules, omni4 counter-clockwise), else
-        ``module 1..n`` for steered wheels and ``wheel 1..n`` for the others."""
+        """Names of the wheels (modules) in their order, for figures and logs: four wheels,
+        one in each quadrant of the body frame, are named by it (``FL``, ``FR``, ``RL``,
+        ``RR``; x forward, y left: Mecanum, swerve modules, omni4 counter-clockwise); other
+        layouts ``module 1..n`` (steered wheels) or ``wheel 1..n``."""
         return quadrant_names(self.wheel_positions) or tuple(
             f"{'module' if self.steered else 'wheel'} {i}" for i in range(1, self.n_wheels + 1))
 
