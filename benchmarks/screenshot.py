@@ -1,9 +1,11 @@
 """Screenshot the first screen of a report page in a real headless browser.
 
 ``python -m benchmarks.screenshot REPORT/index.html --out first-screen.png`` runs Chromium
-(or Chrome) headless at 1280 x 900 px (a laptop's first screen), saves what it shows
+(or Chrome) headless at 1400 x 1000 px (a desktop's first screen), saves what it shows
 without scrolling and prints where the page's key parts landed (:func:`first_screen`):
-the headline, the settings with their units and a path plot must all be in it. No Python
+the headline, the settings with their units, the tables beside the figure (MPC against
+the best baseline; a single run's metrics) and the top of the figure (the position and
+heading dot chart; a single run's figure) must all be in it. No Python
 package beyond the standard library; the browser is found on ``PATH`` (``chromium``,
 ``chromium-browser``, ``google-chrome``...) or given with ``--browser``.
 """
@@ -23,14 +25,13 @@ from pathlib import Path
 from mpc.errors import ReportError
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable", "chrome")
-WINDOW = (1280, 900)  # [px] width, height of the first screen
+WINDOW = (1400, 1000)  # [px] width, height of the first screen
 TIMEOUT = 60.0  # [s]
 #: The parts of a report's first screen, by CSS selector.
 FIRST_SCREEN = {"headline": "p.lead", "settings with units": "p.terms",
-                "path plot": "div.first img[src^='scenarios/']",
-                "summary figure": "img[src='headline.png']"}
+                "tables": "div.first div.side", "figure": "div.first img"}
 #: Parts that must be whole on the first screen (of the others, the top must be on it).
-WHOLE = ("headline", "settings with units", "path plot")
+WHOLE = ("headline", "settings with units", "tables")
 _PROBE = """<script>
 window.addEventListener("load", function () {
   var parts = %s, out = {};

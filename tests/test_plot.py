@@ -264,9 +264,18 @@ def test_report_rejects_other_inputs(tmp_path: Path) -> None:
 
 
 def test_report_of_one_run(simulated: SimResult, tmp_path: Path) -> None:
+    """Phrased for one run: its labels in the title (no ``-``), its errors in the
+    headline, no ranking, no terms for speeds or ties it does not have."""
     index = mpc.plot.report(simulated, tmp_path, skip=SKIP)
     page = index.read_text()
-    assert "Across all scenarios, mpc has the lowest RMS position error in 1 of 1 scenario." in page
+    metrics = simulated.metrics(skip=SKIP)
+    assert "<h1>Tracking report: mpc on mecanum / circle</h1>" in page
+    assert (f"mpc on mecanum / circle: RMS position error "
+            f"{1e3 * metrics['rms_position_error']:.3g} mm") in page
+    assert f"peak wheel command {metrics['max_wheel_speed_ratio']:.2f}\u00d7 its limit" in page
+    for absent in ("1 of 1", "lowest", "Inside and beyond", "inside asks", " / - ",
+                   "tie", "MPC (the best"):
+        assert absent not in page, absent
     assert "skip 1 s" in page and "dt 0.05 s" in page
     run = mpc.plot.load_results(tmp_path / "results.json")["runs"][0]
     assert (tmp_path / "figures" / f"{mpc.plot.run_id(run)}.png").is_file()
@@ -318,8 +327,9 @@ def test_page_order_headline_terms_scenarios_then_details(tmp_path: Path) -> Non
     page = mpc.plot.report(runs, tmp_path, skip=0.5,
                            labels={"speed": "beyond", "peak_ratio": 1.3}).read_text()
     order = [page.index(mark) for mark in (
-        'id="headline"', "Beyond the wheel limits", 'src="headline.png"', 'src="scenarios/',
-        'id="terms"', "time-indexed", 'id="scenarios"', '<details id="table">',
+        '<nav class="toc">', 'id="headline"', "Beyond the wheel limits",
+        'src="headline.png"', 'id="terms"', "time-indexed", 'id="scenarios"',
+        'src="scenarios/', '<details id="table">',
         '<table class="summary">', '<details id="setup">', "<th>unit</th>", 'id="runs"')]
     assert order == sorted(order)
     assert "inside asks 0.8\u00d7" in page and "beyond asks 1.3\u00d7" in page
@@ -363,7 +373,7 @@ def test_screenshot_of_the_first_screen(simulated: SimResult, tmp_path: Path) ->
     one run and for several controllers in several scenarios."""
     index = mpc.plot.report({"mpc": simulated}, tmp_path / "one", skip=SKIP)
     shot = screenshot(index, tmp_path / "first.png")
-    assert _png_size(shot) == (1280, 900)
+    assert _png_size(shot) == (1400, 1000)
     assert shot.stat().st_size > 20_000  # text and figures, not a blank page
     parts = first_screen(index)
     assert off_first_screen(parts) == []
@@ -384,10 +394,10 @@ def test_screenshot_of_the_first_screen(simulated: SimResult, tmp_path: Path) ->
 
 def test_first_screen_names_what_is_below_it() -> None:
     parts = {"headline": (40.0, 60.0), "settings with units": (70.0, 100.0),
-             "path plot": (500.0, 950.0), "summary figure": (880.0, 1300.0)}
-    assert off_first_screen(parts) == ["path plot"]
+             "tables": (500.0, 1050.0), "figure": (880.0, 1300.0)}
+    assert off_first_screen(parts) == ["tables"]
     del parts["headline"]
-    assert off_first_screen(parts, height=1000.0) == ["headline"]
+    assert off_first_screen(parts, height=1100.0) == ["headline"]
 
 
 def test_screenshot_errors(tmp_path: Path) -> None:
@@ -409,9 +419,9 @@ def test_headline_ranks_clock_keepers_and_states_path_followers_apart() -> None:
     lead = headline([keeper, follower])
     assert [entry[0] for entry in lead.rankings[0].entries] == ["mpc"]
     assert lead.sentence == (
-        "Beyond the wheel limits, mpc has the lowest RMS position error in 1 of 1 scenario "
-        "(keeping the reference's clock). Following the path instead: mpc-path at "
-        "1.01-1.01\u00d7 the fastest possible lap, at most 2.1 mm off the path.")
+        "Beyond the wheel limits, mpc has the lowest RMS position error (keeping the "
+        "reference's clock). In path mode: mpc-path at 1.01-1.01\u00d7 the time-optimal "
+        "lap, at most 2.1 mm off the path.")
 
 
 def test_a_missing_or_undefined_value_is_a_dash_in_the_tables() -> None:
@@ -433,7 +443,7 @@ def test_a_steered_run_has_its_steering_rates_against_the_limit() -> None:
     lines = {str(line.get_label()): line for line in steering[0].get_lines()}
     rates = result.steer_rates()
     assert rates is not None
-    drawn = np.asarray(lines["wheel 0"].get_ydata(), dtype=float)
+    drawn = np.asarray(lines["FL"].get_ydata(), dtype=float)  # the robot's wheel names
     np.testing.assert_allclose(drawn, rates[:, 0], rtol=0,
                                atol=1e-7)  # (run records round to 7 decimals)
     limit = float(np.asarray(result.steer_rate_limit).max())
@@ -443,3 +453,22 @@ def test_a_steered_run_has_its_steering_rates_against_the_limit() -> None:
     assert figure.get_size_inches()[1] == pytest.approx(12.0)
     plain = mpc.plot.plot_run(simulate(Controller(preset("mecanum"), Circle(1.0, 8.0)), 1.0))
     assert not [ax for ax in plain.axes if ax.get_title().startswith("(e)")]
+
+
+def test_wheel_names_come_from_the_layout() -> None:
+    """Four wheels one to a quadrant are named by it (x forward, y left), in the robot's
+    order; other layouts are numbered from 1; the figures label the wheels so, and name
+    the wheels of records that lack names from their positions."""
+    from mpc.plot.run_figure import wheel_names
+
+    assert preset("mecanum").wheel_names == ("FL", "FR", "RL", "RR")
+    assert preset("omni4").wheel_names == ("FL", "RL", "RR", "FR")  # counter-clockwise
+    assert preset("mpo700").wheel_names == ("FL", "FR", "RL", "RR")
+    assert preset("omni3").wheel_names == ("wheel 1", "wheel 2", "wheel 3")
+    record = mpc.plot.run_record(simulate(Controller(preset("swerve"), Circle(1.0, 8.0)), 0.2))
+    assert record["robot"]["wheel_names"] == ["FL", "FR", "RL", "RR"]
+    del record["robot"]["wheel_names"]
+    assert wheel_names(record, 4) == ["FL", "FR", "RL", "RR"]
+    record["robot"]["wheel_positions"] = [[0.2, 0.0], [0.0, 0.2], [-0.2, 0.0], [0.0, -0.2]]
+    assert wheel_names(record, 4) == ["module 1", "module 2", "module 3", "module 4"]
+    assert wheel_names({}, 3) == ["wheel 1", "wheel 2", "wheel 3"]

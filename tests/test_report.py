@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks.report import ReportError, load_results, run_id, write_report
+from benchmarks.report import ReportError, load_results, run_id, verdict, write_report
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 TICKS = 50
@@ -118,7 +118,8 @@ def test_index_shows_metadata_escaped(report: tuple[Path, list[tuple[int, int]]]
 
 def _full_table(page: str) -> str:
     """The page's full table (the headline has a table of its own)."""
-    return page[page.index('<table class="summary">'):page.index("</table></div>")]
+    start = page.index('<table class="summary">')
+    return page[start:page.index("</table></div>", start)]
 
 
 def test_index_formats_table_values(report: tuple[Path, list[tuple[int, int]]]) -> None:
@@ -284,3 +285,205 @@ def test_report_takes_a_results_json_and_the_cli_rebuilds_it_in_place(tmp_path: 
     assert (tmp_path / "mine" / "results.json").exists()
     assert main(["report", str(tmp_path / "mine" / "results.json"), "--workers", "1"]) == 0
     assert not (tmp_path / "mine" / "report").exists()
+
+
+# --------------------------------------------------------------------------- the headline's numbers
+
+# A hand-made table: (layout, trajectory, speed, peak ratio) -> controller ->
+# (RMS position error [m], RMS heading error [deg])
+HAND_MADE = {
+    ("mecanum", "circle", "beyond", 1.3): {"mpc-daqp": (0.100, 2.0), "mpc-osqp": (0.102, 3.0),
+                                           "ff-p-clip": (0.300, 4.0), "ff-p-desat": (0.250, 5.0)},
+    ("mecanum", "figure8", "beyond", 1.3): {"mpc-daqp": (0.200, 1.0), "mpc-osqp": (0.150, 2.0),
+                                            "ff-p-clip": (0.500, 6.0), "ff-p-desat": (0.600, 7.0)},
+    ("swerve", "circle", "beyond", 1.3): {"mpc-daqp": (0.400, 3.0), "mpc-osqp": (0.410, 4.0),
+                                          "ff-p-clip": (0.390, 3.0), "ff-p-desat": (0.900, 9.0)},
+    ("swerve", "figure8", "beyond", 1.3): {"mpc-daqp": (0.300, 5.0), "mpc-osqp": (0.310, 6.0),
+                                           "ff-p-clip": (0.200, 1.0), "ff-p-desat": (0.800, 2.0)},
+    ("mecanum", "circle", "inside", 0.8): {"mpc-daqp": (1e-14, 1e-9), "mpc-osqp": (3e-8, 1e-9),
+                                           "ff-p-clip": (0.002, 0.5), "ff-p-desat": (0.004, 0.6)},
+}
+
+
+def _hand_made() -> dict:
+    """The hand-made table as a results document (series from the synthetic runs)."""
+    rng = np.random.default_rng(3)
+    runs = []
+    for (layout, trajectory, speed, ratio), rows in HAND_MADE.items():
+        for controller, (position, heading) in rows.items():
+            runs.append({
+                "layout": layout, "trajectory": trajectory, "heading": "fixed", "speed": speed,
+                "peak_ratio": ratio, "controller": controller,
+                "metrics": {"rms_position_error": position,
+                            "rms_heading_error": math.radians(heading)},
+                "series": _series(rng, trajectory, controller.startswith("ff")),
+                "robot": MECANUM if layout == "mecanum" else SWERVE})
+    return {"meta": {"settings": {"dt": DT, "skip": 0.0}}, "runs": runs}
+
+
+def test_headline_compares_mpc_with_the_best_baseline() -> None:
+    """Per scenario MPC is its best variant and the baseline the best other controller:
+    by hand, beyond the limits MPC 0.100 against 0.250 m (0.4x, lower), 0.150 against
+    0.500 (0.3x, lower), 0.400 against 0.390 (within 5 %: a tie, 1.03x), 0.300 against
+    0.200 (1.5x, higher); median ratio (0.4 + 1.03) / 2; medians of both sides'
+    errors 225 against 320 mm, 2.5 against 3.5 deg. Inside, MPC is below the floor."""
+    from mpc.plot.headline import headline
+
+    lead = headline(_hand_made()["runs"])
+    comparison = lead.comparison
+    assert comparison is not None and lead.focus == "beyond the wheel limits"
+    assert (comparison.scenarios, comparison.wins, comparison.ties, comparison.losses) == (
+        4, 2, 1, 1)
+    assert sorted(comparison.position_ratios) == pytest.approx([0.3, 0.4, 0.4 / 0.39, 1.5])
+    assert comparison.medians("position") == pytest.approx((0.225, 0.320))
+    assert np.degrees(comparison.medians("heading")) == pytest.approx((2.5, 3.5))
+    assert lead.sentences[0] == (
+        "Beyond the wheel limits, MPC (the best of its variants in each scenario) has a lower "
+        "RMS position error than the best baseline in 2 of 4 scenarios, ties in 1, has a "
+        "higher one in 1; a median 0.71\u00d7 (0.3-1.5\u00d7) the best baseline's. Median "
+        "RMS position error 225 mm against 320 mm, heading error 2.5 deg against 3.5 deg.")
+    assert lead.inside is not None and lead.inside.below_floor == 1
+    assert lead.sentences[1] == (
+        "Inside the limits, MPC has a lower RMS position error than the best baseline in 1 "
+        "of 1 scenario. Median RMS position error < 0.01 mm against 2 mm, heading error "
+        "< 0.01 deg against 0.5 deg.")
+    # who is lowest, ties counted for each: A daqp = osqp, B osqp, C clip = daqp, D clip
+    assert dict(lead.wins) == {"mpc-daqp": 2, "mpc-osqp": 2, "ff-p-clip": 2}
+    assert verdict(_hand_made()["runs"]) == (
+        "beyond the wheel limits, MPC beats the best baseline in 2 of 4 scenarios (1 tie, "
+        "1 loss): a median 0.71\u00d7 its RMS position error")
+
+
+def test_tie_rule() -> None:
+    """Within 5 % of the smaller error, or both below the floor, is a tie."""
+    from mpc.plot.headline import POSITION_FLOOR, TIE_TOLERANCE, Ranking, ties
+
+    assert TIE_TOLERANCE == 0.05
+    assert ties(1.0, 1.04, POSITION_FLOOR) and ties(1.04, 1.0, POSITION_FLOOR)
+    assert not ties(1.0, 1.06, POSITION_FLOOR)
+    assert ties(1e-14, 5e-6, POSITION_FLOOR)  # both below 0.01 mm
+    assert not ties(1e-14, 2e-5, POSITION_FLOOR)
+    assert not ties(math.nan, math.nan, POSITION_FLOOR)
+    ranking = Ranking(("m", "c", "fixed", "beyond"), 1.3,
+                      (("a", 1.0, 0), ("b", 1.03, 1), ("c", 1.06, 2)))
+    assert ranking.winners == ("a", "b") and ranking.winner is None
+    assert Ranking(ranking.scenario, 1.3, ranking.entries[::2]).winner == "a"
+
+
+def test_tied_variants_stay_apart_on_the_dot_chart() -> None:
+    """Every controller of a row has its own height (offset markers), and the lowest
+    of each row and those tying with it are outlined."""
+    from mpc.plot.compare import headline_figure
+    from mpc.plot.headline import headline
+
+    runs = _hand_made()["runs"]
+    lead = headline(runs)
+    figure = headline_figure(lead, runs)
+    position = figure.axes[0]
+    dots = [line for line in position.get_lines() if len(line.get_xdata()) == 1]
+    rows: dict[int, list[float]] = {}
+    for line in dots:
+        y = float(line.get_ydata()[0])
+        rows.setdefault(round(y), []).append(y)
+    assert len(rows) == 4 and all(len(ys) == len(set(ys)) == 4 for ys in rows.values())
+    outlined = [line for line in dots if line.get_markeredgecolor() == "k"]
+    assert len(outlined) == sum(len(ranking.winners) for ranking in lead.rankings) == 6
+
+
+def test_errors_below_the_floor_are_not_ranked(tmp_path: Path) -> None:
+    """Inside the limits 1e-14 and 3e-8 m are both "< 0.01" mm, tied best, not ranked."""
+    page = write_report(_hand_made(), tmp_path).read_text(encoding="utf-8")
+    table = _full_table(page)
+    assert table.count('<td class="best"><b>&lt; 0.01</b></td>') == 2
+    assert "1e-11" not in page and "3e-05" not in page
+    section = page[page.index("<h3>mecanum / circle / fixed / inside"):]
+    section = section[:section.index("</p>")]
+    assert "Below 0.01 mm (not ranked): " in section
+    assert section.index("mpc-daqp") < section.index("above it, lowest first")
+    assert "A tie" not in section
+
+
+# --------------------------------------------------------------------------- readable figures
+
+
+def _visible_tick_labels(axis) -> list:
+    low, high = sorted(axis.get_view_interval())
+    return [tick.label1 for tick in axis.get_major_ticks() + axis.get_minor_ticks()
+            if tick.label1.get_visible() and tick.label1.get_text()
+            and low * (1 - 1e-9) <= tick.get_loc() <= high * (1 + 1e-9)]
+
+
+def _overprinted(figure) -> list[str]:
+    """Pairs of tick labels whose boxes overlap, by the renderer's text extents."""
+    figure.canvas.draw()
+    renderer = figure.canvas.get_renderer()
+    found = []
+    for ax in figure.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            labels = _visible_tick_labels(axis)
+            boxes = [label.get_window_extent(renderer) for label in labels]
+            for i in range(len(boxes)):
+                for j in range(i + 1, len(boxes)):
+                    if boxes[i].overlaps(boxes[j]):
+                        found.append(f"{labels[i].get_text()!r} / {labels[j].get_text()!r}")
+            if axis.get_scale() == "log":
+                assert len(labels) >= 2, f"a log axis with {len(labels)} labels"
+    return found
+
+
+def _data_under(legend, axes) -> list[str]:
+    """The axes' lines whose drawn path crosses the legend's box (display space)."""
+    box = legend.get_window_extent()
+    return [str(line.get_label()) for ax in axes for line in ax.get_lines()
+            if line.get_path().transformed(line.get_transform()).intersects_bbox(box,
+                                                                                 filled=False)]
+
+
+def _single_run() -> dict:
+    run = dict(_results()["runs"][0])
+    run.update(speed="-", heading="-", peak_ratio=None, controller="mpc")
+    return {"meta": {"settings": {"dt": DT, "skip": 0.5}}, "runs": [run]}
+
+
+def _narrow_span() -> dict:
+    """Errors within one decade: 40-90 mm beyond the limits."""
+    results = _results()
+    for run, rms in zip(results["runs"], (0.05, 0.09, 0.04, 0.07), strict=True):
+        run["metrics"]["rms_position_error"] = rms
+        run["speed"], run["peak_ratio"] = "beyond", 1.3
+    return results
+
+
+@pytest.mark.parametrize("document", [_single_run, _narrow_span])
+def test_figures_have_readable_ticks_and_legends_off_the_data(document, tmp_path: Path) -> None:
+    """A single run and a report whose errors span less than two decades: no tick labels
+    overprint; legends sit outside the axes or above the data."""
+    from mpc.plot.compare import controllers_of, headline_figure, scenario_figure
+    from mpc.plot.headline import headline
+    from mpc.plot.results import read_series
+    from mpc.plot.run_figure import run_figure
+
+    results = document()
+    runs = results["runs"]
+    write_report(results, tmp_path)  # the whole report draws
+    series = [read_series(run, run_id(run), DT) for run in runs]
+    lead_figure = headline_figure(headline(runs), runs)
+    members = [i for i, run in enumerate(runs) if run["layout"] == runs[0]["layout"]]
+    overlay = scenario_figure([runs[i] for i in members], [series[i] for i in members],
+                              controllers_of(runs), "title")
+    per_run = run_figure(runs[0], series[0])
+    for figure in (lead_figure, overlay, per_run):
+        assert _overprinted(figure) == []
+    for figure in (lead_figure, overlay):  # figure legends: beside or below the axes
+        legend_box = figure.legends[0].get_window_extent()
+        assert not any(legend_box.overlaps(ax.get_window_extent()) for ax in figure.axes)
+    path, errors, wheels, ticks = per_run.axes[:4]
+    assert not path.get_legend().get_window_extent().overlaps(path.get_window_extent())
+    twin = [ax for ax in per_run.axes if ax is not errors and ax.bbox.bounds ==
+            errors.bbox.bounds]
+    assert _data_under(errors.get_legend(), [errors, *twin]) == []
+    assert _data_under(wheels.get_legend(), [wheels]) == []
+    assert _data_under(ticks.get_legend(), [ticks]) == []  # the dt line
+    legend_box = ticks.get_legend().get_window_extent()  # the histogram's bars
+    assert not any(legend_box.overlaps(bar.get_window_extent()) for bar in ticks.patches
+                   if bar.get_height() > 0)

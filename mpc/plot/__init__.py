@@ -13,9 +13,10 @@ matplotlib is imported on the first call that draws, never by ``import mpc`` or
 figures show errors in mm, angles in deg, tick times in ms.
 
 Modules, one idea each: :mod:`.record` (a result as plain data), :mod:`.results` (reading
-runs and series), :mod:`.headline` (who won where), :mod:`.terms` (settings with units,
-what the words mean), :mod:`.tables`, :mod:`.page` (HTML); drawing: :mod:`.style`,
-:mod:`.outline`, :mod:`.run_figure`, :mod:`.compare`; :mod:`.writer` writes the report folder.
+runs and series), :mod:`.headline` (MPC against the best baseline, who won where),
+:mod:`.terms` (settings with units, what the words mean), :mod:`.tables`, :mod:`.page`
+(HTML); drawing: :mod:`.style`, :mod:`.outline`, :mod:`.run_figure`, :mod:`.compare`;
+:mod:`.writer` writes the report folder.
 """
 
 from __future__ import annotations

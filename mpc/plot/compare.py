@@ -1,4 +1,4 @@
-"""Figures across runs: the headline bars, one path overlay per scenario, the summary bars
+"""Figures across runs: the headline dots, one path overlay per scenario, the summary bars
 and the pace scatter. Controllers keep one colour everywhere (order of first appearance).
 
 Lengths on path plots in m, errors in mm, times in s (tick times in ms).
@@ -11,14 +11,24 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 from matplotlib.ticker import ScalarFormatter
 
-from .headline import Headline, follows_path
-from .results import Run, Series, metric_value, pace_of, scenario_of
-from .style import new_figure, save, shade_skip
+from .headline import (
+    HEADING_FLOOR,
+    POSITION_FLOOR,
+    TIE_TOLERANCE,
+    Headline,
+    follows_path,
+    is_mpc,
+    ties,
+)
+from .results import Run, Series, metric_value, pace_of, scenario_of, scenario_title
+from .style import log_axis, new_figure, save, shade_skip
 
 
 def controllers_of(runs: Sequence[Run]) -> list[str]:
@@ -33,39 +43,97 @@ def colour(controllers: Sequence[str], name: str) -> str:
 
 # --------------------------------------------------------------------------- headline
 
+#: Shade of the band below the error floor on log plots.
+FLOOR_COLOUR = "0.88"
+#: Of a row's height, the span the controllers' offset markers share.
+_ROW_SPREAD = 0.64
+
+
+def _offsets(names: Sequence[str]) -> dict[str, float]:
+    """Each ranked controller's vertical offset within a row: MPC variants first (above the
+    row's centre), then the baselines, so that tied dots stay apart."""
+    ordered = sorted(names, key=lambda name: not is_mpc(name))
+    if len(ordered) < 2:
+        return dict.fromkeys(ordered, 0.0)
+    step = _ROW_SPREAD / (len(ordered) - 1)
+    return {name: -_ROW_SPREAD / 2 + step * i for i, name in enumerate(ordered)}
+
+
+def _dot_panel(ax: Axes, rows: Sequence[Sequence[tuple[str, float]]], offsets: dict[str, float],
+               controllers: Sequence[str], floor: float) -> bool:
+    """One dot per (controller, value [unit]) in each row at the controller's offset, log x;
+    the lowest of each row and those tying with it (:func:`ties`) outlined; values below
+    ``floor`` (same unit) drawn at it as ``<`` on a shaded band; returns whether any is."""
+    shown: list[float] = []
+    below = False
+    for row, values in enumerate(rows):
+        finite = [value for _, value in values if math.isfinite(value) and value >= 0]
+        best = min(finite, default=math.nan)
+        for name, value in values:
+            if not (math.isfinite(value) and value >= 0):
+                continue
+            lowest = len(offsets) > 1 and ties(best, value, floor)  # one controller: no rank
+            under = value < floor
+            below |= under
+            shown.append(max(value, floor))
+            ax.plot(max(value, floor), row + offsets[name], "<" if under else
+                    ("o" if is_mpc(name) else "s"), color=colour(controllers, name),
+                    ms=8 if lowest else (7 if under else 5.5), mec="k" if lowest else "none",
+                    mew=1.1, zorder=3)
+    ax.set_yticks(np.arange(len(rows)))
+    ax.set_ylim(len(rows) - 0.5, -0.5)
+    for row in range(len(rows) - 1):
+        ax.axhline(row + 0.5, color="0.85", lw=0.6)
+    if shown:
+        low, high = min(shown) / 1.8, max(shown) * 1.8
+        log_axis(ax, "x", low, high)
+        if below:
+            ax.axvspan(low, floor, color=FLOOR_COLOUR, zorder=0)
+    ax.grid(True, axis="x", alpha=0.4)
+    return below
+
 
 def headline_figure(headline: Headline, runs: Sequence[Run]) -> Figure:
-    """RMS position error [mm] (log x) of every controller in each scenario in focus: one
-    row per scenario, one dot per controller, the winner's dot larger and outlined."""
+    """RMS position error [mm] and RMS heading error [deg] side by side (log x) of every
+    ranked controller in each scenario in focus: one row per scenario, each controller at
+    its own height within the row (MPC variants above, baselines below), the lowest of each
+    row outlined (ties within the tolerance too); values below the floor drawn at it as
+    ``<``. The legend is below the panels, on no data."""
     controllers = controllers_of(runs)
-    count = max(len(headline.rankings), 1)
-    figure = new_figure(6.4, min(1.9 + 0.3 * count, 12.0), constrained=True)
-    ax = figure.subplots()
-    finite: list[float] = []
-    for row, ranking in enumerate(headline.rankings):
-        for controller, rms, _ in ranking.entries:
-            if not (math.isfinite(rms) and rms > 0):
-                continue
-            best = controller == ranking.winner
-            ax.plot(1e3 * rms, row, "o", color=colour(controllers, controller),
-                    ms=10 if best else 6, mec="k" if best else "none", mew=1.2, zorder=3)
-            finite.append(1e3 * rms)
-    ax.set_yticks(np.arange(len(headline.rankings)))
-    ax.set_yticklabels([" / ".join(r.scenario[:3])
-                        + (f" ({r.peak_ratio:.2f}\u00d7)" if math.isfinite(r.peak_ratio)
-                           else f" ({r.scenario[3]})") for r in headline.rankings],
-                       fontsize="small")
-    ax.set_ylim(len(headline.rankings) - 0.5, -0.5)
-    if finite:
-        ax.set_xscale("log")
-        ax.set_xlim(10.0 ** math.floor(math.log10(min(finite)) - 0.3), 2.0 * max(finite))
-    ax.set_xlabel("RMS position error after the settling time [mm] (log)")
-    ax.grid(True, alpha=0.4)
-    ranked = {entry[0] for ranking in headline.rankings for entry in ranking.entries}
-    handles = [Line2D([], [], marker="o", ls="", color=colour(controllers, name), label=name)
-               for name in controllers if name in ranked]  # path followers are not ranked
-    ax.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    ax.set_title(f"RMS position error {headline.focus} (winner outlined)", fontsize="medium")
+    rankings = headline.rankings
+    ranked = list(dict.fromkeys(entry[0] for ranking in rankings for entry in ranking.entries))
+    offsets = _offsets(ranked)
+    count = max(len(rankings), 1)
+    figure = new_figure(8.4, min(2.1 + 0.27 * count, 14.0), constrained=True)
+    position, heading = figure.subplots(1, 2, sharey=True)
+    rows_position = [[(name, 1e3 * rms) for name, rms, _ in r.entries] for r in rankings]
+    rows_heading = [[(name, math.degrees(metric_value(runs[i], "rms_heading_error")))
+                     for name, _, i in r.entries] for r in rankings]
+    below = _dot_panel(position, rows_position, offsets, controllers, 1e3 * POSITION_FLOOR)
+    below |= _dot_panel(heading, rows_heading, offsets, controllers,
+                        math.degrees(HEADING_FLOOR))
+    position.set_yticklabels([" / ".join(label for label in r.scenario[:3] if label != "-")
+                              + (f" ({r.peak_ratio:.2f}\u00d7)" if math.isfinite(r.peak_ratio)
+                                 else "") for r in rankings], fontsize="small")
+    heading.tick_params(labelleft=False)
+    position.set_xlabel("RMS position error [mm] (log)")
+    heading.set_xlabel("RMS heading error [deg] (log)")
+    position.set_title("position error", fontsize="medium")
+    heading.set_title("heading error", fontsize="medium")
+    handles: list[Artist] = [Line2D([], [], marker="o" if is_mpc(name) else "s", ls="",
+                                    color=colour(controllers, name), label=name)
+                             for name in ranked]
+    if len(ranked) > 1:
+        handles.append(Line2D([], [], marker="o", ls="", color="w", mec="k", ms=8,
+                              label=f"lowest (ties within {TIE_TOLERANCE:.0%} too)"))
+    if below:
+        handles.append(Patch(color=FLOOR_COLOUR, label=f"below the floor ({1e3 * POSITION_FLOOR:g}"
+                             f" mm, {math.degrees(HEADING_FLOOR):g} deg): drawn at it as <"))
+    figure.legend(handles=handles, loc="outside lower center", fontsize="small",
+                  ncols=min(len(handles), 4))
+    focus = headline.focus if headline.single is None else "after the settling time"
+    figure.suptitle(f"RMS errors {focus}: a row per scenario, a dot per controller",
+                    fontsize="medium")
     return figure
 
 
@@ -76,15 +144,18 @@ def scenario_figure(runs: Sequence[Run], series: Sequence[Series], controllers: 
                     title: str) -> Figure:
     """Every controller of one scenario on one path plot [m], beside their position errors
     over time [mm] (log; path followers' distance to the path, dashed) with the settling
-    window shaded; 1000 x 420 px."""
-    figure = new_figure(10.0, 4.2, constrained=True)
+    window shaded and errors below the floor drawn on it; the legend below the plots;
+    1000 x 460 px."""
+    figure = new_figure(10.0, 4.6, constrained=True)
     path, errors = figure.subplots(1, 2, width_ratios=[1.0, 1.25])
     if series:
         reference = series[0].reference
         path.plot(reference[:, 0], reference[:, 1], "--", color="0.45", lw=1.2, label="reference")
         shade_skip(errors, float(series[0].time[0]) if len(series[0].time) else 0.0,
                    series[0].skip)
-    floor = math.inf
+    floor = 1e3 * POSITION_FLOOR
+    peak = 0.0
+    below = False
     for run, data in zip(runs, series, strict=True):
         name = str(run["controller"])
         path.plot(data.pose[:, 0], data.pose[:, 1], color=colour(controllers, name), lw=1.3,
@@ -93,27 +164,32 @@ def scenario_figure(runs: Sequence[Run], series: Sequence[Series], controllers: 
         distance = data.path_error if follows_path(run) else None
         along = distance is not None
         error = 1e3 * (data.position_error if distance is None else distance)
-        positive = error[error > 0]
-        if positive.size:
-            floor = min(floor, float(positive.min()))
-        errors.plot(data.time, error, color=colour(controllers, name), lw=1.1,
-                    ls="--" if along else "-", label=name)
+        finite = error[np.isfinite(error)]
+        if finite.size:
+            peak = max(peak, float(finite.max()))
+            below |= bool((finite < floor).any())
+        errors.plot(data.time, np.maximum(error, floor), color=colour(controllers, name),
+                    lw=1.1, ls="--" if along else "-")
     path.set_aspect("equal", adjustable="datalim")
     path.set_xlabel("x [m]")
     path.set_ylabel("y [m]")
     path.grid(True, alpha=0.4)
     path.set_title("path", fontsize="medium")
-    path.legend(fontsize="x-small", loc="best")
-    if math.isfinite(floor):
-        errors.set_yscale("log")
-        errors.set_ylim(bottom=max(floor, 1e-4))
+    if peak > 0:
+        low = floor / 2.0 if below else min(floor, peak) / 2.0
+        log_axis(errors, "y", low, max(peak, floor) * 2.0)
+        if below:
+            errors.axhspan(low, floor, color=FLOOR_COLOUR, zorder=0.6,
+                           label=f"below {floor:g} mm (floor): drawn on it")
     errors.set_xlabel("time [s]")
     errors.set_ylabel("position error, time-indexed [mm] (log);\ndashed: path followers' "
                       "distance to the path")
     errors.grid(True, alpha=0.4)
     errors.set_title("position error", fontsize="medium")
-    if errors.patches:
-        errors.legend(handles=[errors.patches[0]], fontsize="x-small", loc="lower right")
+    handles, labels = path.get_legend_handles_labels()
+    extra = errors.get_legend_handles_labels()
+    figure.legend(handles + extra[0], labels + extra[1], loc="outside lower center",
+                  fontsize="small", ncols=min(len(handles) + len(extra[0]), 6))
     figure.suptitle(title, fontsize="medium")
     return figure
 
@@ -154,9 +230,8 @@ def _grouped_bars(ax: Axes, grid: np.ndarray, controllers: Sequence[str], log: b
     finite = shown[np.isfinite(shown)]
     if log and len(finite):
         # bars start at 0, which a log axis cannot show: start them a decade below the least
-        ax.set_yscale("log")
         high = max(float(finite.max()), level if math.isfinite(level) else 0.0)
-        ax.set_ylim(10.0 ** math.floor(math.log10(float(finite.min())) - 0.5), 2.0 * high)
+        log_axis(ax, "y", 10.0 ** math.floor(math.log10(float(finite.min())) - 0.5), 2.0 * high)
     ax.grid(True, axis="y", alpha=0.4)
     ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
 
@@ -182,7 +257,7 @@ def summary_figure(runs: Sequence[Run], dt: float) -> Figure:
     bottom.set_ylabel("tick time p50 [ms]")
     bottom.set_title("Median tick time (log)")
     bottom.set_xticks(np.arange(len(scenarios)))
-    bottom.set_xticklabels([" / ".join(s) for s in scenarios],
+    bottom.set_xticklabels([scenario_title(s) for s in scenarios],
                            rotation=30 if len(scenarios) > 3 else 0,
                            ha="right" if len(scenarios) > 3 else "center")
     bottom.set_xlabel("scenario (layout / trajectory / heading / speed)")
@@ -211,12 +286,17 @@ def write_pace_figure(runs: Sequence[Run], path: Path) -> bool:
     axes = np.atleast_1d(figure.subplots(1, len(speeds), squeeze=False)).ravel()
     for ax, speed in zip(axes, speeds, strict=True):
         chosen = [run for run in timed if str(run["speed"]) == speed]
+        floor = 1e3 * POSITION_FLOOR
+        shown = []
         for run in chosen:
-            error = max(metric_value(run, "max_cross_track_error") * 1e3, 1e-3)
+            error = max(metric_value(run, "max_cross_track_error") * 1e3, floor)
+            shown.append(error)
             ax.scatter(pace_of(run), error, color=colour(controllers, str(run["controller"])),
                        s=22, alpha=0.8, zorder=3)
         ax.axvline(1.0, color="0.5", lw=0.8, ls="--")
-        ax.set_yscale("log")
+        finite = [value for value in shown if math.isfinite(value)]
+        if finite:
+            log_axis(ax, "y", min(finite) / 2.0, max(finite) * 2.0)
         paces = [pace_of(run) for run in chosen]
         ax.set_xlim(min(min(paces), 0.98) - 0.01, max(max(paces), 1.02) + 0.01)  # >= 2 % wide
         ax.xaxis.set_major_formatter(ScalarFormatter(useOffset=False))

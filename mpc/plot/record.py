@@ -14,7 +14,8 @@ run and the benchmark's draw the same figures. Keys (SI units: m, rad, s, rad/s)
   (K,), ``path_error`` (K,) [m] (distance to the reference's path), ``dt``; steered
   wheels' ``steer_angle``, ``steer_rate``, ``steer_rate_limit``; ``predicted``: the kept
   plans, ``{"tick": (M,), "pose": (M, P, 3)}``;
-- ``robot``: ``name``, ``kind``, ``wheel_positions`` (the outline drawn on the path).
+- ``robot``: ``name``, ``kind``, ``wheel_positions`` (the outline drawn on the path),
+  ``wheel_names`` (``FL``, ``FR``...: the wheels' labels).
 
 Imports neither matplotlib nor a solver.
 """
@@ -38,9 +39,11 @@ def _list(array: Any, decimals: int = 7) -> list[Any]:
 
 
 def robot_info(robot: Robot) -> dict[str, Any]:
-    """Name, kind and wheel positions [m] of a robot (the outline in the path plots)."""
+    """Name, kind, wheel positions [m] (the outline in the path plots) and wheel names of a
+    robot (:attr:`~mpc.robots.Robot.wheel_names`, the figures' labels)."""
     return {"name": robot.name, "kind": robot.kind,
-            "wheel_positions": np.asarray(robot.wheel_positions).round(6).tolist()}
+            "wheel_positions": np.asarray(robot.wheel_positions).round(6).tolist(),
+            "wheel_names": list(robot.wheel_names)}
 
 
 def reference_peak_ratio(result: SimResult) -> float | None:

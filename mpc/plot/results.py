@@ -168,9 +168,10 @@ def peak_ratio_text(run: Run) -> str:
 
 
 def scenario_title(scenario: Sequence[str], peak_ratio: str = "-") -> str:
-    """``"mecanum / circle / fixed / beyond (reference asks 1.30x the wheel limit)"``."""
+    """``"mecanum / circle / fixed / beyond (reference asks 1.30x the wheel limit)"``; labels
+    ``-`` (none given) left out."""
     asks = "" if peak_ratio == "-" else f" (reference asks {peak_ratio}\u00d7 the wheel limit)"
-    return " / ".join(scenario) + asks
+    return " / ".join(label for label in scenario if label not in ("-", "")) + asks
 
 
 def run_title(run: Run) -> str:

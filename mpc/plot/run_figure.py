@@ -20,7 +20,7 @@ from matplotlib.figure import Figure
 
 from .outline import footprint, place
 from .results import Run, Series, format_value, metric_value, run_title
-from .style import new_figure, save, shade_skip, wrap_degrees
+from .style import log_axis, new_figure, save, shade_skip, wrap_degrees
 
 N_FOOTPRINTS = 8
 N_PLANS = 12  # predicted paths drawn on the path plot (evenly spread over the kept ones)
@@ -44,7 +44,7 @@ def _draw_plans(ax: Axes, data: Series) -> None:
 
 def draw_path(ax: Axes, data: Series, robot: Mapping[str, Any]) -> None:
     """Reference, robot path, footprints with heading arrows, start, predicted paths [m]."""
-    ax.set_title("(a) path")
+    ax.set_title("(a) path", loc="left")
     ax.plot(data.reference[:, 0], data.reference[:, 1], "--", color="0.45", label="reference")
     ax.plot(data.pose[:, 0], data.pose[:, 1], color="C0", lw=1.5, label="robot")
     _draw_plans(ax, data)
@@ -66,7 +66,31 @@ def draw_path(ax: Axes, data: Series, robot: Mapping[str, Any]) -> None:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.grid(True, alpha=0.4)
-    ax.legend(loc="best", fontsize="small")
+    # above the axes, right of the title: inside it would cover footprints or plans
+    ax.legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize="small",
+              frameon=False, borderaxespad=0.2, columnspacing=1.0, handlelength=1.6)
+
+
+def wheel_names(run: Run, count: int) -> list[str]:
+    """The run's robot's wheel names (``FL``, ``FR``...; ``robot.wheel_names`` of the run
+    record) when it has ``count`` of them; for records without them, named from the wheel
+    positions as :attr:`mpc.robots.Robot.wheel_names` does; else ``wheel 1..count``."""
+    from mpc.robots.base import quadrant_names
+
+    robot = run.get("robot")
+    robot = robot if isinstance(robot, Mapping) else {}
+    names = robot.get("wheel_names")
+    if (isinstance(names, list) and len(names) == count
+            and all(isinstance(name, str) and name for name in names)):
+        return list(names)
+    try:
+        named = quadrant_names(robot.get("wheel_positions", []))
+    except (TypeError, ValueError):
+        named = None
+    if named is not None and len(named) == count:
+        return list(named)
+    unit = "module" if robot.get("kind") in ("swerve", "caster") else "wheel"
+    return [f"{unit} {i}" for i in range(1, count + 1)]
 
 
 def _draw_errors(ax: Axes, data: Series) -> None:
@@ -97,7 +121,7 @@ def _draw_errors(ax: Axes, data: Series) -> None:
               fontsize="small")
 
 
-def _draw_wheels(ax: Axes, data: Series) -> None:
+def _draw_wheels(ax: Axes, data: Series, names: list[str]) -> None:
     count = len(data.wheel_command)
     time = data.time[:count]
     ax.set_title(f"(c) wheel commands ({_peak_text(data.wheel_ratio, data)})")
@@ -105,7 +129,7 @@ def _draw_wheels(ax: Axes, data: Series) -> None:
         shade_skip(ax, float(time[0]), data.skip)
     for wheel in range(data.wheel_command.shape[1]):
         ax.plot(time, data.wheel_command[:, wheel], color=f"C{wheel % 10}", lw=1.0,
-                label=f"wheel {wheel}")
+                label=names[wheel])
     limits = np.unique(data.wheel_limit[np.isfinite(data.wheel_limit) & (data.wheel_limit > 0)])
     for index, limit in enumerate(limits):
         if index == 0:
@@ -123,7 +147,7 @@ def _draw_wheels(ax: Axes, data: Series) -> None:
         ax.legend(loc="upper right", fontsize="small", ncol=2)
 
 
-def _draw_steering(ax: Axes, data: Series) -> None:
+def _draw_steering(ax: Axes, data: Series, names: list[str]) -> None:
     """(e) each steered wheel's turn rate [rad/s] against its limit."""
     rates, limits = data.steer_rate, data.steer_rate_limit
     assert rates is not None and limits is not None
@@ -135,7 +159,7 @@ def _draw_steering(ax: Axes, data: Series) -> None:
     if len(time):
         shade_skip(ax, float(time[0]), data.skip)
     for wheel in range(rates.shape[1]):
-        ax.plot(time, rates[:, wheel], color=f"C{wheel % 10}", lw=1.0, label=f"wheel {wheel}")
+        ax.plot(time, rates[:, wheel], color=f"C{wheel % 10}", lw=1.0, label=names[wheel])
     for index, limit in enumerate(np.unique(limits[finite])):
         label = f"\u00b1 limit ({limit:g} rad/s)" if index == 0 else None
         ax.axhline(limit, color="k", ls="--", lw=1.0, label=label)
@@ -163,17 +187,19 @@ def _draw_tick_histogram(ax: Axes, data: Series, run: Run) -> None:
             low, high = low / 1.1, high * 1.1
         ax.hist(positive, bins=np.geomspace(low, high, 40).tolist(), color="C0",
                 label=f"ticks (n={len(tick_ms)})")
-        ax.set_xscale("log")
+        log_axis(ax, "x", min(low, dt_ms) / 1.2, max(high, dt_ms) * 1.2)
     else:
         ax.hist(tick_ms, bins=40, color="C0", label=f"ticks (n={len(tick_ms)})")
-    ax.axvline(dt_ms, color="C3", ls="--", label=f"dt = {dt_ms:g} ms")
+    # up to the bars' headroom only: the legend sits above it
+    ax.axvline(dt_ms, ymax=1.0 - _LEGEND_ROOM, color="C3", ls="--", label=f"dt = {dt_ms:g} ms")
     solve_p50 = metric_value(run, "solve_time_p50")
     solve_text = "0 (no solver)" if solve_p50 == 0 else f"{format_value(solve_p50, 1e3)} ms"
     ax.plot([], [], " ", label=f"solve time p50 = {solve_text}")
     ax.set_xlabel("tick time [ms]" + (" (log)" if logarithmic else ""))
     ax.set_ylabel("ticks")
     ax.grid(True, alpha=0.4)
-    ax.legend(loc="best", fontsize="small")
+    _headroom(ax)  # "best" would still cover a few short bars
+    ax.legend(loc="upper right", fontsize="small")
 
 
 def run_figure(run: Run, data: Series) -> Figure:
@@ -183,7 +209,7 @@ def run_figure(run: Run, data: Series) -> Figure:
     steered = data.steer_rate is not None
     figure = new_figure(12.0, 12.0 if steered else 9.0, constrained=False)
     figure.subplots_adjust(left=0.065, right=0.93, bottom=0.05 if steered else 0.065,
-                           top=0.94 if steered else 0.925, wspace=0.28,
+                           top=0.915 if steered else 0.89, wspace=0.28,
                            hspace=0.32 if steered else 0.27)
     grid = figure.add_gridspec(3 if steered else 2, 2)
     axes = np.array([[figure.add_subplot(grid[row, column]) for column in range(2)]
@@ -191,10 +217,12 @@ def run_figure(run: Run, data: Series) -> Figure:
     robot = run.get("robot")
     draw_path(axes[0, 0], data, robot if isinstance(robot, Mapping) else {})
     _draw_errors(axes[0, 1], data)
-    _draw_wheels(axes[1, 0], data)
+    names = wheel_names(run, data.wheel_command.shape[1])
+    _draw_wheels(axes[1, 0], data, names)
     _draw_tick_histogram(axes[1, 1], data, run)
-    if steered:
-        _draw_steering(figure.add_subplot(grid[2, :]), data)
+    if data.steer_rate is not None:
+        _draw_steering(figure.add_subplot(grid[2, :]), data,
+                       wheel_names(run, data.steer_rate.shape[1]))
     figure.suptitle(run_title(run), fontsize="large")
     return figure
 

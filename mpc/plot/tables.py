@@ -10,7 +10,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from .headline import follows_path
+from .headline import HEADING_FLOOR, POSITION_FLOOR, follows_path, ties
 from .results import Run, format_value, metric_value, pace_of, peak_ratio_text, scenario_of
 
 # --------------------------------------------------------------------------- tables
@@ -23,13 +23,14 @@ class _Column:
     title: str
     metric: str
     scale: float = 1.0
+    floor: float = 0.0  # [SI] values below it read "< floor" (rounding, not tracking)
 
 
 _METRIC_COLUMNS = (
-    _Column("RMS pos. err. [mm]", "rms_position_error", 1e3),
-    _Column("max pos. err. [mm]", "max_position_error", 1e3),
-    _Column("RMS heading err. [deg]", "rms_heading_error", 180.0 / math.pi),
-    _Column("max path err. [mm]", "max_cross_track_error", 1e3),
+    _Column("RMS pos. err. [mm]", "rms_position_error", 1e3, POSITION_FLOOR),
+    _Column("max pos. err. [mm]", "max_position_error", 1e3, POSITION_FLOOR),
+    _Column("RMS heading err. [deg]", "rms_heading_error", 180.0 / math.pi, HEADING_FLOOR),
+    _Column("max path err. [mm]", "max_cross_track_error", 1e3, POSITION_FLOOR),
     _Column("lap / target", "pace"),
     _Column("max lag [s]", "max_lag"),
     _Column("peak wheel / limit", "max_wheel_speed_ratio"),
@@ -68,16 +69,19 @@ def _row_cells(run: Run) -> list[str]:
             cells.append(failures_text(run["metrics"]))
         elif column.metric == "pace":
             cells.append(format_value(pace_of(run)))
+        elif 0 <= metric_value(run, column.metric) < column.floor:
+            cells.append(f"< {column.floor * column.scale:.2g}")
         else:
             cells.append(format_value(run["metrics"].get(column.metric), column.scale))
     return cells
 
 
-Row = tuple[str, list[str], bool]  # run id, plain-text cells, has the best RMS of its scenario
+Row = tuple[str, list[str], bool]  # run id, plain-text cells, ties the best RMS of its scenario
 
 
 def grouped_rows(runs: Sequence[Run], ids: Sequence[str]) -> list[list[Row]]:
-    """Rows grouped by scenario: ``(run id, cells, has the best RMS of its scenario)``."""
+    """Rows grouped by scenario: ``(run id, cells, ties the best RMS of its scenario)``
+    (:func:`~mpc.plot.headline.ties`: within the tolerance, or both below the floor)."""
     groups: dict[tuple[str, str, str, str], list[int]] = {}
     for index, run in enumerate(runs):
         groups.setdefault(scenario_of(run), []).append(index)
@@ -90,7 +94,8 @@ def grouped_rows(runs: Sequence[Run], ids: Sequence[str]) -> list[list[Row]]:
         best = min(finite) if finite else math.nan
         table.append(
             [
-                (ids[i], _row_cells(runs[i]), value == best and not follows_path(runs[i]))
+                (ids[i], _row_cells(runs[i]),
+                 ties(best, value, POSITION_FLOOR) and not follows_path(runs[i]))
                 for i, value in zip(members, rms, strict=True)
             ]
         )

@@ -5,8 +5,11 @@ Plain text and numbers, no matplotlib and no HTML.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
+
+from .headline import HEADING_FLOOR, POSITION_FLOOR, TIE_TOLERANCE
 
 #: Unit and meaning of each setting a results document may hold in ``meta.settings``.
 SETTING_TERMS: dict[str, tuple[str, str]] = {
@@ -24,26 +27,73 @@ SETTING_TERMS: dict[str, tuple[str, str]] = {
 }
 UNKNOWN_TERM = ("(unit not stated)", "")
 
-TERMS_PARAGRAPH = (
+_SPEEDS = (
     "Inside and beyond (the speeds of mpc-bench): each scenario's reference is timed so that "
-    "its peak wheel speed, "
-    "on that robot, is a stated multiple of the wheel speed limit: inside asks 0.8\u00d7 the "
-    "limit (the wheels can follow it exactly), beyond asks 1.3\u00d7 (no controller "
-    "can: the question is how gracefully each one falls behind). The peak wheel ratio in "
-    "the tables is what the controller actually commanded, peak |wheel command| / limit, "
-    "over the same ticks as the errors, so an exact tracker reads about 0.8 inside and at "
-    "most 1.0 beyond. The first skip seconds of every run (the start-up transient, shaded "
-    "grey on the time plots) are left out of every error metric and of the peak ratio. "
-    "Position error is time-indexed: the distance from the robot to where the reference is "
-    "at that instant, so falling behind on the right path counts. Path (contouring) error is "
-    "the distance to the nearest point of the reference's path, wherever along it: a robot "
-    "late on the path has a small path error and a large time-indexed error; one that cuts "
-    "corners has both. A path follower (mode=\"path\") lets its clock trail the "
-    "reference's where the wheels cannot keep up: its position error is measured against "
-    "the reference point it tracks, so it is not ranked on it; its pace (lap time over "
-    "the fastest possible lap) and path error say how it did. Lengths are in mm, angles in "
-    "deg, times in ms unless stated."
+    "its peak wheel speed, on that robot, is a stated multiple of the wheel speed limit: "
+    "inside asks 0.8\u00d7 the limit (the wheels can follow it exactly), beyond asks "
+    "1.3\u00d7 (no controller can: the question is how gracefully each one falls behind). "
+    "The peak wheel ratio in the tables is what the controller actually commanded, peak "
+    "|wheel command| / limit, over the same ticks as the errors, so an exact tracker reads "
+    "about 0.8 inside and at most 1.0 beyond."
 )
+_SKIP = (
+    "The first skip seconds of every run (the start-up transient, shaded grey on the time "
+    "plots) are left out of every error metric and of the peak wheel ratio."
+)
+_ERRORS = (
+    "Position error is time-indexed: the distance from the robot to where the reference is "
+    "at that instant, so falling behind on the right path counts. Heading error is the "
+    "angle between the robot's heading and the reference's at that instant. Path "
+    "(contouring) error is the distance to the nearest point of the reference's path, "
+    "wherever along it: a robot late on the path has a small path error and a large "
+    "time-indexed error; one that cuts corners has both."
+)
+_FOLLOWERS = (
+    "A path follower (mode=\"path\") lets its clock trail the reference's where the wheels "
+    "cannot keep up: its position error is measured against the reference point it tracks, "
+    "so it is not ranked on it; its pace (lap time over the fastest possible lap: the "
+    "time-optimal lap under the same wheel limits, or the reference's own period where "
+    "that is slower) and path error say how it did."
+)
+_UNITS = "Lengths are in mm, angles in deg, times in ms unless stated."
+
+
+def _compare_text(ranked: bool, mpc: bool) -> str:
+    floor_mm, floor_deg = 1e3 * POSITION_FLOOR, math.degrees(HEADING_FLOOR)
+    text = (f"Errors below {floor_mm:g} mm (position) or {floor_deg:g} deg (heading) are "
+            f"rounding, not tracking: they are shown as \u201c< {floor_mm:g} mm\u201d")
+    if not ranked:
+        return text + "."
+    text += (f" and tie with each other. Two errors within {TIE_TOLERANCE:.0%} of the "
+             "smaller one also tie; in a controller's count of scenarios where it is lowest, "
+             "a tie counts for each.")
+    if mpc:
+        text += (" MPC is the best of its variants (the controllers named mpc-...) in each "
+                 "scenario, the baseline the best of the other controllers in it (the "
+                 "feedforward + P controllers of mpc-bench); the ratios are MPC's RMS error "
+                 "over the baseline's.")
+    return text
+
+
+def terms_paragraphs(speeds: bool, skip: bool, followers: bool, compared: bool,
+                     ranked: bool = True) -> list[str]:
+    """The terms a report needs, one paragraph each: the speeds (inside and beyond) when
+    its runs have them, the settling time when a run has one, the errors, path followers
+    when there are any, the floor, and the tie rule when controllers are ``ranked`` (with
+    what MPC and the baseline are when ``compared``), the units."""
+    errors = f"{_SKIP} {_ERRORS}" if skip else _ERRORS
+    parts = [_SPEEDS] if speeds else []
+    parts.append(errors)
+    if followers:
+        parts.append(_FOLLOWERS)
+    parts.append(_compare_text(ranked, compared))
+    parts.append(_UNITS)
+    return parts
+
+
+#: Every term of a benchmark report in one paragraph (the speeds, settling time, errors,
+#: path followers, ties and floors, units).
+TERMS_PARAGRAPH = " ".join(terms_paragraphs(True, True, True, True))
 
 
 def _number(value: object) -> str:

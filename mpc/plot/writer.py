@@ -4,7 +4,8 @@ A report folder holds::
 
     index.html              self-contained page (inline CSS, no JavaScript)
     summary.md              the full table in Markdown
-    headline.png            lowest RMS position error per scenario (beyond the limits)
+    headline.png            RMS position and heading error of every controller per scenario
+                            in focus (beyond the limits where there are such), a dot each
     scenarios/<id>.png      every controller of a scenario on one path plot
     summary.png             controllers compared across scenarios
     pace.png                lap time against path error per scenario (periodic references)

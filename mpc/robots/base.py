@@ -209,6 +209,15 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         return int(self.wheel_blocks.shape[0])
 
     @property
+    def wheel_names(self) -> tuple[str, ...]:
+        """Names of the wheels (modules) in their order, for figures and logs: four wheels,
+        one in each quadrant of the body frame, are named by it (``FL``, ``FR``, ``RL``,
+        ``RR``; x forward, y left: Mecanum, swerve modules, omni4 counter-clockwise); other
+        layouts ``module 1..n`` (steered wheels) or ``wheel 1..n``."""
+        return quadrant_names(self.wheel_positions) or tuple(
+            f"{'module' if self.steered else 'wheel'} {i}" for i in range(1, self.n_wheels + 1))
+
+    @property
     def flat_wheel_blocks(self) -> FloatArray:
         """``wheel_blocks`` stacked into (n * d, 3): wheel i's rows are i*d .. i*d + d - 1."""
         return self.wheel_blocks.reshape(-1, 3)
@@ -397,6 +406,16 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         if dynamics is not None and not isinstance(dynamics, RobotDynamics):
             raise RobotError(f"dynamics must be a RobotDynamics or None, got {shown(dynamics)}")
         return dataclasses.replace(self, dynamics=dynamics)
+
+
+def quadrant_names(positions: ArrayLike) -> tuple[str, ...] | None:
+    """``FL``, ``FR``, ``RL``, ``RR`` for four positions (n, 2) [m] one to a quadrant of the
+    body frame (x forward, y left), in their order; None for any other set."""
+    points = np.asarray(positions, dtype=float).reshape(-1, 2)
+    if points.shape != (4, 2) or not bool((np.abs(points) > 1e-9).all()):
+        return None
+    names = tuple(("F" if x > 0 else "R") + ("L" if y > 0 else "R") for x, y in points.tolist())
+    return names if len(set(names)) == 4 else None
 
 
 #: Relative rounding slack of a wheel's speed against its limit (the clamp's).
