@@ -15,7 +15,8 @@ folder that holds its results already, unless given ``--force``. On a terminal, 
 commands draw a progress bar with one ETA (:mod:`benchmarks.progress`; the benchmark's
 learned per controller kind and counting its report, :mod:`benchmarks.eta`); elsewhere
 they print one plain line per finished run, ending with the ETA. The benchmark ends with
-a one-line verdict (:mod:`benchmarks.verdict`) and the report's path. Shell completion,
+a one-line verdict (the report's headline, :func:`benchmarks.report.verdict`) and the
+report's path. Shell completion,
 if ``argcomplete`` is installed: ``eval "$(register-python-argcomplete mpc-bench)"``.
 
 Runs are independent: ``--workers N`` spreads them over N local processes (default:
@@ -66,7 +67,6 @@ from benchmarks.scenarios import (
     robots,
     seed,
 )
-from benchmarks.verdict import verdict
 from mpc.errors import MpcError, ReportError
 from mpc.plot.results import counted
 from mpc.robots import motor_preset
@@ -320,6 +320,8 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
         if not args.no_report and runs:
             index = _write_report(document, out / "report", workers, progress)
     shown = index if index is not None else out / "results.json"
+    from benchmarks.report import verdict  # no matplotlib: the headline's numbers only
+
     print(f"mpc-bench: {verdict(runs)}; {'report' if index else 'results'}: {shown} "
           f"({format_seconds(time.perf_counter() - started)} in all)")
     if failed:

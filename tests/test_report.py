@@ -5,10 +5,20 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
+from matplotlib.patches import Rectangle
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.axis import Axis
+    from matplotlib.figure import Figure
+    from matplotlib.legend import Legend
+    from matplotlib.text import Text
 
 from benchmarks.report import ReportError, load_results, run_id, verdict, write_report
 
@@ -380,10 +390,10 @@ def test_tied_variants_stay_apart_on_the_dot_chart() -> None:
     lead = headline(runs)
     figure = headline_figure(lead, runs)
     position = figure.axes[0]
-    dots = [line for line in position.get_lines() if len(line.get_xdata()) == 1]
+    dots = [line for line in position.get_lines() if np.size(line.get_xdata()) == 1]
     rows: dict[int, list[float]] = {}
     for line in dots:
-        y = float(line.get_ydata()[0])
+        y = float(np.ravel(line.get_ydata())[0])
         rows.setdefault(round(y), []).append(y)
     assert len(rows) == 4 and all(len(ys) == len(set(ys)) == 4 for ys in rows.values())
     outlined = [line for line in dots if line.get_markeredgecolor() == "k"]
@@ -406,17 +416,17 @@ def test_errors_below_the_floor_are_not_ranked(tmp_path: Path) -> None:
 # --------------------------------------------------------------------------- readable figures
 
 
-def _visible_tick_labels(axis) -> list:
+def _visible_tick_labels(axis: Axis) -> list[Text]:
     low, high = sorted(axis.get_view_interval())
     return [tick.label1 for tick in axis.get_major_ticks() + axis.get_minor_ticks()
             if tick.label1.get_visible() and tick.label1.get_text()
             and low * (1 - 1e-9) <= tick.get_loc() <= high * (1 + 1e-9)]
 
 
-def _overprinted(figure) -> list[str]:
+def _overprinted(figure: Figure) -> list[str]:
     """Pairs of tick labels whose boxes overlap, by the renderer's text extents."""
     figure.canvas.draw()
-    renderer = figure.canvas.get_renderer()
+    renderer = figure.canvas.get_renderer()  # type: ignore[attr-defined]  # Agg canvas
     found = []
     for ax in figure.axes:
         for axis in (ax.xaxis, ax.yaxis):
@@ -431,21 +441,22 @@ def _overprinted(figure) -> list[str]:
     return found
 
 
-def _data_under(legend, axes) -> list[str]:
+def _data_under(legend: Legend | None, axes: list[Axes]) -> list[str]:
     """The axes' lines whose drawn path crosses the legend's box (display space)."""
+    assert legend is not None
     box = legend.get_window_extent()
     return [str(line.get_label()) for ax in axes for line in ax.get_lines()
             if line.get_path().transformed(line.get_transform()).intersects_bbox(box,
                                                                                  filled=False)]
 
 
-def _single_run() -> dict:
+def _single_run() -> dict[str, Any]:
     run = dict(_results()["runs"][0])
     run.update(speed="-", heading="-", peak_ratio=None, controller="mpc")
     return {"meta": {"settings": {"dt": DT, "skip": 0.5}}, "runs": [run]}
 
 
-def _narrow_span() -> dict:
+def _narrow_span() -> dict[str, Any]:
     """Errors within one decade: 40-90 mm beyond the limits."""
     results = _results()
     for run, rms in zip(results["runs"], (0.05, 0.09, 0.04, 0.07), strict=True):
@@ -455,7 +466,8 @@ def _narrow_span() -> dict:
 
 
 @pytest.mark.parametrize("document", [_single_run, _narrow_span])
-def test_figures_have_readable_ticks_and_legends_off_the_data(document, tmp_path: Path) -> None:
+def test_figures_have_readable_ticks_and_legends_off_the_data(
+        document: Callable[[], dict[str, Any]], tmp_path: Path) -> None:
     """A single run and a report whose errors span less than two decades: no tick labels
     overprint; legends sit outside the axes or above the data."""
     from mpc.plot.compare import controllers_of, headline_figure, scenario_figure
@@ -478,12 +490,16 @@ def test_figures_have_readable_ticks_and_legends_off_the_data(document, tmp_path
         legend_box = figure.legends[0].get_window_extent()
         assert not any(legend_box.overlaps(ax.get_window_extent()) for ax in figure.axes)
     path, errors, wheels, ticks = per_run.axes[:4]
-    assert not path.get_legend().get_window_extent().overlaps(path.get_window_extent())
+    path_legend = path.get_legend()
+    assert path_legend is not None
+    assert not path_legend.get_window_extent().overlaps(path.get_window_extent())
     twin = [ax for ax in per_run.axes if ax is not errors and ax.bbox.bounds ==
             errors.bbox.bounds]
     assert _data_under(errors.get_legend(), [errors, *twin]) == []
     assert _data_under(wheels.get_legend(), [wheels]) == []
     assert _data_under(ticks.get_legend(), [ticks]) == []  # the dt line
-    legend_box = ticks.get_legend().get_window_extent()  # the histogram's bars
+    tick_legend = ticks.get_legend()
+    assert tick_legend is not None
+    legend_box = tick_legend.get_window_extent()  # the histogram's bars
     assert not any(legend_box.overlaps(bar.get_window_extent()) for bar in ticks.patches
-                   if bar.get_height() > 0)
+                   if isinstance(bar, Rectangle) and bar.get_height() > 0)
