@@ -126,6 +126,17 @@ class EtaEstimator:
         own = {kind: seconds / ticks for kind, (seconds, ticks) in self._spent().items()}
         return {run.kind: own.get(run.kind, unit * prior_factor(run.kind)) for run in self.runs}
 
+    def _expected(self, rates: Mapping[str, float], run: PlannedRun) -> float:
+        """The seconds ``run`` is expected to take [s]: half its kind's seconds per tick
+        times its ticks, half the mean seconds of that kind's finished runs. The runs start
+        longest first and a run's cost is not in proportion to its ticks (a short run beyond
+        the limits makes IPOPT iterate more a tick; every run has a set-up), so each alone
+        prices the later runs wrong, in opposite directions."""
+        per_tick = rates[run.kind] * max(run.ticks, 1.0)
+        finished = [seconds for position, seconds in self._seconds.items()
+                    if self.runs[position].kind == run.kind]
+        return per_tick if not finished else 0.5 * (per_tick + sum(finished) / len(finished))
+
     def runs_left(self) -> float | None:
         """Seconds until the last run ends; None before any run has finished."""
         if self._runs_ended_at is not None:
@@ -142,12 +153,12 @@ class EtaEstimator:
                 continue
             began = (self._runs_started_at if position < workers
                      else self._finish_times[position - workers])
-            expected = rates[self.runs[position].kind] * max(self.runs[position].ticks, 1.0)
+            expected = self._expected(rates, self.runs[position])
             free.append(now + max(expected - (now - began), 0.0))
         free += [now] * (workers - len(free))
         heapq.heapify(free)
         for run in self.runs[started:]:
-            heapq.heappush(free, heapq.heappop(free) + rates[run.kind] * max(run.ticks, 1.0))
+            heapq.heappush(free, heapq.heappop(free) + self._expected(rates, run))
         return max(free) - now
 
     # -- the report -------------------------------------------------------------------------

@@ -96,6 +96,18 @@ def test_eta_learns_seconds_per_tick_per_kind_with_a_prior_for_unseen_kinds() ->
     assert [elapsed for elapsed, _ in estimator.log] == [10.0, 11.0, 15.0, 30.0]
 
 
+def test_eta_prices_a_run_half_by_its_ticks_half_by_its_kinds_mean() -> None:
+    """A kind's runs start longest first; the shorter ones to come are priced half at the
+    kind's seconds per tick, half at its mean seconds a run."""
+    clock = FakeClock()
+    estimator = EtaEstimator(clock)
+    estimator.plan_runs([PlannedRun("k", 400), PlannedRun("k", 200), PlannedRun("k", 100)],
+                        workers=1)
+    clock.now = 4.0
+    estimator.run_finished(0, 4.0)  # 0.01 s a tick, 4 s a run
+    assert estimator.eta() == pytest.approx(0.5 * (2.0 + 4.0) + 0.5 * (1.0 + 4.0))
+
+
 def test_eta_of_parallel_workers_follows_the_queue() -> None:
     clock = FakeClock()
     estimator = EtaEstimator(clock)
