@@ -53,6 +53,7 @@ from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
 from benchmarks.scenarios import (
     HEADINGS,
+    LAYOUTS,
     PRESETS,
     SPEEDS,
     TRAJECTORIES,
@@ -674,7 +675,7 @@ def _profile_scenario(text: str | None) -> tuple[str, str, str]:
         raise ScenarioError(f"--profile-scenario must be LAYOUT,MODE,SPEED (e.g. "
                             f"swerve,path,beyond), got {text!r}")
     layout, mode, speed = parts
-    for flag, value, known in (("layout", layout, PRESETS), ("mode", mode, MODES),
+    for flag, value, known in (("layout", layout, LAYOUTS), ("mode", mode, MODES),
                                ("speed", speed, tuple(SPEEDS))):
         if value not in known:
             raise ScenarioError(f"--profile-scenario: unknown {flag} {value!r}; expected one "
@@ -711,7 +712,8 @@ def _parser() -> Parser:
     add_list_option(parser, "--solvers",
                     help=f"comma list of {', '.join(SOLVERS)} (default: all)")
     add_list_option(parser, "--layouts",
-                    help=f"scenarios: comma list of {', '.join(PRESETS)} (default: all)")
+                    help=f"scenarios: comma list of {', '.join(LAYOUTS)} (default: "
+                         f"{', '.join(PRESETS)})")
     add_list_option(parser, "--modes",
                     help=f"scenarios: comma list of {', '.join(MODES)} (default: both)")
     add_list_option(parser, "--speeds",
@@ -751,7 +753,7 @@ def main(argv: list[str]) -> int:
     profile_scenario = _profile_scenario(args.profile_scenario)
     solvers = choose("--solvers", "solver", args.solvers, list(SOLVERS))
     layouts = choose("--layouts", "layout", args.layouts or ("mecanum" if args.quick else None),
-                      PRESETS)
+                      LAYOUTS, PRESETS)
     modes = choose("--modes", "mode", args.modes, list(MODES))
     speeds = parse_speeds(args.speeds)
     trajectories = choose("--trajectories", "trajectory", args.trajectories, TRAJECTORIES,

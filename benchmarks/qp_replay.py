@@ -35,7 +35,7 @@ from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
 from benchmarks.scenarios import (
     HEADINGS,
-    PRESETS,
+    LAYOUTS,
     SPEEDS,
     TRAJECTORIES,
     Parser,
@@ -271,7 +271,7 @@ def _parser() -> Parser:
     parser = Parser(prog="mpc-bench qp-replay", description=__doc__.split("\n")[0])
     # one scenario is recorded: each list option takes one name here
     add_list_option(parser, "--layouts", metavar="LAYOUT", default="swerve",
-                    help=f"one of {', '.join(PRESETS)} (swerve)")
+                    help=f"one of {', '.join(LAYOUTS)} (swerve)")
     add_list_option(parser, "--trajectories", old=("--trajectory",), metavar="TRAJECTORY",
                     default="figure8",
                     help=f"one of {', '.join(TRAJECTORIES)} (figure8)")
@@ -300,7 +300,7 @@ def _one(flag: str, kind: str, value: str, valid: tuple[str, ...] | list[str]) -
 
 def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
-    layout = _one("--layouts", "layout", args.layouts, PRESETS)
+    layout = _one("--layouts", "layout", args.layouts, LAYOUTS)
     shape = _one("--trajectories", "trajectory", args.trajectories, TRAJECTORIES)
     heading = _one("--headings", "heading", args.headings, HEADINGS)
     speed = _one("--speeds", "speed", args.speeds, list(SPEEDS))
