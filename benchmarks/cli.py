@@ -38,7 +38,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from benchmarks.eta import EtaEstimator, format_seconds
+from benchmarks.eta import EtaEstimator, eta_errors, format_seconds
 from benchmarks.executor import RunPool, check_pool_options
 from benchmarks.options import add_list_option
 from benchmarks.outdir import add_force_argument, claim
@@ -272,7 +272,8 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
                             "and --layouts; mpc-tuned needs a preset with tuned weights, "
                             "ff-p-setpoint a swerve robot)")
     # the output folder last, once every option is known to be good (no empty folder left)
-    writes = ("results.json", "results.csv", *(() if args.no_report else ("report/index.html",)))
+    writes = ("results.json", "results.csv", "eta.json",
+              *(() if args.no_report else ("report/index.html",)))
     out = claim(args.out, writes, args.force)
     started = time.perf_counter()
     failed: list[dict[str, Any]] = []
@@ -320,6 +321,7 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
         if not args.no_report and runs:
             index = _write_report(document, out / "report", workers, progress)
     shown = index if index is not None else out / "results.json"
+    _write_eta(estimator, out / "eta.json")
     from benchmarks.report import verdict  # no matplotlib: the headline's numbers only
 
     print(f"mpc-bench: {verdict(runs)}; {'report' if index else 'results'}: {shown} "
@@ -329,6 +331,17 @@ def run(argv: list[str], prog: str = "mpc-bench run") -> int:
               file=sys.stderr)
         return 1
     return 0
+
+
+def _write_eta(estimator: EtaEstimator, path: Path) -> None:
+    """The run's ETAs as given out (``log``: [elapsed, eta] [s]), its whole time
+    (``wall_s``) and the ETA's relative error at a tenth, half and nine tenths of it
+    (:func:`benchmarks.eta.eta_errors`), to check the estimator against a real run."""
+    wall = estimator.clock() - estimator.started
+    errors = eta_errors(estimator.log, wall)
+    path.write_text(json.dumps({"wall_s": wall, "errors": {f"{k:g}": v for k, v in
+                                                            errors.items()},
+                                "log": [list(pair) for pair in estimator.log]}))
 
 
 def _write_report(document: dict[str, Any], folder: Path, workers: int = 1,

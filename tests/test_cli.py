@@ -41,6 +41,10 @@ def test_quick_run_writes_results_and_report(quick_run: Path) -> None:
     assert {(run["layout"], run["speed"]) for run in runs} == {("mecanum", "beyond"),
                                                                ("swerve", "beyond")}
     assert document["meta"]["machine"]["cpu_count"] >= 1
+    eta = json.loads((quick_run / "eta.json").read_text())  # the run's ETAs, to check them
+    assert eta["log"] and all(later[0] >= earlier[0] for earlier, later in
+                              zip(eta["log"], eta["log"][1:], strict=False))
+    assert eta["log"][-1][0] <= eta["wall_s"] and set(eta["errors"]) <= {"0.1", "0.5", "0.9"}
     for run in runs:
         series = run["series"]
         assert len(series["time"]) == len(series["pose"]) == len(series["wheel_command"]) == 120
