@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import heapq
 import time
+from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -126,16 +127,21 @@ class EtaEstimator:
         own = {kind: seconds / ticks for kind, (seconds, ticks) in self._spent().items()}
         return {run.kind: own.get(run.kind, unit * prior_factor(run.kind)) for run in self.runs}
 
-    def _expected(self, rates: Mapping[str, float], run: PlannedRun) -> float:
+    def _means(self) -> dict[str, float]:
+        """The mean seconds of a finished run, per kind [s]."""
+        counts = Counter(self.runs[position].kind for position in self._seconds)
+        return {kind: seconds / counts[kind] for kind, (seconds, _) in self._spent().items()}
+
+    def _expected(self, rates: Mapping[str, float], means: Mapping[str, float],
+                  run: PlannedRun) -> float:
         """The seconds ``run`` is expected to take [s]: half its kind's seconds per tick
         times its ticks, half the mean seconds of that kind's finished runs. The runs start
         longest first and a run's cost is not in proportion to its ticks (a short run beyond
         the limits makes IPOPT iterate more a tick; every run has a set-up), so each alone
         prices the later runs wrong, in opposite directions."""
         per_tick = rates[run.kind] * max(run.ticks, 1.0)
-        finished = [seconds for position, seconds in self._seconds.items()
-                    if self.runs[position].kind == run.kind]
-        return per_tick if not finished else 0.5 * (per_tick + sum(finished) / len(finished))
+        mean = means.get(run.kind)
+        return per_tick if mean is None else 0.5 * (per_tick + mean)
 
     def runs_left(self) -> float | None:
         """Seconds until the last run ends; None before any run has finished."""
@@ -144,6 +150,7 @@ class EtaEstimator:
         rates = self._rates()
         if not rates:
             return None
+        means = self._means()
         now, workers = self.clock(), self.workers
         # run j starts at the start (j < workers) or when the (j - workers + 1)-th run ends
         started = min(len(self.runs), len(self._finish_times) + workers)
@@ -153,12 +160,12 @@ class EtaEstimator:
                 continue
             began = (self._runs_started_at if position < workers
                      else self._finish_times[position - workers])
-            expected = self._expected(rates, self.runs[position])
+            expected = self._expected(rates, means, self.runs[position])
             free.append(now + max(expected - (now - began), 0.0))
         free += [now] * (workers - len(free))
         heapq.heapify(free)
         for run in self.runs[started:]:
-            heapq.heappush(free, heapq.heappop(free) + self._expected(rates, run))
+            heapq.heappush(free, heapq.heappop(free) + self._expected(rates, means, run))
         return max(free) - now
 
     # -- the report -------------------------------------------------------------------------

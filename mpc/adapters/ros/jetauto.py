@@ -37,7 +37,7 @@ MOTOR_STATE = "ros_robot_controller_msgs/msg/MotorState"
 MOTORS_STATE = "ros_robot_controller_msgs/msg/MotorsState"
 
 _JETAUTO = CONVENTIONS["jetauto"]
-_MOTOR_IDS = (1, 2, 3, 4)  # the driver's ids, in the convention's order
+_MOTOR_IDS = _JETAUTO.ids or ()  # the driver's ids, in the convention's order
 _DEFINITIONS = {
     MOTOR_STATE: "uint16 id\nfloat64 rps\n",
     MOTORS_STATE: "ros_robot_controller_msgs/MotorState[] data\n",
