@@ -17,7 +17,6 @@ the results give now; ``tests/test_docs_pages.py`` runs the same check.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import math
@@ -28,9 +27,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from mpc.plot.headline import POSITION_FLOOR, headline, is_mpc, ties
-
 from benchmarks.scenarios import Parser
+from mpc.plot.headline import POSITION_FLOOR, headline, is_mpc, ties
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path("benchmarks/results")
@@ -150,8 +148,9 @@ def readme_block(runs: Sequence[Row]) -> str:
                 if run["controller"] == "mpc-path":
                     paces.append(_metric(run, "lap_time") / run["target_lap"])
                     paths.append(_metric(run, "max_cross_track_error"))
-        tied = sum(ties(a, b, POSITION_FLOOR) for a, b in zip(ours, theirs))
-        wins = sum(a < b and not ties(a, b, POSITION_FLOOR) for a, b in zip(ours, theirs))
+        pairs = list(zip(ours, theirs, strict=True))
+        tied = sum(ties(a, b, POSITION_FLOOR) for a, b in pairs)
+        wins = sum(a < b and not ties(a, b, POSITION_FLOOR) for a, b in pairs)
         rows.append([layout, f"{wins} / {tied} of {len(ours)}",
                      sig(1e3 * statistics.median(ours)), sig(1e3 * statistics.median(theirs)),
                      f"{min(paces):.3f}-{max(paces):.3f}" if paces else "-",
@@ -167,7 +166,7 @@ def benchmarks_page(runs: Sequence[Row]) -> str:
     controllers = list(dict.fromkeys(run["controller"] for run in runs if run["controller"]
                                      != "mpc-path"))
     beyond = []
-    for key, group in _scenarios(runs, "beyond").items():
+    for group in _scenarios(runs, "beyond").values():
         by_name = {run["controller"]: run for run in group}
         errors = {name: _metric(run, "rms_position_error") for name, run in by_name.items()
                   if name in controllers}

@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def public_names() -> set[str]:
     """``package.name`` for every name in the ``__all__`` of mpc, trajectories and every
     subpackage of theirs that declares one."""
-    names = set()
+    names: set[str] = set()
     for root in (mpc, trajectories):
         packages = [root.__name__] + [info.name for info in pkgutil.walk_packages(
             root.__path__, f"{root.__name__}.") if info.ispkg]

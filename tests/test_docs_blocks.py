@@ -1,4 +1,5 @@
-"""Every ```python block in README.md, docs/getting-started.md and docs/guide/*.md runs, so the docs cannot rot.
+"""Every ```python block in README.md, docs/getting-started.md and docs/guide/*.md
+runs, so the docs cannot rot.
 
 A page's blocks run in order in one namespace, in a temporary folder that holds the files
 the pages name (``path.traj``: a Choreo file). A block right after a marker in

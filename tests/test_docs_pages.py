@@ -60,4 +60,5 @@ def test_readme_numbers_come_from_the_results() -> None:
 
 def test_block_replacement_keeps_the_rest() -> None:
     text = f"a\n{docs_pages.BEGIN}\nold\n{docs_pages.END}\nb\n"
-    assert docs_pages.replace_block(text, "new") == f"a\n{docs_pages.BEGIN}\nnew\n{docs_pages.END}\nb\n"
+    expected = f"a\n{docs_pages.BEGIN}\nnew\n{docs_pages.END}\nb\n"
+    assert docs_pages.replace_block(text, "new") == expected
