@@ -62,3 +62,66 @@ def test_block_replacement_keeps_the_rest() -> None:
     text = f"a\n{docs_pages.BEGIN}\nold\n{docs_pages.END}\nb\n"
     expected = f"a\n{docs_pages.BEGIN}\nnew\n{docs_pages.END}\nb\n"
     assert docs_pages.replace_block(text, "new") == expected
+
+
+def _table(page: str, header_start: str) -> list[list[str]]:
+    """The rows of the Markdown table whose header starts with ``header_start``."""
+    lines = (ROOT / page).read_text("utf-8").splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(header_start))
+    rows = []
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        rows.append([cell.strip().strip("*") for cell in line.strip("|").split("|")])
+    return rows
+
+
+def _close(shown: str, value: float) -> bool:
+    """``shown`` (a page's rounded number) is ``value`` to the digits shown."""
+    digits = shown.split(".")[1] if "." in shown else ""
+    return abs(float(shown) - value) <= 0.5 * 10 ** -len(digits) * 1.0001
+
+
+def test_benchmark_page_quotes_the_results_file() -> None:
+    """Each position error on the Benchmarks page is that run's in results.csv [mm]."""
+    rows = list(csv.DictReader((ROOT / "benchmarks/results/results.csv").open()))
+    table = _table("docs/benchmarks/index.md", "| scenario | `mpc-daqp`")
+    header = ["mpc-daqp", "mpc-tuned", "mpc-ipopt", "ff-p-clip", "ff-p-desat", "ff-p-setpoint"]
+    assert len(table) == 20
+    checked = 0
+    for cells in table:
+        layout, shape, heading = cells[0].split()
+        trajectory = {"figure-eight": "figure8"}.get(shape, shape)
+        for name, cell in zip(header, cells[1:], strict=True):
+            if cell == "-":
+                continue
+            run = next(row for row in rows if (row["layout"], row["trajectory"], row["heading"],
+                                               row["speed"], row["controller"]) ==
+                       (layout, trajectory, heading, "beyond", name))
+            position = cell.split("/")[0].strip().strip("*")
+            assert _close(position, 1e3 * float(run["rms_position_error"])), (cells[0], name)
+            checked += 1
+    assert checked == 20 * 5 + 4
+
+
+def test_motors_page_quotes_the_results_file() -> None:
+    """Each cell of the Motors page is that run's error [mm] and violation counts."""
+    import json
+
+    document = json.loads((ROOT / "benchmarks/results/motors.json").read_text("utf-8"))
+    table = _table("docs/benchmarks/motors.md", "| scenario | period")
+    names = ["mpc-motors", "mpc-kinematic", "ff-p-clip", "ff-p-desat", "ff-p-setpoint"]
+    for cells in table:
+        layout, shape = cells[0].split()
+        trajectory = {"figure-eight": "figure8"}.get(shape, shape)
+        for name, cell in zip(names, cells[2:], strict=True):
+            if cell == "-":
+                continue
+            key = (layout, trajectory, name)
+            row = next(r for r in document["rows"]
+                       if (r["layout"], r["trajectory"], r["controller"]) == key)
+            error, voltage, current, slip = (part.strip().strip("*") for part in
+                                             cell.split("(")[0].split("/"))
+            assert _close(error, 1e3 * row["rms_position_error"])
+            assert (int(voltage), int(current), int(slip)) == (
+                row["voltage_violations"], row["current_violations"], row["slip_events"])
