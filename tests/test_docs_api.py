@@ -39,3 +39,12 @@ def test_reference_pages_are_in_the_nav() -> None:
     nav = (ROOT / "mkdocs.yml").read_text("utf-8")
     for page in (ROOT / "docs" / "reference").glob("*.md"):
         assert f"reference/{page.name}" in nav, page.name
+
+
+def test_sphinx_roles_render_as_plain_code() -> None:
+    from mkdocs_hooks import plain_roles
+
+    html = (":class:<code>Controller</code> and :func:<code>~mpc.robots.preset</code>, "
+            ":py:meth:<code>Robot.twist</code>; <code>:keep:</code>")
+    assert plain_roles(html) == ("<code>Controller</code> and <code>preset</code>, "
+                                 "<code>Robot.twist</code>; <code>:keep:</code>")
