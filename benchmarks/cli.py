@@ -442,6 +442,9 @@ COMMANDS: dict[str, Command] = {
     "tune": Command("tune the MPC's cost weights for a robot (Optuna)", "benchmarks.tune"),
     "sweep": Command("Monte-Carlo over random robots, starts and plant faults",
                      "benchmarks.sweep"),
+    "docs-pages": Command("regenerate the docs' Benchmarks and Performance pages and the "
+                          "README's results table from benchmarks/results/",
+                          "benchmarks.docs_pages"),
 }
 
 
