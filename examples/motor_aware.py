@@ -44,7 +44,9 @@ def run(duration: float | None, out: Path) -> dict[str, dict[str, float]]:
     one's metrics plus ``peak_motor_current`` [A] (of the commands' feedforward)."""
     robot = motor_preset("mecanum")
     reference = motor_reference("figure8", robot, ratio=1.0)  # needs all the motors give
-    seconds = 2 * reference.period if duration is None else duration
+    period = reference.period                  # [s] of one lap
+    assert period is not None
+    seconds = 2 * period if duration is None else duration
     robots = {"motor-aware": robot, "kinematic stand-in": kinematic_stand_in(robot)}
     results: dict[str, SimResult] = {}
     numbers: dict[str, dict[str, float]] = {}
@@ -52,9 +54,10 @@ def run(duration: float | None, out: Path) -> dict[str, dict[str, float]]:
         controller = mpc.Controller(model, reference, horizon=20, dt=0.05, command_ramp=True)
         results[name] = simulate(controller, duration=seconds, plant="motor", robot=robot)
         numbers[name] = results[name].metrics(skip=min(SKIP, seconds / 2))
-        numbers[name]["period"] = float(reference.period)
+        numbers[name]["period"] = period
     command = mpc.Controller(robot, reference, horizon=20, dt=0.05).step(
         reference.sample(0.0).pose, 0.0)
+    assert command.motor_currents is not None  # [A] per motor: a robot with dynamics has them
     numbers["motor-aware"]["first_motor_currents"] = float(np.abs(command.motor_currents).max())
 
     import matplotlib
@@ -63,7 +66,7 @@ def run(duration: float | None, out: Path) -> dict[str, dict[str, float]]:
     import matplotlib.pyplot as plt
 
     figure, axes = plt.subplots(1, 3, figsize=(15, 4.6))
-    dense = reference.sample(np.linspace(0.0, reference.period, 400)).pose
+    dense = reference.sample(np.linspace(0.0, period, 400)).pose
     axes[0].plot(dense[:, 0], dense[:, 1], "--", color="grey", label="reference")
     for index, (name, result) in enumerate(results.items()):
         color = f"C{index}"
@@ -72,7 +75,7 @@ def run(duration: float | None, out: Path) -> dict[str, dict[str, float]]:
         events = result.plant_events or {}
         axes[2].plot(result.time, events["peak_current_ratio"], color=color, lw=1, label=name)
     axes[0].set(xlabel="x [m]", ylabel="y [m]", aspect="equal", ylim=(-0.7, 1.2),
-                title=f"(a) figure-eight at 100 % of the motors ({reference.period:.2f} s)")
+                title=f"(a) figure-eight at 100 % of the motors ({period:.2f} s)")
     axes[1].set(xlabel="time [s]", ylabel="position error [mm]", yscale="log",
                 title="(b) tracking error")
     axes[2].axhline(1.0, color="k", ls="--", lw=1, label="current limit")

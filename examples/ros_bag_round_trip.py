@@ -29,6 +29,7 @@ import argparse
 import math
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -78,7 +79,7 @@ def read_run_bag(bag: Path) -> dict[str, np.ndarray]:
     series: dict[str, list[np.ndarray]] = {"odom": [], "command": [], "limit": [], "time": []}
     with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
         for connection, stamp, raw in reader.messages():
-            message = reader.deserialize(raw, connection.msgtype)
+            message: Any = reader.deserialize(raw, connection.msgtype)
             if connection.topic == "/odom":
                 q = message.pose.pose.orientation
                 yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y**2 + q.z**2))
@@ -97,8 +98,10 @@ def run(duration: float | None, out: Path, bags: Path) -> dict[str, float]:
     robot = preset("mecanum")
     poses = plan_poses()
     reference = read_bag_reference(write_plan_bag(bags, poses), "/plan", robot=robot)
+    end = reference.end_time                   # [s] a path's timing ends (at rest)
+    assert end is not None
     controller = mpc.Controller(robot, reference, horizon=20, dt=0.05, delay_ticks=1)
-    seconds = reference.end_time + 1.0 if duration is None else duration
+    seconds = end + 1.0 if duration is None else duration
     result = simulate(controller, duration=seconds, plant="realistic", seed=3)
     topics = write_bag(result, bags / "run_bag")
     back = read_run_bag(bags / "run_bag")
@@ -109,7 +112,7 @@ def run(duration: float | None, out: Path, bags: Path) -> dict[str, float]:
     import matplotlib.pyplot as plt
 
     figure, (path_axes, wheel_axes) = plt.subplots(1, 2, figsize=(12, 4.8))
-    dense = reference.sample(np.linspace(0.0, reference.end_time, 400)).pose
+    dense = reference.sample(np.linspace(0.0, end, 400)).pose
     path_axes.plot(dense[:, 0], dense[:, 1], "--", color="grey", label="reference (timed)")
     path_axes.plot(poses[:, 0], poses[:, 1], "o", ms=3, color="k", label="/plan poses")
     path_axes.plot(back["odom"][:, 0], back["odom"][:, 1], color="C0",
@@ -130,7 +133,7 @@ def run(duration: float | None, out: Path, bags: Path) -> dict[str, float]:
     plt.close(figure)
 
     metrics = result.metrics(skip=min(SKIP, seconds / 2))
-    return {"topics": len(topics), "end_time": float(reference.end_time),
+    return {"topics": len(topics), "end_time": end,
             "rms_position_error": metrics["rms_position_error"],
             "odom_mismatch": float(np.abs(back["odom"][:, :2] - result.pose[:, :2]).max()),
             "odom_messages": len(back["odom"]), "ticks": len(result.time),

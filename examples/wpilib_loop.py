@@ -74,7 +74,8 @@ def run(duration: float | None, out: Path) -> dict[str, float]:
         states = follower.module_states()      # send these to the four modules
         recorder.record(k * LOOP, pose_from_pose2d(pose), follower.last_command)
         fastest = max(fastest, *(abs(state.speed) for state in states))
-        moved = kinematics.toChassisSpeeds(tuple(states))   # the modules drive the robot
+        fl, fr, rl, rr = states
+        moved = kinematics.toChassisSpeeds((fl, fr, rl, rr))  # the modules drive the robot
         pose = pose.exp(Twist2d(moved.vx * LOOP, moved.vy * LOOP, moved.omega * LOOP))
 
     result = recorder.result()
