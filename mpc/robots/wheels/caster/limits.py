@@ -72,8 +72,8 @@ def _symbolic_rows(robot: CasterGeometry, angle: ca.SX, i: int) -> tuple[ca.SX, 
 
 #: RK4 step of the angle flow, in the caster's fastest time constant: for the fast path's
 #: prediction (numbers: cheap) and for the NLP (symbolic: each step deepens every later
-#: stage's expressions; 1.0 there made IPOPT ~9x slower a tick for ~1e-2 rad less error
-#: in the worst case, a leading caster swinging round at full speed).
+#: stage's expressions; a finer step there made IPOPT much slower for little less error:
+#: docs/design/caster-steer-prediction.md).
 PREDICTION_STEP = 1.0
 NLP_STEP = 2.5
 
