@@ -71,9 +71,9 @@ def tick_rates(robot: Robot, twist: FloatArray, angles: FloatArray,
     are the ones that end the tick where ``twist`` turns the casters (the model's angle
     flow over ``dt``), and the drive rates the average over the tick of what ``twist``
     asks for along that flow (Simpson's rule): a smaller steady error from model mismatch
-    than rates taken at the measured angles (docs/design/caster-steer-prediction.md). A rate that ends up past its limit (the clamp kept them within
-    at the measured angles; a leading caster's rate grows within the tick) scales them
-    all down together."""
+    than rates taken at the measured angles (docs/design/caster-steer-prediction.md). A
+    rate that ends up past its limit (the clamp kept them within at the measured angles;
+    a leading caster's rate grows within the tick) scales them all down together."""
     flow = robot.predict_steer_angles(angles, np.tile(twist, (2, 1)), _tick_halves(dt))
     rows = robot.joint_rows(flow)[0] @ twist  # (3, n): at the start, middle and end
     drive = (rows[0] + 4.0 * rows[1] + rows[2]) / 6.0

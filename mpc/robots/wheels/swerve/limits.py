@@ -152,9 +152,10 @@ def steering_fraction(robot: SwerveModules, last: FloatArray, target: FloatArray
         return _drives_within(robot, last + parts[:, None] * step, steer_angles, dt, reach)
 
     # Most ticks need no search: the fraction's point fits (checked on its own, in Python
-    # floats: a NumPy call costs about the same for 1 point as for 41). Else the first round's grid (its last point the fraction's) checked with
-    # the start in one call. The turn is checked with the drives: the target may fit where
-    # points on the way to it do not.
+    # floats: a NumPy call costs about the same for 1 point as for 41). Else the first
+    # round's grid (its last point the fraction's) checked with the start in one call. The
+    # turn is checked with the drives: the target may fit where points on the way to it do
+    # not.
     if _drives_fit(robot, last + fraction * step, steer_angles, dt, reach):
         return fraction
     parts = fraction * _SEARCH_GRID  # parts[0] = 0: the start
