@@ -42,8 +42,8 @@ def tick_terms(model: TrackingModel, cost_terms: ca.Function) -> ca.Function:
     ``lambda_k = dJ/dx_k + A_k' lambda_{k+1}``, ``dJ/du_k = dJ/du_k (partial) +
     B_k' lambda_{k+1}``, with the exact ``A_k = I + E_k`` (see the module) and the ``B_k``
     the call returns anyway: the same numbers as CasADi's reverse mode through the
-    rollout (to rounding; tested) in a quarter fewer instructions (5284 -> 4047 at
-    N = 20), as it does not differentiate the SE(2) step a second time."""
+    rollout (to rounding; tested) in fewer instructions, as it does not differentiate the
+    SE(2) step a second time (docs/design/tick-costs.md)."""
     variables, parameters = model.layouts
     n = model.horizon
     p = ca.SX.sym("p", parameters.size)
