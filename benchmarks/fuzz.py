@@ -15,8 +15,9 @@ resets. Every command is checked against what a robot may be told:
 - casters: drive rates and steer rates within their limits (their steer angles, states,
   are fed back as measured: the angles the last command ends the tick at).
 
-IPOPT gets a small share of the ticks (it is ~30x slower). The summary counts ticks,
-fallbacks and violations per configuration; the exit code is 1 if any command was unsafe.
+IPOPT gets a small share of the ticks (it is much slower: docs/design/fuzz-ipopt-share.md).
+The summary counts ticks, fallbacks and violations per configuration; the exit code is 1 if
+any command was unsafe.
 """
 
 from __future__ import annotations

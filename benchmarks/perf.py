@@ -456,7 +456,7 @@ def peers_section(ticks: int, say: Printer, rounds: int = PEER_ROUNDS) -> dict[s
             built[name] = control, time.perf_counter() - started
         # Every controller is alive through the rounds: their objects are frozen out of
         # the garbage collector's scans, so that one's heap (do-mpc's is large) does not
-        # slow another's ticks (daqp's p50 read 98-109 us against 85 without this).
+        # slow another's ticks (docs/design/perf-gc-freeze.md).
         gc.collect()
         gc.freeze()
         runs: dict[str, list[Run]] = {name: [] for name in built}

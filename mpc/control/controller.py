@@ -126,8 +126,8 @@ class Controller:
         jit: ``solver="daqp"`` only: compile the tick's CasADi functions to C with the
             system's C compiler (CasADi's JIT: gcc, or ``$CC``), about 1.5 s the first
             time a problem is built (~0.1 s after: the libraries are cached,
-            :func:`~mpc.model.jit.cache_folder`), for a quicker tick at N = 20 (README,
-            "Performance"); the same commands. ``True``: a
+            :func:`~mpc.model.jit.cache_folder`), for a quicker tick at N = 20
+            (docs/design/jit.md); the same commands. ``True``: a
             :class:`~mpc.errors.ControllerError` if it cannot compile; ``"auto"``: compiled
             where a compiler works, CasADi's virtual machine otherwise (and for the other
             solvers); :attr:`jit` says which.

@@ -6,8 +6,8 @@ ticks) and the stage starts are whole ticks too, one tick's window is the
 last one moved by one grid point: :class:`Lookahead` samples two windows'
 worth of grid points at once (the second sharing the first's last point), and
 a tick reads its rows from them (:class:`Strided`), so that most ticks sample
-nothing (a sample of the N = 20 window costs ~20-35 us, about a fifth of a
-tick; two windows' worth costs little more than one). A clock off the grid (a
+nothing (a sample of the window costs about a fifth of a tick; two windows'
+worth costs little more than one: docs/design/lookahead-grid.md). A clock off the grid (a
 measured time with jitter) gets exactly the window it asks for, as before, at
 the same cost.
 """
@@ -28,10 +28,9 @@ ON_GRID = 1e-9
 #: Windows a grid fill covers (consecutive windows share a point).
 WINDOWS = 2
 
-#: The most grid points a fill samples: the tick that fills carries it (with the grid's
-#: terms 77 us for 79 points, 205 us for 383, measured at N = 20). A tick much shorter
-#: than the stages needs more (1 ms ticks, 0.1 s stages: 3803 points, 1.6 ms a fill); such
-#: windows are sampled as asked instead.
+#: The most grid points a fill samples: the tick that fills carries it. A tick much
+#: shorter than the stages needs more (1 ms ticks with 0.1 s stages: thousands); such
+#: windows are sampled as asked instead (docs/design/lookahead-grid.md).
 MAX_POINTS = 400
 
 

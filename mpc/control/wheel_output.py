@@ -29,7 +29,7 @@ def wheel_commands(robot: Robot, twist: FloatArray, target: FloatArray,
     plan's twists (N, 3), or None if the solve failed (casters then predict their angles
     holding ``twist``). The prediction is left to whoever reads it
     (:attr:`~mpc.control.command.Command.predicted_steer_angles`): it is not a command,
-    and it took ~50 us of the caster preset's tick (an RK4 of the angles over the plan)."""
+    and it is a sizeable part of a caster tick (docs/design/caster-steer-prediction.md)."""
     if measured is not None:  # casters: joint rates held over the tick
         speeds, steer_rates = tick_rates(robot, twist, measured, dt)
         if planned is None:
@@ -50,7 +50,7 @@ def prepare_commands(robot: Robot, dt: float, durations: FloatArray) -> None:
     """Build what :func:`wheel_commands` predicts with for robots whose steer angles are
     measured (casters: the angle flow over a tick, :func:`tick_rates`, and along the plan's
     stage ``durations`` [s]) now, at set-up, so that the first tick is as quick as the rest
-    (building them took ~70 ms on it)."""
+    (docs/design/caster-steer-prediction.md)."""
     if not robot.steer_states:
         return
     angles = np.zeros(robot.n_wheels)
@@ -70,11 +70,10 @@ def tick_rates(robot: Robot, twist: FloatArray, angles: FloatArray,
     The angles turn during the tick while the motors hold their rates. So the steer rates
     are the ones that end the tick where ``twist`` turns the casters (the model's angle
     flow over ``dt``), and the drive rates the average over the tick of what ``twist``
-    asks for along that flow (Simpson's rule). Measured on the caster preset's circle
-    this cuts the steady error from model mismatch several times against rates taken at
-    the measured angles. A rate that ends up past its limit (the clamp kept them within
-    at the measured angles; a leading caster's rate grows within the tick) scales them
-    all down together."""
+    asks for along that flow (Simpson's rule): a smaller steady error from model mismatch
+    than rates taken at the measured angles (docs/design/caster-steer-prediction.md). A
+    rate that ends up past its limit (the clamp kept them within at the measured angles;
+    a leading caster's rate grows within the tick) scales them all down together."""
     flow = robot.predict_steer_angles(angles, np.tile(twist, (2, 1)), _tick_halves(dt))
     rows = robot.joint_rows(flow)[0] @ twist  # (3, n): at the start, middle and end
     drive = (rows[0] + 4.0 * rows[1] + rows[2]) / 6.0

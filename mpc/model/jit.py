@@ -3,10 +3,8 @@
 CasADi evaluates an SX function in its virtual machine; its JIT instead generates C
 for it, compiles that with the system's C compiler (CasADi's ``shell`` compiler: ``gcc``
 unless ``$CC`` names another) and loads the library. Same inputs, outputs and numbers
-(tested bit for bit against the virtual machine). Measured on this project's machine
-(2-core EPYC, Mecanum, N = 20): the tick's terms 9.4 -> 1.3 us a call (timeit), the whole tick
-0.67-0.97x at the median in runs alternating with the default (README, "Performance");
-it costs about 1.5 s of compiling when the controller is built. ``Controller(jit=True)``
+(tested bit for bit against the virtual machine): a quicker tick for about 1.5 s of
+compiling when the controller is built (docs/design/jit.md). ``Controller(jit=True)``
 compiles the tick's terms, the plan's poses and the reference terms of windows sampled
 on their own (windows read from the lookahead's grid take the grid's terms, evaluated in
 the virtual machine once a fill); ``jit="auto"`` does the same where a compiler works and
@@ -30,8 +28,7 @@ from typing import Any
 
 import casadi as ca
 
-#: Flags for the compiler: -O2 compiled the N = 20 terms in 1.2 s (-O1: 0.8 s) to the same
-#: 1.5-1.6 us a call.
+#: Flags for the compiler (-O1 compiles a little quicker to code as fast: docs/design/jit.md).
 FLAGS = ("-O2",)
 
 #: The environment variable naming the cache folder of compiled libraries (see

@@ -62,7 +62,7 @@ class ScalarWheels(NamedTuple):
     a scalar speed ``W_i u`` (``wheel_dim`` 1: Swedish wheels, ball spin axes) and nothing
     else for the clamp to check (no failed wheel, no motor model): the clamp's pure-Python
     path (:func:`mpc.control.clamp.clamp_command`; with 3-8 wheels NumPy's cost a call is
-    most of its work: 11 -> 4 us on the Mecanum, timeit)."""
+    most of its work: docs/design/tick-costs.md)."""
 
     rows: tuple[tuple[float, float, float], ...]  # W_i [rad/s per twist unit]
     limits: tuple[float, ...]  # max_wheel_speed [rad/s]
@@ -74,7 +74,7 @@ class PlanarModules(NamedTuple):
     """The same for steered modules whose speed is their velocity's length ``|W_i u|``
     (``W_i`` two rows; swerve without an axle offset, no failed module, no motor model):
     the clamp's speed and acceleration steps and its check that no module turns past its
-    steering rate, in Python floats (26 -> 10 us a call on the swerve preset, timeit)."""
+    steering rate, in Python floats (quicker: docs/design/tick-costs.md)."""
 
     rows: tuple[tuple[float, float, float, float, float, float], ...]  # W_i's two rows
     limits: tuple[float, ...]  # max_wheel_speed [rad/s]

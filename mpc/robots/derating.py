@@ -13,7 +13,7 @@ from mpc.errors import RobotError
 from mpc.validation import is_finite_number, is_integer, real_array, shown
 
 #: Smallest derating factor above 0: a wheel's speed is computed from twists of the other
-#: wheels' scale, so a limit 1e-14 of theirs reads their rounding (0.5 % over it, measured).
+#: wheels' scale, so a limit far smaller reads their rounding (docs/design/min-derating.md).
 MIN_DERATING = 1e-6
 
 

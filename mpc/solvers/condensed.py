@@ -42,8 +42,8 @@ def tick_terms(model: TrackingModel, cost_terms: ca.Function) -> ca.Function:
     ``lambda_k = dJ/dx_k + A_k' lambda_{k+1}``, ``dJ/du_k = dJ/du_k (partial) +
     B_k' lambda_{k+1}``, with the exact ``A_k = I + E_k`` (see the module) and the ``B_k``
     the call returns anyway: the same numbers as CasADi's reverse mode through the
-    rollout (to rounding; tested) in a quarter fewer instructions (5284 -> 4047 at
-    N = 20), as it does not differentiate the SE(2) step a second time."""
+    rollout (to rounding; tested) in fewer instructions, as it does not differentiate the
+    SE(2) step a second time (docs/design/tick-costs.md)."""
     variables, parameters = model.layouts
     n = model.horizon
     p = ca.SX.sym("p", parameters.size)
@@ -190,7 +190,7 @@ class Condenser:
 
         Written into one buffer kept between calls (the caller uses it before the next):
         only its blocks ``j < k`` (the rest stay zero), gathered and written by flat
-        indices built once (20 us at N = 20 against 32 for the masked products before)."""
+        indices built once (quicker than masked products: docs/design/tick-costs.md)."""
         n = self.horizon
         # S[k, :, j, :] = B_j for every input j acting before stage k (j < k).
         blocks = sensitivity.reshape(-1)[self._block_source].reshape(-1, 3, 3)

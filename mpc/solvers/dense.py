@@ -25,12 +25,9 @@ Rows a robot marks as seldom needed (``StageLimits.screened``: motor rows) leave
 problem once no plan has needed them for a while (:mod:`.row_screen`): the plan is checked
 against them, and the tick solved again with those it breaks.
 
-daqp against the other QP solvers installable here (``mpc-bench qp-replay``: a run's
-QPs, each tick's :class:`WhitenedQp` in :attr:`DenseSolver.record`, solved again by each):
-on swerve's figure-eight 1.3x beyond the limits (560 rows of 60 columns, a new ``A`` each
-tick) daqp took 0.17-0.30 ms a tick at the median, proxsuite's dense solver and qpalm
-(warm started) 9-13 ms, quadprog and piqp (cold) 3.1-3.7 ms; on Mecanum's 160 rows 0.024
-ms against 0.31-2.5 (README, "Performance", 2026-11-28).
+daqp is an order of magnitude quicker here than the other QP solvers installable
+(``mpc-bench qp-replay`` solves a run's recorded :class:`WhitenedQp` s with each;
+docs/design/qp-solver-choice.md).
 """
 
 from __future__ import annotations
@@ -73,25 +70,19 @@ __all__ = ["COST_ONLY_DRIFT", "COST_TOLERANCE", "KEEP_ROWS_BELOW", "REBUILD_EARL
 #: multiple of their tolerance from the one in use; it is built over four ticks of about
 #: the same work (see :meth:`DenseSolver._rebuild_stages`), so no tick carries a whole
 #: rebuild. Cost terms that moved beyond their tolerance (path mode's contour directions)
-#: rebuild at once: a staged contour weighting left the fixed-heading circles slower and
-#: further off the path (omni-3 lap 6.40 against 6.35 s, 3.5 against 0.85 mm).
+#: rebuild at once: staged, they left the fixed-heading circles slower and further off the
+#: path (docs/design/hessian-reuse.md).
 REBUILD_EARLY = 1.0
 
 #: Beyond this multiple of their tolerance (the plan moves fast: a turning heading; or the
 #: guess jumped) the Hessian is rebuilt at once: three more ticks on one that far off took
-#: daqp to its iteration limit at N = 100. Measured on the Mecanum figure-eight inside
-#: the limits: at 2, tangent heading 0.035 mm RMS (0.018 rebuilding every tick, 0.065 at
-#: 4) in 0.58x the tick; N = 100 0.18 mm (0.49 at 4; 0.008 rebuilding every tick, 1.5x
-#: the tick).
+#: daqp to its iteration limit at N = 100 (docs/design/hessian-reuse.md).
 REBUILD_NOW = 2.0
 
-#: A rebuild for moved cost terms keeps the last build's state sensitivities ``S`` (~20
-#: us of the ~140 a rebuild takes at N = 20) while the sensitivities and steps are within
-#: this multiple of their tolerance of that build's: about half the rebuilds of path mode
-#: inside the limits, few beyond (the default benchmark scenarios, figure-eight, 400
-#: ticks). At the whole tolerance (1.0) a feasible reference tracked in path mode lagged
-#: its clock by 1.7 ms, against 4e-8 s (``tests/test_path_following.py``): path mode
-#: rebuilt every tick before, so its ``S`` was always fresh.
+#: A rebuild for moved cost terms keeps the last build's state sensitivities ``S`` (a
+#: part of the rebuild) while the sensitivities and steps are within this multiple of
+#: their tolerance of that build's; at the whole tolerance path mode lagged a feasible
+#: reference (docs/design/hessian-reuse.md).
 COST_ONLY_DRIFT = 0.25
 
 #: Row sets up to this many entries are multiplied dense, larger ones sparse
@@ -210,8 +201,8 @@ class DenseSolver:
         # daqp gets the problem in whitened steps y = L' d (H = L L'), its Hessian the
         # identity: a new Hessian or new rows (swerve, motor limits) cost a Cholesky
         # factor, its inverse and one batch of small products here rather than daqp's
-        # refactorisation and triangular solves of every row (a rebuild tick measured
-        # 1.1-1.6x faster on Mecanum and swerve, ticks without one unchanged).
+        # refactorisation and triangular solves of every row (quicker rebuild ticks:
+        # docs/design/hessian-reuse.md).
         self._unwhiten = np.eye(self.condenser.size)  # L^{-T}: d = L^{-T} y
         self._whitened_rows = self.condenser.constraints.copy()
         self._extra = _SparseRows(self.condenser.constraints[n * self.limits.rows:])
@@ -364,7 +355,7 @@ class DenseSolver:
     def _start_rebuild(self, sensitivity: FloatArray, displacement: FloatArray,
                        cost_only: bool = False) -> Iterator[bool]:
         """Begin a new Hessian from this tick's terms (``cost_only``: this tick's cost terms
-        and the last build's ``S``, ~20 us of a rebuild's ~140 at N = 20): its first stage
+        and the last build's ``S``, a part of a rebuild): its first stage
         runs now; the rest are returned (and kept in ``_rebuild``)."""
         self.factorisations += 1
         if cost_only:
@@ -618,7 +609,8 @@ class DenseSolver:
         """``A L^{-T}`` (into ``out`` if given), stage by stage: stage ``k``'s limit rows
         touch ``u_k`` and ``u_{k-1}`` only, so it is a batch of (m, 3) x (3, n) products
         (small enough that BLAS stays on one thread; one dense product of the whole matrix
-        went to 5-15 ms with threads on a loaded 2-core machine). ``moving_only``: ``out``
+        was slow with threads on a loaded machine: docs/design/dense-row-products.md).
+        ``moving_only``: ``out``
         holds the rest already, and only the rows a refill moves are done again
         (``limits.moving`` a stage, on ``u_k`` alone: a swerve module's speed faces, 12 of
         the 28 rows a stage daqp solves with). With rows screened out (:mod:`.row_screen`),
@@ -669,9 +661,8 @@ class _FixedBounds:
     linearised disks, casters', or motor limits'): the rows' bounds are fixed, so a tick
     is the rows' values at the guess (one product), stage 0's part on the last command,
     and path mode's progress bounds. The product is dense for small row sets and sparse
-    for large ones (the N = 20 Mecanum's 160 x 60 rows 1.9 us dense against 3.4 sparse;
-    the MPO-700's 1280 x 60, 9.5 against 5.1); 10.4 -> 5 us on the Mecanum tick against
-    filling every bound anew."""
+    for large ones, whichever was quicker, and quicker than filling every bound anew
+    (docs/design/dense-row-products.md)."""
 
     def __init__(self, structure: QpStructure, condenser: Condenser) -> None:
         rows = condenser.constraints

@@ -16,24 +16,15 @@ from mpc.arrays import FloatArray
 #: fraction of ``dt`` (0.02: a heading that moved by 0.02 rad relative to the others). A
 #: stale Hessian slows the iteration's convergence; it does not move its fixed point (see
 #: :mod:`.condensed`); it is a trade of tracking precision (one step a tick) for speed.
-#: At 4e-2 (2026-11-28, ``mpc-bench perf --sections scenarios``, the 28 scenarios against
-#: 2e-2 in the same minute): ticks a few per cent quicker where they changed, the RMS error
-#: up to 5.7 % worse (the MPO-700 beyond the limits, time mode: 152.6 against 144.3 mm;
-#: the caster 53.3 against 51.6); at 8e-2 the motor omni-4 took 48 iterations against 34.
+#: Looser tolerances made ticks a little quicker and tracking worse
+#: (docs/design/hessian-reuse.md).
 SENSITIVITY_TOLERANCE = 2e-2
 
 #: Largest change of a cost Hessian entry before the Hessian is rebuilt, as a fraction of
 #: the largest entry at set-up (path mode: the path's direction turns the contour terms).
-#: Swerve's path mode rebuilds on every tick: its progress entries (the feedforward per unit
-#: progress rate squared, weighed by the rate matrix with ``module_rate`` times the modules'
-#: Gram matrix) reach ~5e4 and move ~15 % a tick as the window shifts, 18 tolerances at the
-#: median (Mecanum's 1.2). Measured looser (figure-eight 1.3x beyond the limits, fixed
-#: heading, 400 ticks, 2026-11-28): against the running largest entry, 0.5 -> 71 daqp
-#: iterations a tick against 13 and 1.26 against 0.98 ms p50; 0.1 -> 21 iterations, no
-#: quicker. With the rate term's reference change taken at the sampled progress rate (no
-#: progress in it: drift 1.7 tolerances at the median), 1.0 and 2.0 here cut the p50 to 0.88
-#: and 0.84 ms (from 0.99) but raised the p99 to 1.44 and 1.85 ms (from 1.37) and the
-#: iterations to 16 and 20: a stale progress block costs daqp more than the rebuild.
+#: Swerve's path mode rebuilds on every tick (its progress entries move ~15 % a tick as
+#: the window shifts); looser, its stale progress block cost daqp more iterations than the
+#: rebuild saves (docs/design/hessian-reuse.md).
 COST_TOLERANCE = 0.5
 
 

@@ -41,9 +41,9 @@ USABLE_DUAL_RESIDUAL = 10.0
 class _DirectOsqp:
     """osqp-python's extension object, called directly.
 
-    The public ``update`` and ``solve`` wrappers cost about 50 us a tick here
+    The public ``update`` and ``solve`` wrappers cost a fifth of the whole tick here
     (bound clipping, a derivative cache, a namespace built from every info
-    field), a fifth of the whole tick. osqp 1.x keeps the extension object
+    field; docs/design/osqp-direct-core.md). osqp 1.x keeps the extension object
     behind them as ``OSQP._solver``: a private API, so :func:`direct_core`
     only uses it when it has every method needed, and a test holds it to the
     public API's answer. Our bounds are always finite, so the wrapper's
@@ -101,7 +101,7 @@ class QpSolver:
         time_limit: OSQP time per tick at most [s]; 0 for none.
         tolerance: OSQP's absolute and relative tolerance.
         use_extension: call osqp's extension object directly where this osqp version
-            has it (:class:`_DirectOsqp`, ~50 us a tick faster); False uses the public API.
+            has it (:class:`_DirectOsqp`, a quicker tick); False uses the public API.
     """
 
     name = "osqp"

@@ -2,23 +2,16 @@
 (``StageLimits.screened``: a motor model's voltage, current and traction rows) leave daqp's
 problem once no plan has had them active for :data:`SCREEN_AFTER` ticks.
 
-daqp's work grows with its rows (each iteration scans them all; measured with daqp 0.11,
-its flag to skip a row does not save that work), and a motor model has many rows of which
-a manoeuvre binds few: of the swerve preset's 96 a stage, 28 were ever active on its
-figure-eight at 0.8 and 1.0 of the motor model's speeds; omni-4's current rows bind where
-the Mecanum's traction rows do. A plan is checked against the rows left out and the tick
+daqp's work grows with its rows (each iteration scans them all; its flag to skip a row
+does not save that work), and a motor model has many rows of which a manoeuvre binds few
+(docs/design/row-screen.md). A plan is checked against the rows left out and the tick
 solved again with those it breaks (:meth:`RowScreen.broken`), so the answer is the same:
 a plan optimal without some rows and within them is optimal with them. A row is screened
 by its place in a stage, for every stage alike (the plan shifts a stage a tick).
 
-Not for swerve's disks, whose rows turn every tick: a screen chosen afresh each tick (the
-rows within 10 or 30 % of their bounds at the guess, and those active in the last plan,
-as they were and a stage on) gave the same plans but slower ticks, 0.73-0.76 ms against
-0.63-0.65 at the median on the figure-eight 1.3x beyond the limits: a new daqp model each
-tick, set up with its warm active set (133 us for 287 of the 560 rows) and solved (118
-us), against 131 and 177 us to update and solve with every row (daqp's iterations do not
-shrink with its rows as its passes over them do), then the choice and the check (~60 us)
-and a second solve on 22 % of the ticks (59 % at 10 %).
+Not for swerve's disks, whose rows turn every tick: a screen chosen afresh each tick gave
+the same plans but slower ticks, a new daqp model each tick costing more than its fewer
+rows saved (docs/design/row-screen.md).
 """
 
 from __future__ import annotations

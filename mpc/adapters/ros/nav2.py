@@ -73,8 +73,8 @@ STALE_TICKS = 5
 
 #: Re-solves of a plan's timing where its check finds cells over a limit
 #: (:func:`~trajectories.time_optimal`'s ``max_repairs``): one, as a plan is timed on the
-#: control thread (0.25-0.37 s for 400-1000 poses snapped to a 5 cm grid, laps 1.6-1.8x
-#: quicker than with none; smooth paths need none: ``python -m benchmarks.retiming_cases``).
+#: control thread; it makes a grid planner's laps much quicker, smooth paths need none
+#: (docs/design/nav2-plan-repairs.md).
 PLAN_REPAIRS = 1
 
 #: [m/s] A plan timed from rest is timed again from the first measured velocity along it

@@ -41,18 +41,14 @@ from mpc.validation import integer_at_least, non_negative, positive, shown
 GRAVITY = 9.81
 
 #: Default share of each motor's current limit and each contact's friction that a plan
-#: leaves to the wheels' own velocity loops, whose feedback adds torque to the plan's. On
-#: the motor plant (its proportional wheel loops) 2-3 % let the loops past the current limit
-#: on the shipped Choreo trajectory (1-5 ticks) and past traction on the swerve preset
-#: (``mpc-bench motors``: 1-5 slip ticks a run); 5 % on neither.
+#: leaves to the wheels' own velocity loops, whose feedback adds torque to the plan's: less
+#: let the motor plant's loops past the current limit and traction
+#: (docs/design/motor-headroom.md).
 HEADROOM = 0.05
 
 #: Default share of the battery voltage a plan leaves likewise. Where the voltage binds (at
-#: the motors' free speed) the loops need less of it: 3 % kept ``mpc-bench motors`` (every
-#: preset at 100 % of its motor model, 1 m and 3 m shapes) and the Choreo trajectory free of
-#: voltage violations (2 %: 3 ticks on the 3 m omni circles) and cut the motor-aware MPC's
-#: RMS error against 5 % where the voltage binds (omni-3 figure-eight 1.7 -> 0.9 mm, where
-#: the reference needs the motors' free speed; the 3 m omni-3 circle 11.9 -> 8.4 mm).
+#: the motors' free speed) the loops need less of it: 3 % kept the motor plant free of
+#: voltage violations and tracked closer than 5 % (docs/design/motor-headroom.md).
 VOLTAGE_HEADROOM = 0.03
 
 

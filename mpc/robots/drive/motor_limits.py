@@ -139,8 +139,8 @@ def _basis(rows: MotorRows) -> FloatArray:
 def _fill_rows(limits: MotorStageLimits, first: int = 0) -> None:
     """The motor rows' base coefficients and Coriolis rows for the present directions (of
     the rows from ``first`` on: the moving ones are last): one batch of (N, 2) x (2, 16)
-    products, a row at a time (element-wise products broadcast over (N, m, 3) took four
-    times as long)."""
+    products, a row at a time (quicker than element-wise products broadcast over
+    (N, m, 3): docs/design/tick-costs.md)."""
     pick = slice(first, None)
     turned = np.matmul(limits.directions[:, pick].transpose(1, 0, 2),
                        limits.basis[pick]).transpose(1, 0, 2)  # (N, rows, 16)

@@ -19,19 +19,9 @@ from mpc.robots.drive.force_map import ForceMap, apothem
 #: each tick so that one edge faces the force the plan it starts from asks of the contact.
 #: That edge is the disk's tangent there (the disk linearised: a converged plan may use
 #: the whole traction along its force), the others midway between the inscribed and the
-#: circumscribed polygon. Against every edge midway (``mpc-bench motors``, 100 % of the
-#: motor model, RMS position error): swerve circle 97.1 -> 82.7 mm, figure-eight 24.7 ->
-#: 23.1; ball3 67.5 -> 58.9 and 10.9 -> 9.6; no voltage, current or slip events either way.
-#: The corners next to the tangent edge reach 2.7 % beyond the disk, within the headroom;
-#: the clamp keeps the command sent within the disk itself.
-#: Turned every tick, the active edge swaps between the tangent and its neighbours as the
-#: planned force swings: on ball3's figure-eight at 0.8 of the wheel speeds (``mpc-bench
-#: motors --perf``'s scenario) ~65 rows join or leave the active set a tick, nearly all of
-#: them traction rows, and daqp takes ~124 iterations. Two more tangent faces at +-5 deg
-#: (swerve's speed fan): 112 iterations, no quicker (the force turns more than 2.5 deg a
-#: tick). A constant 12-gon, every edge midway: 70 iterations, 1.56 against 2.0 ms at the
-#: median, but swerve's circle 126.2 mm with 2 current-violation and 10 slip ticks and its
-#: figure-eight 25.1 mm, behind the kinematic MPC's 24.5 (2026-11-28).
+#: circumscribed polygon. It tracked closer than every edge midway; a constant polygon
+#: took fewer daqp iterations but slipped and broke current limits on swerve
+#: (docs/design/traction-sides.md). The clamp keeps the command sent within the disk.
 TRACTION_SIDES = 12
 
 #: How a row's direction is chosen each tick (:attr:`MotorRows.direction`): fixed, a steered

@@ -72,8 +72,8 @@ def _symbolic_rows(robot: CasterGeometry, angle: ca.SX, i: int) -> tuple[ca.SX, 
 
 #: RK4 step of the angle flow, in the caster's fastest time constant: for the fast path's
 #: prediction (numbers: cheap) and for the NLP (symbolic: each step deepens every later
-#: stage's expressions; 1.0 there made IPOPT ~9x slower a tick for ~1e-2 rad less error
-#: in the worst case, a leading caster swinging round at full speed).
+#: stage's expressions; a finer step there made IPOPT much slower for little less error:
+#: docs/design/caster-steer-prediction.md).
 PREDICTION_STEP = 1.0
 NLP_STEP = 2.5
 
@@ -87,9 +87,9 @@ def substeps(robot: CasterGeometry, duration: float, step: float = PREDICTION_ST
 
 
 #: Most RK4 steps of the steer-angle prediction over one plan (bounds of this library): its
-#: CasADi function is built on the first tick in time about linear in the steps (12 s at
-#: 1200); the NLP's symbolic limits nest every step in every later stage, in time about
-#: quadratic (8 s at 100 steps, 98 s at 300). Fast-aligning casters (a small offset) on a
+#: CasADi function is built on the first tick in time about linear in the steps; the NLP's
+#: symbolic limits nest every step in every later stage, in time about quadratic
+#: (docs/design/caster-steer-prediction.md). Fast-aligning casters (a small offset) on a
 #: long horizon need many steps.
 MAX_PREDICTION_STEPS = 1000
 MAX_NLP_PREDICTION_STEPS = 120
@@ -133,8 +133,7 @@ def _flow(robot: CasterGeometry, angles: ca.SX, twist: ca.SX, duration: float,
 def _rate(robot: CasterGeometry) -> ca.Function:
     """``betadot = S(beta) u`` as a CasADi function, built once per robot: called on
     symbols it writes the same expression as building the rows afresh, in a fraction of
-    the Python time (building a horizon's prediction row by row took ~0.7 s, on the first
-    tick)."""
+    the Python time (docs/design/caster-steer-prediction.md)."""
     cached = robot._cache.get("betadot")
     if cached is None:
         beta, twist = ca.SX.sym("beta", robot.n_wheels), ca.SX.sym("u", 3)

@@ -57,10 +57,10 @@ def axle_forward_kinematics(robot: SwerveModules, wheel_speeds: FloatArray,
     rolling = robot.wheel_radius * np.asarray(wheel_speeds, dtype=float)
     if steer_rates is not None:
         rolling = rolling - lever * steer_rates
-    # The normal equations (3 x 3, by LAPACK's Cholesky solve: np.linalg.lstsq took ~15x
-    # as long, and this runs in every tick's wheel commands); the slip rows' right-hand
-    # sides are 0, so only the rolling rows enter. Rows without full rank (not a layout the
-    # robot accepts) go to the least squares.
+    # The normal equations (3 x 3, by LAPACK's Cholesky solve: this runs in every tick's
+    # wheel commands, and np.linalg.lstsq is much slower: docs/design/tick-costs.md); the
+    # slip rows' right-hand sides are 0, so only the rolling rows enter. Rows without full
+    # rank (not a layout the robot accepts) go to the least squares.
     _, twist, info = lapack.dposv(rows.T @ rows, rows[0::2].T @ rolling)
     if info != 0:
         values = np.zeros(2 * robot.n_wheels)

@@ -128,12 +128,11 @@ def turns(robot: SwerveModules, velocities: FloatArray, steer_angles: FloatArray
 
 #: The search for the drives' limit (axle offsets): rounds, each splitting the interval
 #: left into this many parts at once (40^3: the fraction to 1.6e-5 of the turn's). A call
-#: costs about the same for 2 points or 40 (NumPy's overhead): five rounds of 16 took
-#: ~80 us more a tick on the MPO-700 beyond the limits, one round of 257 points and one
-#: more no less, a bisection of single wheel-command calls ~1 ms.
+#: costs about the same for 2 points or 40 (NumPy's overhead), so each round is one call
+#: (docs/design/axle-offset-search.md).
 _SEARCH_ROUNDS, _SEARCH_PARTS = 3, 40
-#: A round's grid over [0, 1] (``np.linspace`` itself took ~15 us a call: a fifth of a
-#: search round).
+#: A round's grid over [0, 1], made once (``np.linspace`` a call is a fifth of a round:
+#: docs/design/axle-offset-search.md).
 _SEARCH_GRID = np.linspace(0.0, 1.0, _SEARCH_PARTS + 1)
 
 
@@ -153,10 +152,10 @@ def steering_fraction(robot: SwerveModules, last: FloatArray, target: FloatArray
         return _drives_within(robot, last + parts[:, None] * step, steer_angles, dt, reach)
 
     # Most ticks need no search: the fraction's point fits (checked on its own, in Python
-    # floats: a NumPy call costs about the same for 1 point as for 41, ~45 us on the
-    # MPO-700). Else the first round's grid (its last point the fraction's) checked with
-    # the start in one call. The turn is checked with the drives: the target may fit where
-    # points on the way to it do not.
+    # floats: a NumPy call costs about the same for 1 point as for 41). Else the first
+    # round's grid (its last point the fraction's) checked with the start in one call. The
+    # turn is checked with the drives: the target may fit where points on the way to it do
+    # not.
     if _drives_fit(robot, last + fraction * step, steer_angles, dt, reach):
         return fraction
     parts = fraction * _SEARCH_GRID  # parts[0] = 0: the start
@@ -197,7 +196,7 @@ def _drives_within(robot: SwerveModules, twists: FloatArray, steer_angles: Float
     ground = magnitude * robot.wheel_radius  # [m/s]
     speed = np.copysign(magnitude, x * np.cos(steer_angles) + y * np.sin(steer_angles))
     lever = robot.axle_offset / robot.wheel_radius
-    # (NumPy calls on arrays of K x n: each saved is ~1 us of a search round's ~40)
+    # (NumPy calls on arrays of K x n: few, each one counts in a search round)
     speed += (lever / dt) * turn
     drive = np.where(ground < STOPPED_MODULE_SPEED, 0.0, speed)
     drive += lever * twists[:, 2:3]
@@ -246,8 +245,8 @@ def turn_fraction(robot: SwerveModules, last: FloatArray, target: FloatArray,
     Each module's answer is one of its roots: its roots and the points between them are
     checked in order up to the first that breaks the bound, and the smallest answer over
     the modules is the step's. In Python floats, module by module (a few modules, and most
-    calls stop at the first check: NumPy's arrays of all the roots at once took ~280 us a
-    call on the MPO-700 1.3x beyond the limits in path mode, where every tick searched).
+    calls stop at the first check: NumPy's arrays of all the roots at once were slower,
+    docs/design/axle-offset-search.md).
     """
     reach = _reach(robot, dt)
     blocks = robot.wheel_blocks
@@ -320,9 +319,9 @@ def qp_speed_rows(robot: SwerveModules, polygon_sides: int) -> SpeedRows:
     """A regular polygon with ``polygon_sides`` sides (even, >= 4; half as many two-sided
     rows per module) midway between the ones inscribed in and circumscribed about the
     disk: its edges' middles at ``R (1 + c) / 2``, its vertices at ``R (1 + c) / (2 c)``,
-    ``c = cos(pi / sides)`` (within about 1 % of the disk at 16 sides). Measured on the
-    benchmark's swerve runs 30 % beyond the limits it tracks closer to the exact disk
-    than the inscribed polygon; the clamp keeps every command inside the disk."""
+    ``c = cos(pi / sides)`` (within about 1 % of the disk at 16 sides): it tracks closer to
+    the exact disk than the inscribed polygon (docs/design/swerve-speed-faces.md); the
+    clamp keeps every command inside the disk."""
     sides = integer_at_least("polygon_sides", polygon_sides, 4, RobotError)
     if sides % 2:
         raise RobotError(f"polygon_sides must be an even integer >= 4, got {polygon_sides!r}")
@@ -344,60 +343,23 @@ _DIRECTION_FLOOR = 1e-3
 #: The linearised speed disk: faces of a polygon circumscribed about it, their normals at
 #: these angles [rad] from the planned direction (two-sided rows, so each face has its
 #: opposite). The face along the planned direction is the tangent; the two 5 deg beside it
-#: leave its corners 0.1 % outside the disk (a fan whose corners reach further draws the
-#: plan to them, a tick at a time); the ones at 45 and 90 deg keep a turning plan within
-#: 8 % of the disk elsewhere. Measured on the benchmark's swerve circle and figure-eight
-#: 1.3x beyond (fixed / tangent heading), RMS position error [mm] against IPOPT's:
-#: these six 236 / 345 / 83 / 35 against 234 / 342 / 81 / 35; three faces at 0 and
-#: +-22.5 deg 428 on the tangent circle (the plan sat at their corners, 2 % outside, and
-#: every command was clamped); the constant 16-gon 238 / 347 / 82 / 38. The tangent alone
-#: (faces at 0, +-45 and 90 deg: 20 rows a stage against 28) was 2-12 % quicker in seven of
-#: the eight runs of these four scenarios in time and path mode, at the same RMS, but the
-#: tangent-heading circle in time mode slid along it: 343 against 337 mm RMS, 632 against
-#: 559 max, 13 daqp iterations a tick against 5 (re-measured on 2026-11-28 with both in one
-#: session).
+#: leave its corners 0.1 % outside the disk; the ones at 45 and 90 deg keep a turning plan
+#: within 8 % of the disk elsewhere. Tracks as IPOPT's exact disk does; fewer faces slid
+#: along their corners (docs/design/swerve-speed-faces.md).
 FACE_ANGLES = tuple(math.radians(angle) for angle in (-45.0, -5.0, 0.0, 5.0, 45.0, 90.0))
 FACES = len(FACE_ANGLES)
 
 #: The faces at +-45 and 90 deg are guards (:attr:`StageLimits.guards`, each stage's last
 #: rows): a plan reaches them only when it turns a module far from the guess's direction
-#: (the first tick, whose faces still point along the body x axis, or a sudden turn). In
-#: 6 s runs of the benchmark's swerve circle and figure-eight, time and path mode, fixed
-#: and tangent heading, inside and 1.3x beyond the limits, the plans solved without them
-#: broke them on one tick in three of the 16 runs, so daqp solves with 44 rows a stage
-#: rather than 56 (28 rather than 40 since the acceleration polygon keeps its outermost
-#: rows, :func:`~mpc.robots.limits.outermost`), checks the plan against these and solves
-#: again with them when one breaks: the same plans to daqp's tolerance (commands within
-#: 6e-12 of daqp given every face over those runs; after a second solve the kept model
-#: starts the next tick from the active set of the plan it gave, so later ticks may part
-#: at that tolerance), ticks 0.91-0.94x at the median (interleaved A/B on the
-#: figure-eight, fixed heading inside and beyond, tangent beyond, path mode beyond).
+#: (the first tick, or a sudden turn), so daqp solves without them, the plan is checked
+#: against them and the tick solved again with them when one breaks: the same plans, fewer
+#: rows (docs/design/swerve-guard-faces.md).
 GUARD_FACES = tuple(j for j, angle in enumerate(FACE_ANGLES) if abs(angle) > math.radians(30))
 
 #: The acceleration disk: a constant regular polygon of this many sides (half as many
 #: two-sided rows a module), midway between the inscribed and the circumscribed one (within
-#: 1 % of the disk). The same six faces turned to each stage's planned change of velocity
-#: tracked as well but cost daqp about 45 iterations a tick beyond the limits: the change's
-#: direction swings from tick to tick and the active faces with it. Measured with
-#: ``mpc-bench --layouts swerve --controllers mpc-daqp,mpc-path,mpc-ipopt --workers 1``
-#: (before :func:`~mpc.robots.limits.outermost` halved the polygon's rows),
-#: 1.3x beyond (circle fixed / tangent, figure-eight fixed / tangent), RMS position error
-#: [mm] and tick p99 [ms]: this polygon 234.5 / 340.5 / 79.7 / 34.9 and 1.49 / 1.46 /
-#: 1.38 / 1.04; turned faces 236.0 / 341.5 / 81.1 / 34.4 and 1.81 / 1.93 / 2.24 / 1.44;
-#: IPOPT 234.1 / 342.2 / 81.1 / 34.7. Path mode's largest distance to the figure-eight
-#: 2.4 mm against 4.6. Faces turned to the planned velocity instead: 14 mm off the path.
-#: An 8-gon (4 rows a module, 40 rows a stage against 56): time-mode ticks 2-20 % quicker
-#: at the median, RMS within 2 % either way, but path mode left the fixed-heading
-#: figure-eight beyond the limits by up to 9.9 mm against 2.3 and its tangent one took 1.5x
-#: as long a tick (``mpc-bench --layouts swerve --controllers
-#: mpc-daqp,mpc-tuned,mpc-ipopt,mpc-path,ff-p-setpoint --workers 2``, 2026-11-28).
-#: A 12-gon (24 rows a stage), in eight runs (the benchmark's swerve circle and figure-eight
-#: 1.3x beyond, fixed and tangent heading, time and path mode; 2026-11-28): 2-11 % quicker
-#: at the median, RMS up to 12 % worse (path mode on the fixed-heading figure-eight 1.29
-#: against 1.15 mm; the tangent-heading circle in time mode 347.8 against 336.5, its largest
-#: error 793 against 559). Left to the clamp after the first stages (bounds open from stage
-#: 5 on) the plan tracked 125 mm RMS against 81 on the fixed-heading figure-eight: the
-#: acceleration rows are what track beyond the limits.
+#: 1 % of the disk). Faces turned to the planned change cost daqp many iterations, 8 and 12
+#: sides tracked worse in path mode (docs/design/swerve-accel-sides.md).
 ACCEL_SIDES = 16
 
 
@@ -488,10 +450,8 @@ def update_linearised(robot: SwerveModules, limits: StageLimits, guess: FloatArr
     they had. (``last``, the last command, bounds the first stage's acceleration rows,
     which do not move.)
 
-    Every tick: keeping the faces until a module near its disk turned more than 2.5 or 5
-    deg from them would have kept them on 0 and 44 of 796 ticks (two runs of the
-    fixed-heading figure-eight 1.3x beyond the limits): some module at some stage turns
-    that much a tick, so daqp's rows change each tick whatever the threshold."""
+    Every tick: some module at some stage turns a few degrees a tick, so a threshold
+    would seldom keep them (docs/design/swerve-speed-faces.md)."""
     velocities = (guess @ robot.flat_wheel_blocks.T).reshape(len(guess), -1, 2)  # (N, n, 2)
     _turn(limits.memory["directions"], velocities, limits.memory["floor"])
     _fill_faces(limits)

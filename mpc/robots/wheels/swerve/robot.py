@@ -273,8 +273,8 @@ class SwerveRobot(Robot):
         (:func:`~mpc.robots.wheels.swerve.limits.linearised_stage_limits`), or with
         ``polygon_sides`` the constant polygon of :meth:`qp_speed_rows`. Always the
         polygon with an axle offset, and with a motor model: there the linearised disks'
-        bolder plans took a motor 0.6 % over its current limit on the motor plant (the
-        clamp's motor step holds the wheels at the last command's speeds)."""
+        bolder plans took a motor over its current limit on the motor plant
+        (docs/design/swerve-motors-polygon.md)."""
         if polygon_sides is None and not self.axle_offset and self.dynamics is None:
             return linearised_stage_limits(self, change_times)
         return super().stage_limits(change_times, polygon_sides)
