@@ -94,7 +94,7 @@ class Controller:
             ahead: beyond the wheel limits that foresight keeps the robot much closer to a
             reference it cannot follow), ``dt`` in path mode (the progress keeps the
             reference within reach, and finer stages follow the path's bends closer);
-            measured in the README, "When the reference is too fast".
+            measured in docs/benchmarks/index.md, "When the reference is too fast".
         solver: ``"daqp"`` (the fast path: real-time iteration on the condensed QP,
             :mod:`mpc.solvers.dense`), ``"osqp"`` (real-time iteration on the sparse QP)
             or ``"ipopt"`` (the exact NLP).

@@ -9,7 +9,7 @@ side negated (:data:`mpc.robots.CONVENTIONS` ``["jetauto"]``). Its odometry come
 The message types are not ROS 2 Humble's own: :func:`jetauto_typestore` registers them
 with rosbags (to write bags, or to serialise); :func:`motors_state` builds one from a
 command. In an rclpy node build the driver's own message from :func:`jetauto_motors`'
-(id, rps) pairs (the README's "JetAuto on ROS 2").
+(id, rps) pairs (docs/guide/adapters.md, "JetAuto on ROS 2").
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ otherwise; a :class:`WheelConvention` maps between the two:
 
 with ``scale`` ``1 / (2 pi)`` for revolutions per second, ``wheel_radius`` for rim speeds
 [m/s] and 1 for rad/s. It is a wiring and units mapping, never kinematics: the model keeps
-the project's conventions (README, "Conventions").
+the project's conventions (docs/guide/conventions.md).
 
 The founding documents' conventions (``../shared`` facts; tested against each document's
 own equations in ``tests/test_seed_robots.py``):
