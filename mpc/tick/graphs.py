@@ -156,7 +156,8 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
                            [ca.densify((y.T @ inverse).T)], ["inverse", "y"], ["step"])
 
     finish = _finish(model, wheels, tick, size, carry.shape[0])
-    return TickGraphs(prepare, whiten, unwhiten, finish, n, size, m, len(wheels.limits), carry.shape[0])
+    return TickGraphs(prepare, whiten, unwhiten, finish, n, size, m, len(wheels.limits),
+                      carry.shape[0])
 
 
 def _parameters(layout: object, values: dict[str, ca.SX]) -> ca.SX:

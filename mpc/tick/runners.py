@@ -4,8 +4,8 @@ CasADi's virtual machine (:class:`VirtualTick`: the same graphs evaluated by Cas
 QP by the daqp Python module with the same rows, kept between ticks the same way).
 
 Both write one output array a tick: status code, daqp's exit flag, iterations, solve
-time [s], clamped (0/1), the twist (3), the wheel speeds (w), the plan's poses (3 (N+1),
-a stage's three numbers together).
+time [s], clamped (0/1), failures in a row, the twist (3), the wheel speeds (w), the
+plan's poses (3 (N+1), a stage's three numbers together).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from mpc.buffered import BufferedFunction
 from mpc.tick.graphs import COLD, HOLD, SOLVED, UNPLANNED, WARM, TickGraphs
 
 #: The output array's leading fields (then the twist, the wheel speeds, the poses).
-STATUS, FLAG, ITERATIONS, SOLVE_TIME, CLAMPED, TWIST = range(6)
+STATUS, FLAG, ITERATIONS, SOLVE_TIME, CLAMPED, FAILURES, TWIST = range(7)
 
 #: daqp's constraint flag of an equality row (active and immutable).
 _EQUALITY = 5
@@ -222,6 +222,7 @@ class VirtualTick:
         out = self._out
         out[STATUS], out[FLAG], out[CLAMPED] = self._status[0], flag, self._clamped[0]
         out[ITERATIONS], out[SOLVE_TIME] = iterations, seconds
+        out[FAILURES] = self._memory[0]
         speeds = TWIST + 3
         out[TWIST:speeds] = self._twist
         out[speeds:speeds + self._speeds.size] = self._speeds

@@ -54,7 +54,8 @@ typedef struct {
 } mpc_tick;
 
 /* Layout of mpc_tick_step's output array. */
-enum { OUT_STATUS, OUT_FLAG, OUT_ITERATIONS, OUT_SOLVE_TIME, OUT_CLAMPED, OUT_TWIST };
+enum { OUT_STATUS, OUT_FLAG, OUT_ITERATIONS, OUT_SOLVE_TIME, OUT_CLAMPED, OUT_FAILURES,
+       OUT_TWIST };
 #define OUT_SPEEDS (OUT_TWIST + 3)
 #define OUT_POSES (OUT_SPEEDS + MPC_W)
 #define OUT_SIZE (OUT_POSES + 3 * (MPC_N + 1))
@@ -272,6 +273,7 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   out[OUT_ITERATIONS] = iterations;
   out[OUT_SOLVE_TIME] = seconds;
   out[OUT_CLAMPED] = t->clamped;
+  out[OUT_FAILURES] = t->memory[0];
   memcpy(out + OUT_TWIST, t->twist, sizeof(t->twist));
   memcpy(out + OUT_SPEEDS, t->speeds, sizeof(t->speeds));
   memcpy(out + OUT_POSES, t->poses, sizeof(t->poses));

@@ -1,0 +1,213 @@
+"""The compiled tick (:mod:`mpc.tick`): the same commands, plans and statuses as the Python
+tick over recorded closed-loop runs (the Python tick with its Hessian rebuilt every tick:
+the compiled tick builds its Hessian every tick, the Python one reuses it across ticks,
+which moves a real-time-iteration step by far more than rounding), the virtual machine
+the same as the compiled library, a missing compiler falling back to the virtual machine,
+and the controllers it does not cover refused by name."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import numpy as np
+import pytest
+
+import mpc.solvers.dense as dense
+from mpc import Command, Controller, ControllerError, Status
+from mpc.robots import preset
+from mpc.tick import UnsupportedTickError
+from trajectories import FigureEight, Trajectory, TrajectoryError
+
+HORIZON = 8  # short: the library compiles in seconds (the benchmark runs N = 20)
+TICKS = 240
+DT = 0.05
+
+
+@contextmanager
+def hessian_every_tick() -> Iterator[None]:
+    """The Python tick with its Hessian rebuilt at once every tick (no reuse)."""
+    saved = dense.REBUILD_NOW, dense.COST_ONLY_DRIFT
+    dense.REBUILD_NOW, dense.COST_ONLY_DRIFT = -1.0, -1.0
+    try:
+        yield
+    finally:
+        dense.REBUILD_NOW, dense.COST_ONLY_DRIFT = saved
+
+
+def plant_step(pose: np.ndarray, twist: np.ndarray) -> np.ndarray:
+    """A plant that differs from the model: 3 % slip along the body x axis, integrated
+    with five Euler substeps (the model integrates SE(2) exactly)."""
+    pose = pose.copy()
+    vx, vy, omega = twist[0] * 0.97, twist[1], twist[2]
+    for _ in range(5):
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        pose += DT / 5 * np.array([c * vx - s * vy, s * vx + c * vy, omega])
+    return pose
+
+
+def record(robot_name: str, trajectory: Trajectory, **options: object
+           ) -> tuple[list[np.ndarray], list[Command]]:
+    """A closed loop of the Python tick (Hessian every tick): the poses it was given and
+    its commands."""
+    with hessian_every_tick():
+        controller = Controller(preset(robot_name), trajectory, horizon=HORIZON, dt=DT,
+                                **options)  # type: ignore[arg-type]
+        pose = trajectory.sample(0.0).pose + np.array([0.15, -0.05, 0.2])
+        poses, commands = [], []
+        for k in range(TICKS):
+            command = controller.step(pose, k * DT)
+            poses.append(pose)
+            commands.append(command)
+            pose = plant_step(pose, command.twist)
+    return poses, commands
+
+
+def replay(controller: Controller, poses: list[np.ndarray]) -> list[Command]:
+    return [controller.step(pose, k * DT) for k, pose in enumerate(poses)]
+
+
+def assert_same(expected: list[Command], got: list[Command], tolerance: float = 1e-9) -> None:
+    """Commands, plans, statuses and failure counts equal tick by tick; ``clamped`` may
+    differ only where the clamp moved the twist by rounding (a plan that rides an
+    acceleration limit exactly: one side of the rounding clamps, the other not)."""
+    for tick, (a, b) in enumerate(zip(expected, got, strict=True)):
+        assert a.status is b.status, tick
+        assert a.consecutive_failures == b.consecutive_failures, tick
+        np.testing.assert_allclose(b.wheel_speeds, a.wheel_speeds, rtol=0, atol=tolerance,
+                                   err_msg=f"tick {tick}")
+        np.testing.assert_allclose(b.twist, a.twist, rtol=0, atol=tolerance)
+        np.testing.assert_allclose(b.predicted_poses, a.predicted_poses, rtol=0,
+                                   atol=tolerance)
+
+
+def assert_safe(robot_name: str, commands: list[Command]) -> None:
+    """No NaN, no wheel command beyond its speed limit or its acceleration limit."""
+    robot = preset(robot_name)
+    last = np.zeros(3)
+    for command in commands:
+        assert np.all(np.isfinite(command.wheel_speeds))
+        assert np.all(np.isfinite(command.predicted_poses))
+        assert np.all(np.abs(command.wheel_speeds) <= robot.max_wheel_speed * (1 + 1e-9))
+        change = np.abs(robot.wheel_speeds(command.twist - last))
+        assert np.all(change <= robot.max_wheel_accel * DT * (1 + 1e-9))
+        last = command.twist
+
+
+SCENARIOS = {
+    # name: (robot, figure-eight period [s]): inside the limits, and beyond them
+    "mecanum inside": ("mecanum", 16.0),
+    "mecanum beyond": ("mecanum", 6.0),
+    "omni3 inside": ("omni3", 16.0),
+    "omni3 beyond": ("omni3", 6.0),
+}
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_compiled_tick_matches_the_python_tick(name: str) -> None:
+    robot_name, period = SCENARIOS[name]
+    trajectory = FigureEight(1.0, period, heading="tangent")
+    poses, expected = record(robot_name, trajectory)
+    compiled = Controller(preset(robot_name), trajectory, horizon=HORIZON, dt=DT,
+                          compiled=True)
+    assert compiled.tick_path == "compiled"
+    got = replay(compiled, poses)
+    assert_same(expected, got)
+    assert_safe(robot_name, got)
+    clamped = sum(command.clamped for command in expected)
+    if "beyond" in name:  # the reference is beyond the wheels: the plan rides the limits
+        assert max(float(np.max(np.abs(c.wheel_speeds) / preset(robot_name).max_wheel_speed))
+                   for c in got) > 0.99
+    else:
+        assert clamped <= TICKS // 10
+
+
+def test_the_virtual_machine_runs_the_same_tick() -> None:
+    trajectory = FigureEight(1.0, 6.0, heading="tangent")
+    poses, _ = record("mecanum", trajectory)
+    compiled = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
+                          compiled=True)
+    virtual = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
+                         compiled="virtual-machine")
+    assert (compiled.tick_path, virtual.tick_path) == ("compiled", "virtual-machine")
+    assert_same(replay(compiled, poses[:120]), replay(virtual, poses[:120]))
+
+
+def test_no_compiler_falls_back_to_the_virtual_machine(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("CC", "/nonexistent/bin/cc")
+    trajectory = FigureEight(1.0, 16.0, heading="tangent")
+    controller = Controller(preset("omni3"), trajectory, horizon=HORIZON, dt=DT,
+                            compiled=True)
+    assert controller.tick_path == "virtual-machine"
+    assert controller._compiled is not None
+    assert "/nonexistent/bin/cc" in (controller._compiled.compile_error or "")
+    pose = trajectory.sample(0.0).pose
+    command = controller.step(pose, 0.0)
+    assert command.status is Status.SOLVED and np.all(np.isfinite(command.wheel_speeds))
+    assert Controller(preset("omni3"), trajectory, horizon=HORIZON).tick_path == "python"
+
+
+class Broken(FigureEight):
+    """A figure-eight that cannot be sampled between 3 and 4 s (a user's reference that
+    fails there): ticks whose window reaches into it fall back."""
+
+    def sample(self, t: object) -> object:  # type: ignore[override]
+        times = np.asarray(t, dtype=float)
+        if np.any((times >= 3.0) & (times < 4.0)):
+            raise TrajectoryError("no reference between 3 and 4 s")
+        return super().sample(t)  # type: ignore[arg-type]
+
+
+def test_fallbacks_match_the_python_tick() -> None:
+    """A reference that fails for a while: the previous plan, then stopping, then solved
+    again; the same statuses and commands on both ticks."""
+    trajectory = Broken(1.0, 16.0, heading="tangent")
+    poses, expected = record("mecanum", trajectory)
+    statuses = {command.status for command in expected}
+    assert {Status.SOLVED, Status.PREVIOUS_PLAN, Status.STOPPING} <= statuses
+    for compiled in (True, "virtual-machine"):
+        controller = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
+                                compiled=compiled)
+        got = replay(controller, poses)
+        assert_same(expected, got)
+        assert_safe("mecanum", got)
+
+
+def test_reset_and_a_new_trajectory_start_over() -> None:
+    trajectory = FigureEight(1.0, 16.0, heading="tangent")
+    with hessian_every_tick():
+        python = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT)
+        compiled = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
+                              compiled=True)
+        pose = trajectory.sample(0.0).pose
+        for controller in (python, compiled):
+            for k in range(5):
+                controller.step(pose, k * DT)
+            controller.reset(last_twist=[0.2, 0.0, 0.1])
+            controller.trajectory = FigureEight(0.8, 12.0, heading=0.0)
+        assert_same([python.step(pose, 1.0)], [compiled.step(pose, 1.0)])
+
+
+@pytest.mark.parametrize("options, named", [
+    ({"robot": "swerve"}, "swerve"),
+    ({"mode": "path"}, "mode='path'"),
+    ({"solver": "osqp"}, "solver='osqp'"),
+    ({"delay_ticks": 1}, "delay_ticks=1"),
+    ({"time_limit": 0.01}, "time_limit=0.01"),
+])
+def test_unsupported_controllers_are_refused_by_name(options: dict[str, object],
+                                                     named: str) -> None:
+    settings = dict(options)
+    robot = preset(str(settings.pop("robot", "mecanum")))
+    with pytest.raises(UnsupportedTickError, match="supports constant-Jacobian") as error:
+        Controller(robot, FigureEight(1.0, 16.0), horizon=HORIZON, compiled=True,
+                   **settings)  # type: ignore[arg-type]
+    assert named in str(error.value)
+    assert isinstance(error.value, ControllerError)
+
+
+def test_compiled_takes_true_false_or_virtual_machine() -> None:
+    with pytest.raises(ControllerError, match="compiled must be"):
+        Controller(preset("mecanum"), FigureEight(1.0, 16.0), horizon=HORIZON,
+                   compiled="yes")
