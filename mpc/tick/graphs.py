@@ -74,7 +74,8 @@ class TickGraphs:
             guess_mode 1) -> (hessian n x n, gradient n, lower m, upper m, carry k)``:
             the condensed QP on the step from the guess.
         whiten: ``(inverse n x n, gradient n) -> (f n, rows_t n x m)``: with ``H = L L'``
-            and ``inverse = L^{-1}`` (its lower triangle read; the caller's factor), the QP
+            and ``inverse = L^{-1}`` (lower triangular: its n (n + 1) / 2 entries packed
+            column by column; from the caller's factor), the QP
             in whitened steps ``y = L' d``: ``f = L^{-1} g``, ``rows_t = (A L^{-T})'``
             (column-major: ``A L^{-T}`` row-major, as daqp reads it).
         unwhiten: ``(inverse n x n, y n) -> step n``: ``d = L^{-T} y``.
@@ -144,8 +145,8 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
         ["pose", "ref_poses", "ref_velocities", "last", "plan", "guess_mode"],
         ["hessian", "gradient", "lower", "upper", "carry"], {"cse": True})
 
-    # L^{-1} dense, its upper half zeros (a sparse triangle costs a projection a call)
-    inverse = ca.MX.sym("inverse", size, size)
+    # L^{-1}: its lower triangle packed column by column (CasADi's lower-triangular input)
+    inverse = ca.MX.sym("inverse", ca.Sparsity.lower(size))
     g, y = ca.MX.sym("gradient", size), ca.MX.sym("y", size)
     sparse_rows = ca.DM(ca.sparsify(ca.DM(condenser.constraints)))
     whiten = ca.Function(

@@ -125,7 +125,8 @@ class VirtualTick:
                                                      np.zeros((n + 1, 3)))
         self._mode = np.zeros(1)
         self._hessian, self._gradient = np.zeros((nv, nv)), np.zeros(nv)
-        self._inverse_t = np.zeros((nv, nv))  # L^{-T} in C order: CasADi reads L^{-1}
+        self._inverse = np.zeros(nv * (nv + 1) // 2)  # L^{-1}'s lower triangle, packed
+        self._packed = np.triu_indices(nv)  # of X' in C order: X's lower, column by column
         self._f, self._rows = np.zeros(nv), np.zeros((m, nv))
         self._lower, self._upper = np.zeros(m), np.zeros(m)
         self._carry = np.zeros(graphs.carry)
@@ -133,10 +134,10 @@ class VirtualTick:
             graphs.prepare, [self._pose, self._poses, self._velocities, self._last,
                              self._plan, self._mode],
             [self._hessian, self._gradient, self._lower, self._upper, self._carry])
-        self._whiten = BufferedFunction(graphs.whiten, [self._inverse_t, self._gradient],
+        self._whiten = BufferedFunction(graphs.whiten, [self._inverse, self._gradient],
                                         [self._f, self._rows])
         self._y, self._flag, self._step = np.zeros(nv), np.zeros(1), np.zeros(nv)
-        self._unwhiten = BufferedFunction(graphs.unwhiten, [self._inverse_t, self._y],
+        self._unwhiten = BufferedFunction(graphs.unwhiten, [self._inverse, self._y],
                                           [self._step])
         self._status, self._twist = np.zeros(1), np.zeros(3)
         self._speeds, self._clamped = np.zeros(graphs.wheels), np.zeros(1)
@@ -162,7 +163,7 @@ class VirtualTick:
         ``_lower``, ``_upper``."""
         self._prepare_graph()
         # (H is symmetric: its C-ordered buffer is H either way)
-        self._inverse_t[:] = inverse_factor(self._hessian).T
+        self._inverse[:] = inverse_factor(self._hessian).T[self._packed]
         self._whiten()
 
     def _solve(self) -> tuple[int, int, float]:

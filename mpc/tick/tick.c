@@ -34,7 +34,7 @@ typedef struct {
   int max_iter, budgeted;
   /* prepare's and whiten's outputs (daqp reads f, rows, bounds in place) */
   double hessian[MPC_NV * MPC_NV], gradient[MPC_NV], factor[MPC_NV * MPC_NV];
-  double inverse[MPC_NV * MPC_NV];
+  double inverse[MPC_NV * (MPC_NV + 1) / 2]; /* L^{-1}, its lower triangle packed */
   double f[MPC_NV], rows[MPC_NV * MPC_M], lower[MPC_M], upper[MPC_M], carry[MPC_CARRY];
   double eye[MPC_NV * MPC_NV];
   int sense[MPC_M];
@@ -120,43 +120,46 @@ void mpc_tick_reset(mpc_tick* t, const double* last) {
   qp_cold(t);
 }
 
-/* L with H = L L' (lower, row-major: a row's entries together, the upper half zero) from
- * H's lower triangle (H symmetric: either order); 0 if a pivot is not positive. */
+/* L with H = L L' (lower, column-major: a column's entries together) from H's lower
+ * triangle, right-looking: each column scaled, then subtracted from the columns after it
+ * (independent updates the compiler can pipeline, not one chain of sums); 0 if a pivot is
+ * not positive. The upper half of ``l`` is not written. */
 static int cholesky_once(const double* h, double shift, double* l) {
   int i, j, k;
-  for (i = 0; i < MPC_NV; i++) {
-    double* row = l + MPC_NV * i;
-    for (j = 0; j <= i; j++) {
-      const double* other = l + MPC_NV * j;
-      double value = h[j + MPC_NV * i];
-      for (k = 0; k < j; k++) value -= row[k] * other[k];
-      if (j < i) {
-        row[j] = value / other[j];
-      } else {
-        value += shift;
-        if (!(value > 0.0)) return 0;
-        row[i] = sqrt(value);
-      }
+  for (j = 0; j < MPC_NV; j++)
+    for (i = j; i < MPC_NV; i++) l[i + MPC_NV * j] = h[i + MPC_NV * j];
+  for (j = 0; j < MPC_NV; j++) {
+    double* column = l + MPC_NV * j;
+    double pivot = column[j] + shift;
+    if (!(pivot > 0.0)) return 0;
+    pivot = sqrt(pivot);
+    column[j] = pivot;
+    for (i = j + 1; i < MPC_NV; i++) column[i] /= pivot;
+    for (k = j + 1; k < MPC_NV; k++) {
+      double* later = l + MPC_NV * k;
+      const double factor = column[k];
+      for (i = k; i < MPC_NV; i++) later[i] -= column[i] * factor;
     }
-    for (j = i + 1; j < MPC_NV; j++) row[j] = 0.0;
   }
   return 1;
 }
 
-/* X = L^{-1} (lower, column-major: a column's entries together, as CasADi reads it) of a
- * lower-triangular L (row-major). */
+/* X = L^{-1} of a lower-triangular L (column-major), its lower triangle packed column by
+ * column (column j: rows j .. n-1), as CasADi reads a lower-triangular matrix: each
+ * column by forward substitution in axpy form (independent updates). */
 static void lower_inverse(const double* l, double* x) {
-  int i, j, k;
+  double column[MPC_NV];
+  int i, j, k, at = 0;
   for (j = 0; j < MPC_NV; j++) {
-    double* column = x + MPC_NV * j;
-    for (i = 0; i < j; i++) column[i] = 0.0;
-    column[j] = 1.0 / l[j + MPC_NV * j];
-    for (i = j + 1; i < MPC_NV; i++) {
-      const double* row = l + MPC_NV * i;
-      double value = 0.0;
-      for (k = j; k < i; k++) value += row[k] * column[k];
-      column[i] = -value / row[i];
+    for (i = j; i < MPC_NV; i++) column[i] = 0.0;
+    column[j] = 1.0;
+    for (k = j; k < MPC_NV; k++) {
+      const double* lk = l + MPC_NV * k;
+      const double value = column[k] / lk[k];
+      column[k] = value;
+      for (i = k + 1; i < MPC_NV; i++) column[i] -= lk[i] * value;
     }
+    for (i = j; i < MPC_NV; i++) x[at++] = column[i];
   }
 }
 
