@@ -8,8 +8,11 @@ and the controllers it does not cover refused by name."""
 from __future__ import annotations
 
 import math
+import shutil
+import subprocess
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +21,8 @@ import mpc.solvers.dense as dense
 from mpc import Command, Controller, ControllerError, Status
 from mpc.robots import preset
 from mpc.tick import UnsupportedTickError
+from mpc.tick.build import casadi_folder, write_sources
+from mpc.tick.graphs import build_graphs
 from trajectories import FigureEight, Trajectory, TrajectoryError
 
 HORIZON = 8  # short: the library compiles in seconds (the benchmark runs N = 20)
@@ -211,3 +216,68 @@ def test_compiled_takes_true_false_or_virtual_machine() -> None:
     with pytest.raises(ControllerError, match="compiled must be"):
         Controller(preset("mecanum"), FigureEight(1.0, 16.0), horizon=HORIZON,
                    compiled="yes")
+
+
+HARNESS = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "tick.c"
+static long allocations;
+static int counting;
+void* __real_malloc(size_t size);
+void* __real_calloc(size_t count, size_t size);
+void* __real_realloc(void* pointer, size_t size);
+void* __wrap_malloc(size_t size) { allocations += counting; return __real_malloc(size); }
+void* __wrap_calloc(size_t count, size_t size) {
+  allocations += counting; return __real_calloc(count, size);
+}
+void* __wrap_realloc(void* pointer, size_t size) {
+  allocations += counting; return __real_realloc(pointer, size);
+}
+int main(void) {
+  double pose[3] = {0.05, -0.02, 0.1}, poses[3 * (MPC_N + 1)], velocities[3 * (MPC_N + 1)];
+  double last[3] = {0.0, 0.0, 0.0}, out[4096];
+  int k, i, solved = 0;
+  mpc_tick* tick = mpc_tick_new(1000, 0);
+  if (!tick) return 2;
+  mpc_tick_reset(tick, last);
+  counting = 1;
+  for (k = 0; k < 200; k++) {
+    for (i = 0; i <= MPC_N; i++) {  /* a line at 0.4 m/s, turning its heading slowly */
+      double t = 0.05 * (k + i);
+      poses[3 * i] = 0.4 * t; poses[3 * i + 1] = 0.0; poses[3 * i + 2] = 0.2 * t;
+      velocities[3 * i] = 0.4; velocities[3 * i + 1] = 0.0; velocities[3 * i + 2] = 0.2;
+    }
+    solved += mpc_tick_step(tick, pose, poses, velocities, out) == 0;
+    pose[0] += 0.05 * out[6]; pose[2] += 0.05 * out[8];
+  }
+  counting = 0;
+  mpc_tick_free(tick);
+  printf("%ld %d\n", allocations, solved);
+  return 0;
+}
+"""
+
+
+def test_the_compiled_step_allocates_nothing(tmp_path: Path) -> None:
+    """The generated sources and tick.c built with malloc, calloc and realloc wrapped (daqp's
+    static library included): 200 steps after mpc_tick_new allocate nothing."""
+    compiler = shutil.which("gcc")
+    if compiler is None:
+        pytest.skip("no gcc")
+    robot = preset("mecanum")
+    controller = Controller(robot, FigureEight(1.0, 16.0), horizon=HORIZON, dt=DT)
+    assert robot.scalar_wheels is not None
+    sources = write_sources(build_graphs(controller.model, robot.scalar_wheels, DT), tmp_path)
+    (tmp_path / "harness.c").write_text(HARNESS)
+    casadi = casadi_folder()
+    wraps = [f"-Wl,--wrap={name}" for name in ("malloc", "calloc", "realloc")]
+    subprocess.run([compiler, "-O1", str(tmp_path / "harness.c"), str(sources[0]),
+                    f"-I{tmp_path}", f"-I{casadi / 'include'}", f"-L{casadi}",
+                    "-l:libdaqpstat.a", "-lm", *wraps, "-o", str(tmp_path / "harness")],
+                   check=True, capture_output=True)
+    done = subprocess.run([str(tmp_path / "harness")], check=True, capture_output=True,
+                          text=True)
+    allocations, solved = map(int, done.stdout.split())
+    assert allocations == 0
+    assert solved == 200
