@@ -238,7 +238,7 @@ int main(void) {
   double pose[3] = {0.05, -0.02, 0.1}, poses[3 * (MPC_N + 1)], velocities[3 * (MPC_N + 1)];
   double last[3] = {0.0, 0.0, 0.0}, out[4096];
   int k, i, solved = 0;
-  mpc_tick* tick = mpc_tick_new(1000, 0);
+  mpc_tick* tick = mpc_tick_init(1000, 0);
   if (!tick) return 2;
   mpc_tick_reset(tick, last);
   counting = 1;
@@ -261,7 +261,7 @@ int main(void) {
 
 def test_the_compiled_step_allocates_nothing(tmp_path: Path) -> None:
     """The generated sources and tick.c built with malloc, calloc and realloc wrapped (daqp's
-    static library included): 200 steps after mpc_tick_new allocate nothing."""
+    static library included): 200 steps after mpc_tick_init allocate nothing."""
     compiler = shutil.which("gcc")
     if compiler is None:
         pytest.skip("no gcc")

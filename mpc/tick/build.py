@@ -24,8 +24,9 @@ import casadi as ca
 from mpc.model.jit import JitError, cache_folder
 from mpc.tick.graphs import TickGraphs
 
-#: The hand-written C around the graphs.
+#: The hand-written C around the graphs, and its header (the interface).
 TICK_SOURCE = Path(__file__).with_name("tick.c")
+TICK_HEADER = Path(__file__).with_name("mpc_tick.h")
 
 #: Compiler flags (no ``-march``: the library runs where it was built and on its kind;
 #: no ``-ffast-math``: no reassociated sums). The generated graphs at -O2 (long straight
@@ -60,11 +61,16 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
         "MPC_SZ_IW": max(max(f.sz_iw() for f in functions), 1),
         "MPC_SZ_W": max(max(f.sz_w() for f in functions), 1),
     }
+    offsets = ", ".join(f"{value!r}" for value in graphs.offsets)
     config = ["/* Sizes of the generated tick (mpc/tick/build.py). */",
               "#ifndef MPC_TICK_CONFIG_H", "#define MPC_TICK_CONFIG_H",
-              *(f"#define {name} {value}" for name, value in sizes.items()), "#endif", ""]
+              *(f"#define {name} {value}" for name, value in sizes.items()),
+              "/* the control tick [s]; each stage's start from the window's [s] */",
+              f"#define MPC_DT {graphs.tick!r}",
+              f"#define MPC_STAGE_OFFSETS {{{offsets}}}", "#endif", ""]
     (folder / "mpc_tick_config.h").write_text("\n".join(config))
     shutil.copyfile(TICK_SOURCE, folder / "tick.c")
+    shutil.copyfile(TICK_HEADER, folder / "mpc_tick.h")
     return [folder / f"{GRAPHS_NAME}.c", folder / "tick.c"]
 
 

@@ -82,7 +82,9 @@ class TickGraphs:
         finish: ``(step n, flag 1, carry k, last 3, plan 3 x N, memory 2) ->
             (status 1, twist 3, wheel_speeds w, clamped 1, poses 3 x N+1, next_plan 3 x N,
             next_memory 2)``; ``memory`` is (failures in a row, whether a plan is kept).
-        horizon, variables (n = 3 N), rows (m), wheels (w), carry (k).
+        horizon, variables (n = 3 N), rows (m), wheels (w), carry (k); offsets: each
+        stage's start from the window's [s] (N+1), where the reference is sampled; tick:
+        the control tick [s].
     """
 
     prepare: ca.Function
@@ -94,6 +96,8 @@ class TickGraphs:
     rows: int
     wheels: int
     carry: int
+    offsets: tuple[float, ...] = ()  # each stage's start from the window's [s] (N+1)
+    tick: float = 0.0  # the control tick [s]
 
 
 def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> TickGraphs:
@@ -158,7 +162,7 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
 
     finish = _finish(model, wheels, tick, size, carry.shape[0])
     return TickGraphs(prepare, whiten, unwhiten, finish, n, size, m, len(wheels.limits),
-                      carry.shape[0])
+                      carry.shape[0], tuple(float(x) for x in model.offsets), float(tick))
 
 
 def _parameters(layout: object, values: dict[str, ca.SX]) -> ca.SX:

@@ -57,15 +57,15 @@ class NativeTick:
     def __init__(self, library: Path, graphs: TickGraphs, max_iter: int,
                  budgeted: bool) -> None:
         lib = ctypes.CDLL(str(library))
-        lib.mpc_tick_new.restype = ctypes.c_void_p
-        lib.mpc_tick_new.argtypes = [ctypes.c_int, ctypes.c_int]
+        lib.mpc_tick_init.restype = ctypes.c_void_p
+        lib.mpc_tick_init.argtypes = [ctypes.c_int, ctypes.c_int]
         lib.mpc_tick_free.argtypes = [ctypes.c_void_p]
         lib.mpc_tick_reset.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
         lib.mpc_tick_step.argtypes = [ctypes.c_void_p] + [ctypes.c_void_p] * 4
         lib.mpc_tick_step.restype = ctypes.c_int
         if lib.mpc_tick_output_size() != output_size(graphs):
             raise RuntimeError("the compiled tick's output layout differs from the graphs'")
-        handle = lib.mpc_tick_new(int(max_iter), int(budgeted))
+        handle = lib.mpc_tick_init(int(max_iter), int(budgeted))
         if not handle:
             raise RuntimeError("the compiled tick could not set daqp up")
         self._lib, self._handle = lib, handle

@@ -4,7 +4,7 @@
  *
  * daqp is set up once (Hessian the identity: the graphs hand it whitened rows), and each
  * tick gets new rows, gradient and bounds (update_ldp) and its last active set back
- * (activate_constraints): a warm start, with no allocation after mpc_tick_new. A failed
+ * (activate_constraints): a warm start, with no allocation after mpc_tick_init. A failed
  * tick drops the active set (the Python path's solver.reset()); a tick that failed from
  * the cold guess is solved once more from the last command held, unless a budget was
  * given (the Python controller's rule). Everything the caller needs comes out in one
@@ -16,7 +16,7 @@
 #include <daqp/api.h>
 #include <daqp/utils.h>
 
-#include "mpc_tick_config.h"
+#include "mpc_tick.h"
 #include "mpc_tick_graphs.h"
 
 #define MPC_COLD 0.0
@@ -24,7 +24,7 @@
 #define MPC_HOLD 2.0
 #define MPC_UNPLANNED (-1000.0)
 
-typedef struct {
+struct mpc_tick {
   /* state carried between ticks */
   double last[3];
   double plan[3 * MPC_N];
@@ -51,16 +51,10 @@ typedef struct {
   double* out[MPC_SZ_RES];
   casadi_int iw[MPC_SZ_IW];
   double w[MPC_SZ_W];
-} mpc_tick;
+};
 
-/* Layout of mpc_tick_step's output array. */
-enum { OUT_STATUS, OUT_FLAG, OUT_ITERATIONS, OUT_SOLVE_TIME, OUT_CLAMPED, OUT_FAILURES,
-       OUT_TWIST };
-#define OUT_SPEEDS (OUT_TWIST + 3)
-#define OUT_POSES (OUT_SPEEDS + MPC_W)
-#define OUT_SIZE (OUT_POSES + 3 * (MPC_N + 1))
 
-int mpc_tick_output_size(void) { return OUT_SIZE; }
+int mpc_tick_output_size(void) { return MPC_OUT_SIZE; }
 
 /* daqp with no active row: the next solve starts cold. */
 static void qp_cold(mpc_tick* t) {
@@ -68,7 +62,7 @@ static void qp_cold(mpc_tick* t) {
   t->qp_cold = 1;
 }
 
-mpc_tick* mpc_tick_new(int max_iter, int budgeted) {
+mpc_tick* mpc_tick_init(int max_iter, int budgeted) {
   mpc_tick* t = (mpc_tick*)calloc(1, sizeof(mpc_tick));
   int i;
   c_float setup_time = 0;
@@ -271,14 +265,14 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   memcpy(t->last, t->twist, sizeof(t->last));
   memcpy(t->plan, t->plan_next, sizeof(t->plan));
   memcpy(t->memory, t->memory_next, sizeof(t->memory));
-  out[OUT_STATUS] = t->status;
-  out[OUT_FLAG] = flag;
-  out[OUT_ITERATIONS] = iterations;
-  out[OUT_SOLVE_TIME] = seconds;
-  out[OUT_CLAMPED] = t->clamped;
-  out[OUT_FAILURES] = t->memory[0];
-  memcpy(out + OUT_TWIST, t->twist, sizeof(t->twist));
-  memcpy(out + OUT_SPEEDS, t->speeds, sizeof(t->speeds));
-  memcpy(out + OUT_POSES, t->poses, sizeof(t->poses));
+  out[MPC_OUT_STATUS] = t->status;
+  out[MPC_OUT_FLAG] = flag;
+  out[MPC_OUT_ITERATIONS] = iterations;
+  out[MPC_OUT_SOLVE_TIME] = seconds;
+  out[MPC_OUT_CLAMPED] = t->clamped;
+  out[MPC_OUT_FAILURES] = t->memory[0];
+  memcpy(out + MPC_OUT_TWIST, t->twist, sizeof(t->twist));
+  memcpy(out + MPC_OUT_SPEEDS, t->speeds, sizeof(t->speeds));
+  memcpy(out + MPC_OUT_POSES, t->poses, sizeof(t->poses));
   return (int)t->status;
 }
