@@ -105,8 +105,12 @@ class CompiledTick:
                                  controller.delay_ticks, controller.command_ramp, time_limit)
         self._controller = controller
         graphs = build_graphs(controller.model, wheels, controller.dt)
+        #: The tick's graphs (:func:`~mpc.tick.graphs.build_graphs`).
+        self.graphs = graphs
         iterations = 1000 if max_iter is None else int(max_iter)
         budgeted = max_iter is not None
+        #: daqp's iteration limit, and whether it was chosen (no second solve then).
+        self.max_iter, self.budgeted = iterations, budgeted
         runner: TickRunner | None = None
         #: Why the compiled library is not used (None when it is, or was not asked for).
         self.compile_error: str | None = None
