@@ -14,6 +14,7 @@ import pytest
 from tick_loop import DT, HORIZON, Broken, record
 
 import mpc
+import mpc.tick.build
 from mpc import Controller, ControllerError, Status
 from mpc.control.lookahead import Lookahead
 from mpc.robots import preset
@@ -80,3 +81,30 @@ def test_export_needs_the_compiled_tick(tmp_path: Path) -> None:
     controller = Controller(preset("mecanum"), FigureEight(1.0, 16.0), horizon=HORIZON)
     with pytest.raises(ControllerError, match="compiled=True"):
         mpc.export_c(controller, tmp_path)
+
+
+def test_the_exported_library_runs_clean_under_the_sanitizers(tmp_path: Path) -> None:
+    """main.c, tick.c and the generated graphs built with AddressSanitizer and
+    UndefinedBehaviorSanitizer (any report fatal) run 200 ticks beyond the limits clean."""
+    trajectory = FigureEight(1.0, 6.0, heading="tangent")
+    controller = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
+                            compiled="virtual-machine")
+    source = mpc.export_c(controller, tmp_path / "src")
+    casadi = Path(mpc.tick.build.casadi_folder())
+    program = tmp_path / "sanitized"
+    built = subprocess.run(
+        ["gcc", "-g", "-O0", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
+         *(str(source / name) for name in ("main.c", "tick.c", "mpc_tick_graphs.c")),
+         f"-I{source}", f"-I{casadi / 'include'}", f"-L{casadi}", "-l:libdaqpstat.a", "-lm",
+         "-o", str(program)], capture_output=True, text=True)
+    if built.returncode != 0:
+        pytest.skip(f"no sanitizer runtime here: {built.stderr.strip()[-200:]}")
+    windows = _windows(trajectory, 200)
+    pose = trajectory.sample(0.0).pose + np.array([0.1, 0.0, 0.1])
+    lines = [" ".join(repr(float(value)) for value in
+                      np.concatenate([pose, window.ravel(), velocities.ravel()]))
+             for window, velocities in windows]
+    done = subprocess.run([str(program)], input="\n".join(lines) + "\n", capture_output=True,
+                          text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "runtime error" not in done.stderr and len(done.stdout.splitlines()) == 200
