@@ -7,6 +7,7 @@ and the controllers it does not cover refused by name."""
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 from pathlib import Path
@@ -15,6 +16,8 @@ import numpy as np
 import pytest
 from tick_loop import DT, HORIZON, TICKS, Broken, hessian_every_tick, record
 
+import benchmarks.perf as perf
+from benchmarks.cli import main
 from mpc import Command, Controller, ControllerError, Status
 from mpc.robots import preset
 from mpc.tick import UnsupportedTickError
@@ -224,3 +227,31 @@ def test_the_compiled_step_allocates_nothing(tmp_path: Path) -> None:
     allocations, solved = map(int, done.stdout.split())
     assert allocations == 0
     assert solved == 200
+
+
+def test_perf_shows_the_compiled_tick_beside_the_others(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch,
+                                                        capsys: pytest.CaptureFixture[str]
+                                                        ) -> None:
+    """``mpc-bench perf --sections compiled``: rows of the compiled tick, the Python tick,
+    the virtual machine and the IPOPT path on the same ticks, with their ratios; a layout
+    it does not cover is skipped with one line (at N = 8 here, for a quick build)."""
+    monkeypatch.setattr(perf, "REFERENCE_HORIZON", HORIZON)
+    assert main(["perf", "--sections", "compiled", "--layouts", "mecanum,swerve",
+                 "--speeds", "beyond", "--ipopt-ticks", "20", "--peer-rounds", "1",
+                 "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "swerve   beyond  skipped: compiled tick: robot 'swerve'" in out
+    rows = [row for row in json.loads((tmp_path / "perf.json").read_text())["rows"]
+            if row["section"] == "compiled"]
+    assert {row["solver"] for row in rows} == {"compiled", "python", "virtual-machine",
+                                               "ipopt"}
+    by = {row["solver"]: row for row in rows}
+    assert by["compiled"]["tick_path"] == "compiled"
+    assert by["virtual-machine"]["tick_path"] == "virtual-machine"
+    assert by["ipopt"]["ipopt_over_compiled_tick"] == pytest.approx(
+        by["ipopt"]["tick_p50"] / by["compiled"]["tick_p50"])
+    assert all(row["limit_violations"] == 0 and row["accel_violations"] == 0 for row in rows)
+    # the same plan on the same ticks: the compiled tick and its virtual machine agree
+    assert by["compiled"]["rms_position_error"] == pytest.approx(
+        by["virtual-machine"]["rms_position_error"], rel=1e-9)
