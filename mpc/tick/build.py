@@ -30,8 +30,8 @@ TICK_HEADER = Path(__file__).with_name("mpc_tick.h")
 
 #: Compiler flags (no ``-march``: the library runs where it was built and on its kind;
 #: no ``-ffast-math``: no reassociated sums). The generated graphs at -O2 (long straight
-#: code: -O3 only compiles longer); ``tick.c``'s loops at -O3 (vectorised: its Cholesky
-#: factor and inverse ran about 1.5x quicker than at -O2).
+#: code: -O3 only compiles longer); ``tick.c``'s loops at -O3 (vectorised; measured in
+#: docs/guide/compiled-tick.md).
 FLAGS = ("-O2", "-fPIC")
 LOOP_FLAGS = ("-O3", "-fPIC")
 

@@ -17,10 +17,10 @@ speed and acceleration rows (:func:`~mpc.robots.drive.motor_limits.stage_limits`
 condensed by :class:`~mpc.solvers.condensed.Condenser`) with their bounds on the step.
 
 The Cholesky factor ``H = L L'`` and ``L^{-1}`` are the one step not written as a graph:
-as SX expressions they are ~150k instructions at N = 20 that gcc took minutes to
-compile, CasADi's MX has no Cholesky node, and its triangular solve against the identity
-ran ~300 us; ``tick.c`` has both as two short loops, the virtual-machine path takes
-LAPACK's (as :mod:`mpc.solvers.dense` does).
+written out as SX expressions they grow as N^3 and compile far too slowly, CasADi's MX
+has no Cholesky node, and its triangular solve against the identity was slow
+(docs/guide/compiled-tick.md); ``tick.c`` has both as two short loops, the
+virtual-machine path takes LAPACK's (as :mod:`mpc.solvers.dense` does).
 
 ``whiten`` and ``unwhiten`` (MX: sparse products generate as loops): the QP in whitened
 steps ``y = L' d`` that daqp gets (Hessian the identity), and the step ``d = L^{-T} y``.
@@ -234,8 +234,8 @@ def _hessian_block() -> ca.Function:
     """Block ``(i, j)`` of the condensed Hessian's sum (see :func:`_condensed_hessian`):
     ``(C_i, C_j, b_i, b_j, sum Q, sum Q u, sum u'Q u) -> C_i' A C_j + C_i' q r_j +
     r_i' q' C_j + c r_i' r_j``. Kept a function of its own in the generated C (called,
-    not inlined: N (N+1) / 2 calls of one small function compile in seconds where the
-    blocks written out took minutes)."""
+    not inlined: N (N+1) / 2 calls of one small function compile much quicker than the
+    blocks written out)."""
     left, right = ca.SX.sym("left", 3, 3), ca.SX.sym("right", 3, 3)
     b_left, b_right = ca.SX.sym("b_left"), ca.SX.sym("b_right")
     a, q, c = ca.SX.sym("a", 3, 3), ca.SX.sym("q", 3), ca.SX.sym("c")
