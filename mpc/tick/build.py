@@ -74,8 +74,9 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
     return [folder / f"{GRAPHS_NAME}.c", folder / "tick.c"]
 
 
-def compiled_library(graphs: TickGraphs) -> Path:
-    """The tick's shared library: from the cache if built before, else compiled now.
+def compiled_library(graphs: TickGraphs) -> tuple[Path, bool]:
+    """The tick's shared library, and whether it is a private copy the caller removes once
+    loaded (no cache): from the cache if built before, else compiled now.
 
     Raises:
         JitError: no C compiler works (the message has the command and what it printed).
@@ -88,16 +89,16 @@ def compiled_library(graphs: TickGraphs) -> Path:
         folder = cache_folder()
         cached = None if folder is None else folder / f"mpc_tick-{key}.so"
         if cached is not None and cached.is_file():
-            return cached
+            return cached, False
         library = build / "mpc_tick.so"
         _compile(compiler, sources, build, library)
         if cached is not None and _keep(library, cached):
-            return cached
+            return cached, False
         # no cache (or it cannot be written): a private copy that outlives the build
         handle, name = tempfile.mkstemp(prefix="mpc_tick-", suffix=".so")
         os.close(handle)
         shutil.copyfile(library, name)
-        return Path(name)
+        return Path(name), True
     finally:
         shutil.rmtree(build, ignore_errors=True)
 

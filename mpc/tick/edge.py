@@ -116,7 +116,12 @@ class CompiledTick:
         self.compile_error: str | None = None
         if compiled is True:
             try:
-                runner = NativeTick(compiled_library(graphs), graphs, iterations, budgeted)
+                library, private = compiled_library(graphs)
+                try:
+                    runner = NativeTick(library, graphs, iterations, budgeted)
+                finally:
+                    if private:  # (loaded: the file is no longer needed)
+                        library.unlink(missing_ok=True)
             except (JitError, OSError) as error:
                 self.compile_error = str(error)
                 log.info("compiled tick: no compiler works (%s); the virtual machine runs it",
