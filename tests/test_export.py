@@ -24,9 +24,13 @@ pytestmark = pytest.mark.skipif(shutil.which("cmake") is None or shutil.which("g
                                 reason="needs cmake and gcc")
 
 
-def _built(trajectory: Trajectory, folder: Path) -> Path:
-    controller = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
-                            compiled="virtual-machine")
+@pytest.fixture(scope="module")
+def program(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The exported Mecanum controller's example program, built with CMake (once: the
+    reference is the caller's, so every test's trajectory runs on it)."""
+    folder = tmp_path_factory.mktemp("export")
+    controller = Controller(preset("mecanum"), FigureEight(1.0, 16.0), horizon=HORIZON,
+                            dt=DT, compiled="virtual-machine")
     source = mpc.export_c(controller, folder / "src")
     for name in ("mpc_tick.h", "mpc_tick_graphs.c", "tick.c", "CMakeLists.txt", "README.md",
                  "main.c"):
@@ -57,9 +61,8 @@ def _windows(trajectory: Trajectory, ticks: int) -> list[tuple[np.ndarray, np.nd
                                         Broken(1.0, 16.0, heading="tangent")],
                          ids=["beyond", "reference fails"])
 def test_the_exported_library_gives_the_python_commands(trajectory: Trajectory,
-                                                         tmp_path: Path) -> None:
+                                                         program: Path) -> None:
     poses, expected = record("mecanum", trajectory)
-    program = _built(trajectory, tmp_path)
     lines = []
     for pose, (window, velocities) in zip(poses, _windows(trajectory, len(poses)),
                                           strict=True):
