@@ -23,6 +23,9 @@ are shared and noisy; absolute times are what this machine did while it ran. Sec
    frozen out of the garbage collector's scans meanwhile (``gc.freeze``): all of them are
    alive at once, as they would not be in a robot's program. Skipped with one line when
    do-mpc is not installed.
+5. ``compiled`` (only when named): the compiled tick (``Controller(compiled=True)``) beside
+   the Python tick, its virtual-machine path and the IPOPT path, on the layouts it
+   supports, inside and beyond the limits (:mod:`benchmarks.compiled_tick`).
 
 Times [s] in ``perf.json``, printed in ms or us. ``tick`` is the whole ``step()``
 (``Command.tick_time``); ``solve`` the solver's own time (daqp and OSQP: their reported
@@ -48,6 +51,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from benchmarks import peers
+from benchmarks.compiled_tick import compiled_section
 from benchmarks.options import add_list_option
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
@@ -87,6 +91,9 @@ PEER_ROUNDS = 3
 #: A scenario's tick p99 above this is flagged [s].
 P99_LIMIT = 1e-3
 SECTIONS: tuple[str, ...] = ("profile", "horizons", "scenarios", "peers")
+#: Sections run only when named (``--sections compiled``): the compiled tick compiles its
+#: library the first time (tens of seconds at N = 20; cached after).
+OPTIONAL_SECTIONS: tuple[str, ...] = ("compiled",)
 #: Environment variables that set how many threads NumPy's BLAS uses (kept in perf.json).
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 #: Errors leave out up to this much of a run's start [s].
@@ -702,7 +709,8 @@ def _commit() -> str | None:
 def _parser() -> Parser:
     parser = Parser(prog="mpc-bench perf", description=__doc__.split("\n")[0])
     add_list_option(parser, "--sections",
-                    help=f"comma list of {', '.join(SECTIONS)} (default: all)")
+                    help=f"comma list of {', '.join((*SECTIONS, *OPTIONAL_SECTIONS))} "
+                         f"(default: {', '.join(SECTIONS)})")
     add_list_option(parser, "--horizons", help="horizons of the horizons section (10,20,50,100)")
     parser.add_argument("--profile-horizons",
                         help="horizons the tick is split into phases at (20)")
@@ -745,7 +753,8 @@ def _parser() -> Parser:
 
 def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
-    sections = choose("--sections", "section", args.sections, SECTIONS)
+    sections = choose("--sections", "section", args.sections,
+                      (*SECTIONS, *OPTIONAL_SECTIONS), SECTIONS)
     horizons = _integers("--horizons", args.horizons or ("10,20" if args.quick
                                                          else "10,20,50,100"))
     profile_horizons = _integers("--profile-horizons",
@@ -800,6 +809,13 @@ def main(argv: list[str]) -> int:
     if "peers" in sections:
         say(f"\n== 4. peers: {FAST}, the IPOPT path and do-mpc on the same problem and ticks ==")
         peer = peers_section(ipopt_ticks, say, rounds)
+    compiled_rows = None
+    if "compiled" in sections:
+        say("\n== 5. compiled tick: Controller(compiled=True) beside the Python tick, its "
+            "virtual machine and the IPOPT path ==")
+        compiled_rows = compiled_section(
+            layouts, speeds, REFERENCE_SHAPE, REFERENCE_HEADING,
+            REFERENCE_HORIZON, DT, ipopt_ticks, rounds, reference, _run, _row, _settle, say)
     first = next((row for row in horizon_rows or []
                   if row["solver"] == FAST and row["horizon"] == REFERENCE_HORIZON), None)
     if first is not None:  # the same run again: how much the machine moved meanwhile
@@ -813,7 +829,8 @@ def main(argv: list[str]) -> int:
     summary = summarise(horizon_rows or [], scenario_rows or [], peer, drift, jit)
     say()
     _print_summary(summary, say)
-    rows = [*(horizon_rows or []), *(scenario_rows or []), *((peer or {}).get("rows", []))]
+    rows = [*(horizon_rows or []), *(scenario_rows or []), *((peer or {}).get("rows", [])),
+            *(compiled_rows or [])]
     document = {
         "command": command,
         "commit": commit,

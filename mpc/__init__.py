@@ -36,6 +36,7 @@ logging.getLogger("mpc").addHandler(logging.NullHandler())
 if TYPE_CHECKING:
     from mpc.control import SOLVERS, Command, Controller, Status
     from mpc.model.weights import Weights
+    from mpc.tick.export import export_c
 
 _LAZY = {
     "SOLVERS": "mpc.control",
@@ -43,6 +44,7 @@ _LAZY = {
     "Controller": "mpc.control",
     "Status": "mpc.control",
     "Weights": "mpc.model.weights",
+    "export_c": "mpc.tick.export",
 }
 
 __all__ = [
@@ -57,6 +59,7 @@ __all__ = [
     "Status",
     "TrajectoryError",
     "Weights",
+    "export_c",
 ]
 
 

@@ -18,7 +18,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("mpc.robots",),
     ("mpc.model", "trajectories"),
     ("mpc.solvers",),
-    ("mpc.control",),
+    ("mpc.control", "mpc.tick"),
     ("mpc.sim", "mpc.adapters"),
     ("mpc.simulation", "mpc.plot"),
     ("mpc",),

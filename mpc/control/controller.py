@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -49,6 +50,9 @@ from mpc.validation import (
     integer_in,
 )
 from trajectories import Trajectory, TrajectoryError
+
+if TYPE_CHECKING:
+    from mpc.tick import CompiledTick
 
 __all__ = ["DEFAULT_POLYGON_SIDES", "MEASURED_SLACK", "MODES", "SOLVERS", "Controller"]
 
@@ -138,6 +142,13 @@ class Controller:
             (:mod:`mpc.plausibility`). Without it they raise ControllerError. A heading
             is used modulo whole turns, so wrapping a multi-turn one
             (``math.remainder(theta, 2 * math.pi)``) changes no command.
+        compiled: run the tick as one program (:mod:`mpc.tick`, opt-in; constant-Jacobian
+            robots, time mode, ``solver="daqp"`` for now, else a ControllerError naming what
+            is supported): ``True`` compiles it to C (seconds the first time, then cached)
+            and runs CasADi's virtual machine where no compiler works;
+            ``"virtual-machine"`` runs the virtual machine. The same commands as the Python
+            tick with its Hessian rebuilt every tick (docs/guide/compiled-tick.md).
+            :attr:`tick_path` says which path runs.
     """
 
     @checked_arguments(ControllerError)
@@ -161,6 +172,7 @@ class Controller:
         time_scaling: bool | None = None,
         jit: bool | str = False,
         allow_unusual: bool = False,
+        compiled: bool | str = False,
     ) -> None:
         if not isinstance(robot, Robot):
             raise ControllerError(f"robot must be an mpc.robots.Robot, got {type(robot).__name__}")
@@ -206,8 +218,21 @@ class Controller:
         self._delay = DelayCompensator(self.delay_ticks, self.dt, self.command_ramp)
         self._last = np.zeros(3)  # the last command's twist; reset() sets these
         self._steer: FloatArray | None = None  # steered wheels' commanded angles [rad]
+        self._compiled: CompiledTick | None = None  # the tick as one program (mpc.tick)
         self._set_reference(trajectory)
         self.reset()
+        if compiled is not False:
+            from mpc.tick import CompiledTick, check_compiled
+
+            check_compiled(compiled)
+            self._compiled = CompiledTick(self, compiled, max_iter, time_limit)
+            self._compiled.reset(self._last)
+
+    @property
+    def tick_path(self) -> str:
+        """What runs :meth:`step`: ``"python"`` (the default), ``"compiled"`` or
+        ``"virtual-machine"`` (``compiled=``)."""
+        return "python" if self._compiled is None else self._compiled.path
 
     @property
     def profile(self) -> TickProfile | None:
@@ -287,6 +312,8 @@ class Controller:
         self._fallback.reset()
         self._timing.reset()
         self.solver.reset()
+        if self._compiled is not None:
+            self._compiled.reset(last)
 
     @checked_arguments(ControllerError)
     def step(self, pose: ArrayLike, t: float, steer_angles: ArrayLike | None = None) -> Command:
@@ -299,6 +326,10 @@ class Controller:
                 measured steer angles [rad], shape (n,). Other robots: must be None (swerve
                 modules follow the controller's own commanded angles).
         """
+        if self._compiled is not None:
+            command = self._compiled.step(pose, t, steer_angles)
+            self._last = command.twist
+            return command
         start = time.perf_counter()
         profile = self._profile
         if profile is not None:

@@ -1,0 +1,200 @@
+"""The compiled tick behind :meth:`Controller.step <mpc.control.Controller.step>`: Python
+only at the edges (the checks at the front door, the reference sampled from the
+trajectory, the :class:`~mpc.control.command.Command` built, the log), every number in
+between from the tick's graphs (:mod:`mpc.tick.graphs`), compiled (:class:`NativeTick`)
+or in CasADi's virtual machine (:class:`VirtualTick`).
+
+``Controller(..., compiled=True)`` runs the compiled library where a C compiler works and
+the virtual machine where none does; ``compiled="virtual-machine"`` the virtual machine
+always. :attr:`CompiledTick.path` (``Controller.tick_path``) says which.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from mpc.arrays import FloatArray
+from mpc.control.command import Command, Status
+from mpc.control.lookahead import Lookahead
+from mpc.control.measurements import check_pose, check_steer_angles, check_time
+from mpc.errors import ControllerError
+from mpc.model.jit import JitError
+from mpc.model.tracking import TrackingModel
+from mpc.plausibility import check_heading
+from mpc.robots.base import Robot
+from mpc.solvers import TrackingSolver
+from mpc.tick.build import compiled_library
+from mpc.tick.graphs import UNPLANNED, build_graphs
+from mpc.tick.runners import (
+    CLAMPED,
+    FAILURES,
+    FLAG,
+    ITERATIONS,
+    SOLVE_TIME,
+    STATUS,
+    TWIST,
+    NativeTick,
+    TickRunner,
+    VirtualTick,
+)
+from mpc.tick.support import check_supported
+from trajectories import Trajectory, TrajectoryError
+
+
+class Owner(Protocol):
+    """What the tick reads of its :class:`~mpc.control.Controller` (not imported: the
+    controller imports this module)."""
+
+    robot: Robot
+    model: TrackingModel
+    dt: float
+    mode: str
+    delay_ticks: int
+    command_ramp: bool
+    allow_unusual: bool
+
+    @property
+    def solver(self) -> TrackingSolver: ...
+
+    @property
+    def trajectory(self) -> Trajectory: ...
+
+#: ``compiled=`` values: the Python tick, the compiled one (the virtual machine where no
+#: compiler works), the virtual machine.
+COMPILED_CHOICES: tuple[object, ...] = (False, True, "virtual-machine")
+
+#: Fallbacks starting and ending (the same log as the Python tick's).
+log = logging.getLogger("mpc.control")
+
+_STATUSES = (Status.SOLVED, Status.PREVIOUS_PLAN, Status.FEEDFORWARD, Status.STOPPING)
+_SOLVER_STATUS = {1: "solved", 2: "solved (soft)", -1: "infeasible", -2: "cycling",
+                  -3: "unbounded", -4: "maximum iterations reached", -5: "nonconvex",
+                  -6: "initial point infeasible"}
+
+
+def check_compiled(compiled: object) -> None:
+    """``compiled`` one of :data:`COMPILED_CHOICES`, else ControllerError."""
+    if not any(compiled is choice or (isinstance(choice, str) and compiled == choice)
+               for choice in COMPILED_CHOICES):
+        raise ControllerError(f"compiled must be False, True or 'virtual-machine', got "
+                              f"{compiled!r}")
+
+
+class CompiledTick:
+    """The tick of ``controller`` (built by it) run by the graphs.
+
+    Args:
+        controller: the controller whose model, robot, settings and trajectory it runs.
+        compiled: True (compiled where a C compiler works, else the virtual machine) or
+            ``"virtual-machine"``.
+        max_iter: daqp iterations per solve at most (None: 1000, as the Python tick).
+        time_limit: must be 0 (the casadi wheel's daqp has no time limit).
+    """
+
+    def __init__(self, controller: Owner, compiled: bool | str, max_iter: int | None,
+                 time_limit: float) -> None:
+        check_compiled(compiled)
+        robot = controller.robot
+        wheels = check_supported(robot, controller.solver.name, controller.mode,
+                                 controller.delay_ticks, controller.command_ramp, time_limit)
+        self._controller = controller
+        graphs = build_graphs(controller.model, wheels, controller.dt)
+        #: The tick's graphs (:func:`~mpc.tick.graphs.build_graphs`).
+        self.graphs = graphs
+        iterations = 1000 if max_iter is None else int(max_iter)
+        budgeted = max_iter is not None
+        #: daqp's iteration limit, and whether it was chosen (no second solve then).
+        self.max_iter, self.budgeted = iterations, budgeted
+        runner: TickRunner | None = None
+        #: Why the compiled library is not used (None when it is, or was not asked for).
+        self.compile_error: str | None = None
+        if compiled is True:
+            try:
+                library, private = compiled_library(graphs)
+                try:
+                    runner = NativeTick(library, graphs, iterations, budgeted)
+                finally:
+                    if private:  # (loaded: the file is no longer needed)
+                        library.unlink(missing_ok=True)
+            except (JitError, OSError) as error:
+                self.compile_error = str(error)
+                log.info("compiled tick: no compiler works (%s); the virtual machine runs it",
+                         error)
+        self._runner: TickRunner = runner or VirtualTick(graphs, iterations, budgeted)
+        self._wheels = graphs.wheels
+        self._horizon = graphs.horizon
+        self._trajectory: Trajectory | None = None
+        self._lookahead: Lookahead | None = None
+        self._first_tick = True
+        self._failures = 0
+
+    @property
+    def path(self) -> str:
+        """``"compiled"`` or ``"virtual-machine"``: what runs the tick."""
+        return self._runner.path
+
+    def reset(self, last: FloatArray) -> None:
+        """Forget the plan, failures and active set; ``last`` (3,) the twist executing
+        (the controller's, checked and scaled into the limits by its ``reset``)."""
+        self._runner.reset(np.asarray(last, dtype=float))
+        self._first_tick = not np.asarray(last).any()
+        self._failures = 0
+
+    def _window(self, t: float) -> tuple[FloatArray, FloatArray, str | None]:
+        """The reference's poses and world velocities at the stage times (N+1, 3), NaN with
+        the reason when the trajectory cannot be sampled there."""
+        controller = self._controller
+        trajectory = controller.trajectory
+        if trajectory is not self._trajectory or self._lookahead is None:
+            self._trajectory = trajectory
+            self._lookahead = Lookahead(trajectory, controller.model.offsets, controller.dt)
+        try:
+            poses, velocities = self._lookahead.window(t)
+        except TrajectoryError as error:  # the reference, not the caller: fall back
+            nan = np.full((self._horizon + 1, 3), math.nan)
+            return nan, nan.copy(), f"reference failed: {error}"
+        return poses, velocities, None
+
+    def step(self, pose: ArrayLike, t: float, steer_angles: ArrayLike | None = None) -> Command:
+        """One tick (see :meth:`Controller.step <mpc.control.Controller.step>`)."""
+        start = time.perf_counter()
+        controller = self._controller
+        measured = check_pose(pose, controller.allow_unusual)
+        t_now = check_time(t)
+        check_steer_angles(controller.robot, steer_angles)
+        poses, velocities, failure = self._window(t_now)
+        if failure is None and self._first_tick:
+            check_heading("pose", float(measured[2]), float(poses[0, 2]),
+                          controller.allow_unusual, ControllerError)
+            self._first_tick = False
+        out = self._runner.step(measured, poses, velocities)
+        status = _STATUSES[int(out[STATUS])]
+        flag = int(out[FLAG])
+        failures = int(out[FAILURES])
+        self._log(failures, failure or _SOLVER_STATUS.get(flag, f"daqp exit flag {flag}"))
+        speeds = TWIST + 3
+        twist = out[TWIST:speeds].copy()
+        plan = out[speeds + self._wheels:].reshape(self._horizon + 1, 3).copy()
+        return Command(
+            wheel_speeds=out[speeds:speeds + self._wheels].copy(), twist=twist,
+            steer_angles=None, predicted_poses=plan, status=status,
+            solver_status=(failure if flag == UNPLANNED and failure
+                           else _SOLVER_STATUS.get(flag, f"daqp exit flag {flag}")),
+            solve_time=float(out[SOLVE_TIME]), tick_time=time.perf_counter() - start,
+            iterations=int(out[ITERATIONS]), consecutive_failures=failures,
+            clamped=bool(out[CLAMPED]), reference_time=t_now, lag=0.0)
+
+    def _log(self, failures: int, reason: str) -> None:
+        """Fallbacks starting and ending, as :class:`~mpc.control.fallback.FallbackPolicy`
+        logs them."""
+        if failures == 1:
+            log.warning("falling back: %s", reason)
+        elif failures == 0 and self._failures:
+            log.info("solved again after %d failed ticks", self._failures)
+        self._failures = failures

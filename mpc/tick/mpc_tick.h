@@ -1,0 +1,52 @@
+/* The compiled tick's interface (holonomic-mpc, mpc/tick): one controller's tick as one C
+ * program. Units: m, rad, s; twists (vx, vy, omega) in the body frame [m/s, m/s, rad/s];
+ * wheel speeds [rad/s] in the robot's wheel order. */
+#ifndef MPC_TICK_H
+#define MPC_TICK_H
+
+#include "mpc_tick_config.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct mpc_tick mpc_tick;
+
+/* Status codes (out[MPC_OUT_STATUS]), as holonomic-mpc's Command.status. */
+#define MPC_SOLVED 0        /* the QP solved: its first twist, clamped into the limits */
+#define MPC_PREVIOUS_PLAN 1 /* fallback: the last plan, read on */
+#define MPC_FEEDFORWARD 2   /* fallback: the reference's feedforward within the limits */
+#define MPC_STOPPING 3      /* fallback: a stop within the acceleration limits */
+
+/* Layout of the output array mpc_tick_step writes (MPC_OUT_SIZE numbers). */
+#define MPC_OUT_STATUS 0     /* one of the status codes */
+#define MPC_OUT_FLAG 1       /* daqp's exit flag (1, 2: solved; -1000: no reference) */
+#define MPC_OUT_ITERATIONS 2 /* daqp's iterations this tick */
+#define MPC_OUT_SOLVE_TIME 3 /* daqp's time this tick [s] */
+#define MPC_OUT_CLAMPED 4    /* 1 if the clamp changed the twist */
+#define MPC_OUT_FAILURES 5   /* failed ticks in a row, this one included */
+#define MPC_OUT_TWIST 6      /* the commanded twist (3) */
+#define MPC_OUT_SPEEDS (MPC_OUT_TWIST + 3)      /* the wheel speeds to send (MPC_W) */
+#define MPC_OUT_POSES (MPC_OUT_SPEEDS + MPC_W)  /* the plan's poses (3 (MPC_N + 1)) */
+#define MPC_OUT_SIZE (MPC_OUT_POSES + 3 * (MPC_N + 1))
+
+/* A controller (allocates everything it will use; NULL if daqp cannot be set up).
+ * max_iter: daqp iterations per solve at most; budgeted: 1 if max_iter was chosen (no
+ * second solve from the last command after a failed cold start), else 0. */
+mpc_tick* mpc_tick_init(int max_iter, int budgeted);
+void mpc_tick_free(mpc_tick* tick);
+/* Forget the plan, the failures and daqp's active set; last: the twist executing now. */
+void mpc_tick_reset(mpc_tick* tick, const double* last);
+/* One tick: the measured pose (x, y, theta), the reference's poses and world velocities
+ * (dx, dy, dtheta per second) at the stage times t + MPC_STAGE_OFFSETS, each 3 x
+ * (MPC_N + 1) with a stage's three numbers together; writes out (MPC_OUT_SIZE numbers) and
+ * returns the status. No allocation. */
+int mpc_tick_step(mpc_tick* tick, const double* pose, const double* ref_poses,
+                  const double* ref_velocities, double* out);
+int mpc_tick_output_size(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,231 @@
+"""The two ways to run the tick's graphs, behind one interface: the compiled library
+(:class:`NativeTick`: ``tick.c`` and the generated graphs, daqp's C workspace kept) and
+CasADi's virtual machine (:class:`VirtualTick`: the same graphs evaluated by CasADi, the
+QP by the daqp Python module with the same rows, kept between ticks the same way).
+
+Both write one output array a tick: status code, daqp's exit flag, iterations, solve
+time [s], clamped (0/1), failures in a row, the twist (3), the wheel speeds (w), the
+plan's poses (3 (N+1), a stage's three numbers together).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+from pathlib import Path
+from typing import Protocol
+
+import daqp
+import numpy as np
+from scipy.linalg import lapack
+
+from mpc.arrays import FloatArray
+from mpc.buffered import BufferedFunction
+from mpc.tick.graphs import COLD, HOLD, SOLVED, UNPLANNED, WARM, TickGraphs
+
+#: The output array's leading fields (then the twist, the wheel speeds, the poses).
+STATUS, FLAG, ITERATIONS, SOLVE_TIME, CLAMPED, FAILURES, TWIST = range(7)
+
+#: daqp's constraint flag of an equality row (active and immutable).
+_EQUALITY = 5
+
+
+def output_size(graphs: TickGraphs) -> int:
+    """Numbers in a tick's output array."""
+    return TWIST + 3 + graphs.wheels + 3 * (graphs.horizon + 1)
+
+
+class TickRunner(Protocol):
+    """One implementation of the tick: :attr:`path` names it."""
+
+    path: str
+
+    def reset(self, last: FloatArray) -> None:
+        """Forget the plan, failures and active set; ``last`` (3,) the twist executing."""
+
+    def step(self, pose: FloatArray, ref_poses: FloatArray,
+             ref_velocities: FloatArray) -> FloatArray:
+        """One tick (pose (3,), the window's poses and world velocities (N+1, 3)): the
+        output array (the runner's own, rewritten next tick)."""
+
+
+class NativeTick:
+    """The compiled library (:func:`~mpc.tick.build.compiled_library`), through ctypes."""
+
+    path = "compiled"
+
+    def __init__(self, library: Path, graphs: TickGraphs, max_iter: int,
+                 budgeted: bool) -> None:
+        lib = ctypes.CDLL(str(library))
+        lib.mpc_tick_init.restype = ctypes.c_void_p
+        lib.mpc_tick_init.argtypes = [ctypes.c_int, ctypes.c_int]
+        lib.mpc_tick_free.argtypes = [ctypes.c_void_p]
+        lib.mpc_tick_reset.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+        lib.mpc_tick_step.argtypes = [ctypes.c_void_p] + [ctypes.c_void_p] * 4
+        lib.mpc_tick_step.restype = ctypes.c_int
+        if lib.mpc_tick_output_size() != output_size(graphs):
+            raise RuntimeError("the compiled tick's output layout differs from the graphs'")
+        handle = lib.mpc_tick_init(int(max_iter), int(budgeted))
+        if not handle:
+            raise RuntimeError("the compiled tick could not set daqp up")
+        self._lib, self._handle = lib, handle
+        self._out = np.zeros(output_size(graphs))
+        self._pose = np.zeros(3)
+        self._step = lib.mpc_tick_step
+        self._out_pointer = self._out.ctypes.data
+        self._pose_pointer = self._pose.ctypes.data
+
+    def __del__(self) -> None:
+        handle, self._handle = getattr(self, "_handle", None), None
+        if handle:
+            self._lib.mpc_tick_free(handle)
+
+    def reset(self, last: FloatArray) -> None:
+        twist = np.ascontiguousarray(last, dtype=float)
+        self._lib.mpc_tick_reset(self._handle, twist.ctypes.data)
+
+    def step(self, pose: FloatArray, ref_poses: FloatArray,
+             ref_velocities: FloatArray) -> FloatArray:
+        self._pose[:] = pose
+        poses = np.ascontiguousarray(ref_poses, dtype=float)
+        velocities = np.ascontiguousarray(ref_velocities, dtype=float)
+        self._step(self._handle, self._pose_pointer, poses.ctypes.data,
+                   velocities.ctypes.data, self._out_pointer)
+        return self._out
+
+
+def inverse_factor(hessian: FloatArray) -> FloatArray:
+    """``L^{-1}`` (lower) of ``L`` with ``H = L L'``, by LAPACK; a Hessian that is not
+    positive definite is regularised first, as :mod:`mpc.solvers.dense` does (``tick.c``'s
+    loops do the same), and NaN if that fails too."""
+    factor, info = lapack.dpotrf(hessian, lower=1, clean=1)
+    if info != 0:
+        factor, info = lapack.dpotrf(hessian + 1e-9 * np.trace(hessian)
+                                     * np.eye(hessian.shape[0]), lower=1, clean=1)
+        if info != 0:
+            return np.full_like(hessian, math.nan)
+    inverse, _ = lapack.dtrtri(factor, lower=1, overwrite_c=1)
+    return inverse
+
+
+class VirtualTick:
+    """The graphs in CasADi's virtual machine, the Cholesky factor by LAPACK, daqp's Python
+    module for the QP (the same rows; its model kept between ticks: its active set is the
+    warm start)."""
+
+    path = "virtual-machine"
+
+    def __init__(self, graphs: TickGraphs, max_iter: int, budgeted: bool) -> None:
+        n, nv, m = graphs.horizon, graphs.variables, graphs.rows
+        self._graphs, self._budgeted = graphs, budgeted
+        self._settings = {"iter_limit": int(max_iter)}
+        self._last, self._plan = np.zeros(3), np.zeros((n, 3))
+        self._memory, self._warm = np.zeros(2), False
+        self._pose, self._poses, self._velocities = (np.zeros(3), np.zeros((n + 1, 3)),
+                                                     np.zeros((n + 1, 3)))
+        self._mode = np.zeros(1)
+        self._hessian, self._gradient = np.zeros((nv, nv)), np.zeros(nv)
+        self._inverse = np.zeros(nv * (nv + 1) // 2)  # L^{-1}'s lower triangle, packed
+        self._packed = np.triu_indices(nv)  # of X' in C order: X's lower, column by column
+        self._f, self._rows = np.zeros(nv), np.zeros((m, nv))
+        self._lower, self._upper = np.zeros(m), np.zeros(m)
+        self._carry = np.zeros(graphs.carry)
+        self._prepare_graph = BufferedFunction(
+            graphs.prepare, [self._pose, self._poses, self._velocities, self._last,
+                             self._plan, self._mode],
+            [self._hessian, self._gradient, self._lower, self._upper, self._carry])
+        self._whiten = BufferedFunction(graphs.whiten, [self._inverse, self._gradient],
+                                        [self._f, self._rows])
+        self._y, self._flag, self._step = np.zeros(nv), np.zeros(1), np.zeros(nv)
+        self._unwhiten = BufferedFunction(graphs.unwhiten, [self._inverse, self._y],
+                                          [self._step])
+        self._status, self._twist = np.zeros(1), np.zeros(3)
+        self._speeds, self._clamped = np.zeros(graphs.wheels), np.zeros(1)
+        self._plan_poses, self._next_plan = np.zeros((n + 1, 3)), np.zeros((n, 3))
+        self._next_memory = np.zeros(2)
+        self._finish = BufferedFunction(
+            graphs.finish, [self._step, self._flag, self._carry, self._last, self._plan,
+                            self._memory],
+            [self._status, self._twist, self._speeds, self._clamped, self._plan_poses,
+             self._next_plan, self._next_memory])
+        self._solver: daqp.Model | None = None
+        self._out = np.zeros(output_size(graphs))
+
+    def reset(self, last: FloatArray) -> None:
+        self._last[:] = last
+        self._plan[:] = 0.0
+        self._memory[:] = 0.0
+        self._warm = False
+        self._solver = None
+
+    def _prepare(self) -> None:
+        """``prepare``, the factor, ``whiten``: the whitened QP in ``_f``, ``_rows``,
+        ``_lower``, ``_upper``."""
+        self._prepare_graph()
+        # (H is symmetric: its C-ordered buffer is H either way)
+        self._inverse[:] = inverse_factor(self._hessian).T[self._packed]
+        self._whiten()
+
+    def _solve(self) -> tuple[int, int, float]:
+        """daqp on the rows prepare wrote (into ``_y``): exit flag, iterations, time [s]."""
+        solver = self._solver
+        if solver is None:
+            sense = np.zeros(self._upper.size, dtype=np.intc)
+            sense[self._lower == self._upper] = _EQUALITY
+            solver = daqp.Model()
+            flag, _ = solver.setup(np.eye(self._f.size), self._f, self._rows, self._upper,
+                                   self._lower, sense)
+            if flag < 0:
+                self._y[:] = math.nan
+                return int(flag), 0, 0.0
+            settings = solver.settings
+            settings.update(self._settings)
+            solver.settings = settings
+            self._solver = solver
+        else:
+            solver.update(f=self._f, bupper=self._upper, blower=self._lower, A=self._rows)
+        step, _, flag, info = solver.solve()
+        self._y[:] = step
+        return int(flag), int(info["iterations"]), float(info["solve_time"]) + float(
+            info["setup_time"])
+
+    def step(self, pose: FloatArray, ref_poses: FloatArray,
+             ref_velocities: FloatArray) -> FloatArray:
+        self._pose[:] = pose
+        self._poses[:] = ref_poses
+        self._velocities[:] = ref_velocities
+        cold = not self._warm
+        self._mode[0] = COLD if cold else WARM
+        self._prepare()
+        iterations, seconds = 0, 0.0
+        if not (math.isfinite(float(self._poses.sum()))
+                and math.isfinite(float(self._velocities.sum()))):
+            flag = int(UNPLANNED)
+            self._y[:] = math.nan
+        else:
+            flag, iterations, seconds = self._solve()
+            if not (flag > 0 and math.isfinite(float(self._y.sum()))) and cold \
+                    and not self._budgeted:
+                self._solver = None  # solve again from the last command held
+                self._mode[0] = HOLD
+                self._prepare()
+                flag, more, extra = self._solve()
+                iterations, seconds = iterations + more, seconds + extra
+        self._flag[0] = flag
+        self._unwhiten()
+        self._finish()
+        self._warm = self._status[0] == SOLVED
+        if not self._warm:
+            self._solver = None
+        self._last[:] = self._twist
+        self._plan[:] = self._next_plan
+        self._memory[:] = self._next_memory
+        out = self._out
+        out[STATUS], out[FLAG], out[CLAMPED] = self._status[0], flag, self._clamped[0]
+        out[ITERATIONS], out[SOLVE_TIME] = iterations, seconds
+        out[FAILURES] = self._memory[0]
+        speeds = TWIST + 3
+        out[TWIST:speeds] = self._twist
+        out[speeds:speeds + self._speeds.size] = self._speeds
+        out[speeds + self._speeds.size:] = self._plan_poses.ravel()
+        return out

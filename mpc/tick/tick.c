@@ -1,0 +1,278 @@
+/* The compiled tick's hand-written part: daqp's workspace kept between ticks and a dense
+ * Cholesky factor, around the generated graphs (mpc_tick_prepare, mpc_tick_whiten,
+ * mpc_tick_finish; mpc/tick/graphs.py).
+ *
+ * daqp is set up once (Hessian the identity: the graphs hand it whitened rows), and each
+ * tick gets new rows, gradient and bounds (update_ldp) and its last active set back
+ * (activate_constraints): a warm start, with no allocation after mpc_tick_init. A failed
+ * tick drops the active set (the Python path's solver.reset()); a tick that failed from
+ * the cold guess is solved once more from the last command held, unless a budget was
+ * given (the Python controller's rule). Everything the caller needs comes out in one
+ * array, the status included (a non-optimal QP never loses it). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <daqp/api.h>
+#include <daqp/utils.h>
+
+#include "mpc_tick.h"
+#include "mpc_tick_graphs.h"
+
+#define MPC_COLD 0.0
+#define MPC_WARM 1.0
+#define MPC_HOLD 2.0
+#define MPC_UNPLANNED (-1000.0)
+
+struct mpc_tick {
+  /* state carried between ticks */
+  double last[3];
+  double plan[3 * MPC_N];
+  double memory[2]; /* failures in a row, whether a plan is kept */
+  int warm;         /* the last tick solved: its plan is the next guess */
+  int qp_cold;      /* daqp starts from an empty active set */
+  int max_iter, budgeted;
+  /* prepare's and whiten's outputs (daqp reads f, rows, bounds in place) */
+  double hessian[MPC_NV * MPC_NV], gradient[MPC_NV], factor[MPC_NV * MPC_NV];
+  double inverse[MPC_NV * (MPC_NV + 1) / 2]; /* L^{-1}, its lower triangle packed */
+  double f[MPC_NV], rows[MPC_NV * MPC_M], lower[MPC_M], upper[MPC_M], carry[MPC_CARRY];
+  double eye[MPC_NV * MPC_NV];
+  int sense[MPC_M];
+  double y[MPC_NV], lam[MPC_M], step[MPC_NV];
+  /* finish's outputs */
+  double status, twist[3], speeds[MPC_W], clamped, poses[3 * (MPC_N + 1)];
+  double plan_next[3 * MPC_N], memory_next[2];
+  double mode;
+  DAQPProblem qp;
+  DAQPWorkspace work;
+  DAQPResult res;
+  /* the graphs' work arrays */
+  const double* arg[MPC_SZ_ARG];
+  double* out[MPC_SZ_RES];
+  casadi_int iw[MPC_SZ_IW];
+  double w[MPC_SZ_W];
+};
+
+
+int mpc_tick_output_size(void) { return MPC_OUT_SIZE; }
+
+/* daqp with no active row: the next solve starts cold. */
+static void qp_cold(mpc_tick* t) {
+  memset(t->sense, 0, sizeof(t->sense));
+  t->qp_cold = 1;
+}
+
+mpc_tick* mpc_tick_init(int max_iter, int budgeted) {
+  mpc_tick* t = (mpc_tick*)calloc(1, sizeof(mpc_tick));
+  int i;
+  c_float setup_time = 0;
+  if (!t) return NULL;
+  t->max_iter = max_iter;
+  t->budgeted = budgeted;
+  for (i = 0; i < MPC_NV; i++) t->eye[i * MPC_NV + i] = 1.0;
+  /* A benign problem to set daqp up with (unit rows, bounds -1..1): every buffer it
+   * allocates is allocated now, once. */
+  for (i = 0; i < MPC_M; i++) {
+    t->rows[i * MPC_NV + i % MPC_NV] = 1.0;
+    t->lower[i] = -1.0;
+    t->upper[i] = 1.0;
+  }
+  t->qp.n = MPC_NV;
+  t->qp.m = MPC_M;
+  t->qp.ms = 0;
+  t->qp.H = t->eye;
+  t->qp.f = t->f;
+  t->qp.A = t->rows;
+  t->qp.bupper = t->upper;
+  t->qp.blower = t->lower;
+  t->qp.sense = t->sense;
+  t->res.x = t->y;
+  t->res.lam = t->lam;
+  if (setup_daqp(&t->qp, &t->work, &setup_time) < 0) {
+    free(t);
+    return NULL;
+  }
+  t->work.settings->iter_limit = max_iter;
+  qp_cold(t);
+  return t;
+}
+
+void mpc_tick_free(mpc_tick* t) {
+  if (!t) return;
+  free_daqp_workspace(&t->work);
+  free_daqp_ldp(&t->work);
+  free(t);
+}
+
+/* Forget the plan, the failures and the active set; ``last`` is the twist the robot is
+ * executing [m/s, m/s, rad/s]. */
+void mpc_tick_reset(mpc_tick* t, const double* last) {
+  memcpy(t->last, last, sizeof(t->last));
+  memset(t->plan, 0, sizeof(t->plan));
+  t->memory[0] = t->memory[1] = 0.0;
+  t->warm = 0;
+  qp_cold(t);
+}
+
+/* L with H = L L' (lower, column-major: a column's entries together) from H's lower
+ * triangle, right-looking: each column scaled, then subtracted from the columns after it
+ * (independent updates the compiler can pipeline, not one chain of sums); 0 if a pivot is
+ * not positive. The upper half of ``l`` is not written. */
+static int cholesky_once(const double* h, double shift, double* l) {
+  int i, j, k;
+  for (j = 0; j < MPC_NV; j++)
+    for (i = j; i < MPC_NV; i++) l[i + MPC_NV * j] = h[i + MPC_NV * j];
+  for (j = 0; j < MPC_NV; j++) {
+    double* column = l + MPC_NV * j;
+    double pivot = column[j] + shift;
+    if (!(pivot > 0.0)) return 0;
+    pivot = sqrt(pivot);
+    column[j] = pivot;
+    for (i = j + 1; i < MPC_NV; i++) column[i] /= pivot;
+    for (k = j + 1; k < MPC_NV; k++) {
+      double* later = l + MPC_NV * k;
+      const double factor = column[k];
+      for (i = k; i < MPC_NV; i++) later[i] -= column[i] * factor;
+    }
+  }
+  return 1;
+}
+
+/* X = L^{-1} of a lower-triangular L (column-major), its lower triangle packed column by
+ * column (column j: rows j .. n-1), as CasADi reads a lower-triangular matrix: each
+ * column by forward substitution in axpy form (independent updates). */
+static void lower_inverse(const double* l, double* x) {
+  double column[MPC_NV];
+  int i, j, k, at = 0;
+  for (j = 0; j < MPC_NV; j++) {
+    for (i = j; i < MPC_NV; i++) column[i] = 0.0;
+    column[j] = 1.0;
+    for (k = j; k < MPC_NV; k++) {
+      const double* lk = l + MPC_NV * k;
+      const double value = column[k] / lk[k];
+      column[k] = value;
+      for (i = k + 1; i < MPC_NV; i++) column[i] -= lk[i] * value;
+    }
+    for (i = j; i < MPC_NV; i++) x[at++] = column[i];
+  }
+}
+
+/* The factor, regularised as the Python path regularises a Hessian that is not positive
+ * definite (1e-9 of its trace on the diagonal); NaN if that fails too (the QP fails). */
+static void cholesky(const double* h, double* l) {
+  double trace = 0.0;
+  int i;
+  if (cholesky_once(h, 0.0, l)) return;
+  for (i = 0; i < MPC_NV; i++) trace += h[i + MPC_NV * i];
+  if (cholesky_once(h, 1e-9 * trace, l)) return;
+  for (i = 0; i < MPC_NV * MPC_NV; i++) l[i] = NAN;
+}
+
+static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
+                    const double* ref_velocities, double mode) {
+  t->mode = mode;
+  t->arg[0] = pose;
+  t->arg[1] = ref_poses;
+  t->arg[2] = ref_velocities;
+  t->arg[3] = t->last;
+  t->arg[4] = t->plan;
+  t->arg[5] = &t->mode;
+  t->out[0] = t->hessian;
+  t->out[1] = t->gradient;
+  t->out[2] = t->lower;
+  t->out[3] = t->upper;
+  t->out[4] = t->carry;
+  mpc_tick_prepare(t->arg, t->out, t->iw, t->w, 0);
+  cholesky(t->hessian, t->factor);
+  lower_inverse(t->factor, t->inverse);
+  t->arg[0] = t->inverse;
+  t->arg[1] = t->gradient;
+  t->out[0] = t->f;
+  t->out[1] = t->rows;
+  mpc_tick_whiten(t->arg, t->out, t->iw, t->w, 0);
+}
+
+/* daqp on the rows prepare wrote: its exit flag (the step in t->y). */
+static int solve(mpc_tick* t, double* iterations, double* seconds) {
+  int i, flag, mask = UPDATE_M + UPDATE_v + UPDATE_d;
+  if (t->qp_cold) mask += UPDATE_sense; /* sense from t->sense: all inactive */
+  reset_daqp_workspace(&t->work);
+  flag = update_ldp(mask, &t->work);
+  if (flag >= 0 && !t->qp_cold && activate_constraints(&t->work) < 0) {
+    /* the kept active set does not fit the new rows: start cold */
+    qp_cold(t);
+    reset_daqp_workspace(&t->work);
+    flag = update_ldp(mask + UPDATE_sense, &t->work);
+  }
+  t->qp_cold = 0;
+  if (flag < 0) {
+    for (i = 0; i < MPC_NV; i++) t->y[i] = NAN;
+    return flag;
+  }
+  daqp_solve(&t->res, &t->work);
+  *iterations += t->res.iter;
+  *seconds += t->res.solve_time + t->res.setup_time;
+  return t->res.exitflag;
+}
+
+static int finite_vector(const double* x, int n) {
+  double sum = 0.0;
+  int i;
+  for (i = 0; i < n; i++) sum += x[i];
+  return isfinite(sum);
+}
+
+/* One tick: from the measured pose and the reference window (poses and world velocities
+ * at the stage times, 3 x (N+1) column-major: a stage's three numbers together) to the
+ * command, the plan and the status (``out``, mpc_tick_output_size() numbers). */
+int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
+                  const double* ref_velocities, double* out) {
+  double iterations = 0.0, seconds = 0.0, flag;
+  int cold = !t->warm, i;
+  prepare(t, pose, ref_poses, ref_velocities, cold ? MPC_COLD : MPC_WARM);
+  if (!finite_vector(ref_poses, 3 * (MPC_N + 1)) ||
+      !finite_vector(ref_velocities, 3 * (MPC_N + 1))) {
+    flag = MPC_UNPLANNED; /* no QP: the fallback without the feedforward */
+    for (i = 0; i < MPC_NV; i++) t->y[i] = NAN;
+  } else {
+    flag = solve(t, &iterations, &seconds);
+    if (!(flag > 0 && finite_vector(t->y, MPC_NV)) && cold && !t->budgeted) {
+      qp_cold(t); /* solve again from the last command held */
+      prepare(t, pose, ref_poses, ref_velocities, MPC_HOLD);
+      flag = solve(t, &iterations, &seconds);
+    }
+  }
+  t->arg[0] = t->inverse;
+  t->arg[1] = t->y;
+  t->out[0] = t->step;
+  mpc_tick_unwhiten(t->arg, t->out, t->iw, t->w, 0);
+  t->arg[0] = t->step;
+  t->arg[1] = &flag;
+  t->arg[2] = t->carry;
+  t->arg[3] = t->last;
+  t->arg[4] = t->plan;
+  t->arg[5] = t->memory;
+  t->out[0] = &t->status;
+  t->out[1] = t->twist;
+  t->out[2] = t->speeds;
+  t->out[3] = &t->clamped;
+  t->out[4] = t->poses;
+  t->out[5] = t->plan_next;
+  t->out[6] = t->memory_next;
+  mpc_tick_finish(t->arg, t->out, t->iw, t->w, 0);
+  t->warm = t->status == 0.0;
+  if (!t->warm) qp_cold(t);
+  memcpy(t->last, t->twist, sizeof(t->last));
+  memcpy(t->plan, t->plan_next, sizeof(t->plan));
+  memcpy(t->memory, t->memory_next, sizeof(t->memory));
+  out[MPC_OUT_STATUS] = t->status;
+  out[MPC_OUT_FLAG] = flag;
+  out[MPC_OUT_ITERATIONS] = iterations;
+  out[MPC_OUT_SOLVE_TIME] = seconds;
+  out[MPC_OUT_CLAMPED] = t->clamped;
+  out[MPC_OUT_FAILURES] = t->memory[0];
+  memcpy(out + MPC_OUT_TWIST, t->twist, sizeof(t->twist));
+  memcpy(out + MPC_OUT_SPEEDS, t->speeds, sizeof(t->speeds));
+  memcpy(out + MPC_OUT_POSES, t->poses, sizeof(t->poses));
+  return (int)t->status;
+}

@@ -1,0 +1,71 @@
+"""Helpers of the compiled tick's tests (imported by test modules; not a test module): the
+Python tick with its Hessian rebuilt every tick, run in a closed loop on a plant that
+differs from the model, and a reference that fails for a second."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import numpy as np
+
+import mpc.solvers.dense as dense
+from mpc import Command, Controller
+from mpc.robots import preset
+from trajectories import FigureEight, Trajectory, TrajectoryError
+
+HORIZON = 8  # short: the library compiles in seconds (the benchmark runs N = 20)
+TICKS = 240
+DT = 0.05
+
+
+@contextmanager
+def hessian_every_tick() -> Iterator[None]:
+    """The Python tick with its Hessian rebuilt at once every tick (no reuse)."""
+    saved = dense.REBUILD_NOW, dense.COST_ONLY_DRIFT
+    dense.REBUILD_NOW, dense.COST_ONLY_DRIFT = -1.0, -1.0
+    try:
+        yield
+    finally:
+        dense.REBUILD_NOW, dense.COST_ONLY_DRIFT = saved
+
+
+def plant_step(pose: np.ndarray, twist: np.ndarray) -> np.ndarray:
+    """A plant that differs from the model: 3 % slip along the body x axis, integrated
+    with five Euler substeps (the model integrates SE(2) exactly)."""
+    pose = pose.copy()
+    vx, vy, omega = twist[0] * 0.97, twist[1], twist[2]
+    for _ in range(5):
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        pose += DT / 5 * np.array([c * vx - s * vy, s * vx + c * vy, omega])
+    return pose
+
+
+def record(robot_name: str, trajectory: Trajectory, **options: object
+           ) -> tuple[list[np.ndarray], list[Command]]:
+    """A closed loop of the Python tick (Hessian every tick): the poses it was given and
+    its commands."""
+    with hessian_every_tick():
+        controller = Controller(preset(robot_name), trajectory, horizon=HORIZON, dt=DT,
+                                **options)  # type: ignore[arg-type]
+        pose = trajectory.sample(0.0).pose + np.array([0.15, -0.05, 0.2])
+        poses, commands = [], []
+        for k in range(TICKS):
+            command = controller.step(pose, k * DT)
+            poses.append(pose)
+            commands.append(command)
+            pose = plant_step(pose, command.twist)
+    return poses, commands
+
+
+
+class Broken(FigureEight):
+    """A figure-eight that cannot be sampled between 3 and 4 s (a user's reference that
+    fails there): ticks whose window reaches into it fall back."""
+
+    def sample(self, t: object) -> object:  # type: ignore[override]
+        times = np.asarray(t, dtype=float)
+        if np.any((times >= 3.0) & (times < 4.0)):
+            raise TrajectoryError("no reference between 3 and 4 s")
+        return super().sample(t)  # type: ignore[arg-type]
