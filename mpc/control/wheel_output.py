@@ -38,7 +38,7 @@ def wheel_commands(robot: Robot, twist: FloatArray, target: FloatArray,
                                     durations)
         return twist, speeds, steer_rates, predict, measured + steer_rates * dt
     previous = steer
-    speeds, steer = robot.wheel_commands(twist, steer, target, dt)
+    speeds, steer = robot.planned_wheel_commands(twist, steer, target, dt, planned, durations)
     if steer is not None:  # steered wheels at rest: the twist they will drive
         turning = None if previous is None else (
             np.mod(steer - previous + math.pi, 2.0 * math.pi) - math.pi) / dt

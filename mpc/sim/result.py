@@ -274,6 +274,36 @@ class SimResult:
         turn = np.mod(np.diff(angles, axis=0) + math.pi / 2, math.pi) - math.pi / 2
         return turn / self.dt
 
+    def steer_flips(self, moving: float = 1e-3) -> IntArray | None:
+        """Flips per steered module (n,), None without steered modules: ticks on which a
+        module drives backwards relative to where it pointed on its last moving tick (its
+        drive reverses while its ground motion goes on: it chose ``angle + pi`` and ``-v``
+        over turning). A module's direction on a tick is that of its velocity in the
+        commanded twist, its sense the commanded angle's; ticks on which it moves slower
+        than ``moving`` of its speed limit are skipped."""
+        if self.steer_command is None or self.wheel_blocks.shape[1] != 2:
+            return None
+        velocities = np.einsum("ndj,kj->knd", self.wheel_blocks, self.twist_command)
+        angles = self.steer_command
+        along = (velocities[..., 0] * np.cos(angles) + velocities[..., 1] * np.sin(angles))
+        fast = np.hypot(velocities[..., 0], velocities[..., 1]) > moving * self.wheel_limit
+        flips = np.zeros(angles.shape[1], dtype=int)
+        for i in range(angles.shape[1]):
+            signs = np.sign(along[fast[:, i], i])
+            signs = signs[signs != 0.0]
+            flips[i] = int(np.count_nonzero(signs[1:] != signs[:-1]))
+        return flips
+
+    def steer_range_exits(self) -> int | None:
+        """Ticks on which a commanded steer angle lay outside the robot's steering range
+        (:meth:`~mpc.robots.Robot.steer_angle_range`); None without a range."""
+        bounds = None if self.robot is None else self.robot.steer_angle_range()
+        if bounds is None or self.steer_command is None:
+            return None
+        lo, hi = bounds
+        outside = (self.steer_command < lo) | (self.steer_command > hi)
+        return int(outside.any(axis=1).sum())
+
     def _steer_rate_ratio(self, keep: np.ndarray) -> float | None:
         rates, limit = self.steer_rates(), self.steer_rate_limit
         if rates is None or limit is None:
