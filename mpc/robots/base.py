@@ -308,11 +308,13 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
 
     def planned_wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None,
                                aim: FloatArray | None, dt: float | None,
-                               plan: FloatArray | None,
-                               durations: FloatArray | None) -> WheelCommands:
+                               plan: FloatArray | None, durations: FloatArray | None,
+                               last_speeds: FloatArray | None = None) -> WheelCommands:
         """:meth:`wheel_commands` given also the plan's twists ``plan`` (N, 3) (None: no
-        plan) of stage lengths ``durations`` (N,) [s]; steered wheels with a steering range
-        choose their branch along it. Default: :meth:`wheel_commands`."""
+        plan) of stage lengths ``durations`` (N,) [s] and the speeds last sent
+        ``last_speeds`` (n,) [rad/s] (None: unknown);
+        steered wheels with a steering range choose their branch along it. Default:
+        :meth:`wheel_commands`."""
         return self.wheel_commands(twist, steer_angles, aim, dt)
 
     def steer_angle_range(self) -> tuple[float, float] | None:

@@ -274,24 +274,29 @@ class SimResult:
         turn = np.mod(np.diff(angles, axis=0) + math.pi / 2, math.pi) - math.pi / 2
         return turn / self.dt
 
-    def steer_flips(self, moving: float = 1e-3) -> IntArray | None:
-        """Flips per steered module (n,), None without steered modules: ticks on which a
-        module drives backwards relative to where it pointed on its last moving tick (its
-        drive reverses while its ground motion goes on: it chose ``angle + pi`` and ``-v``
-        over turning). A module's direction on a tick is that of its velocity in the
-        commanded twist, its sense the commanded angle's; ticks on which it moves slower
-        than ``moving`` of its speed limit are skipped."""
+    def steer_flips(self, moving: float = 1e-3, aligned: float = 0.1) -> IntArray | None:
+        """Flips per steered module (n,), None without steered modules: how often a module
+        settled along its direction of travel drives the other way round (backwards after
+        forwards or the reverse) from the last time it was settled: it chose
+        ``angle + pi`` with ``-v`` over turning on (a turn by a whole turn is no flip).
+
+        A module's direction on a tick is that of its velocity in the commanded twist;
+        it is settled when it moves faster than ``moving`` of its speed limit and its
+        commanded angle is within ``aligned`` [rad] of that direction or its opposite.
+        """
         if self.steer_command is None or self.wheel_blocks.shape[1] != 2:
             return None
         velocities = np.einsum("ndj,kj->knd", self.wheel_blocks, self.twist_command)
         angles = self.steer_command
-        along = (velocities[..., 0] * np.cos(angles) + velocities[..., 1] * np.sin(angles))
-        fast = np.hypot(velocities[..., 0], velocities[..., 1]) > moving * self.wheel_limit
+        off = np.arctan2(velocities[..., 1], velocities[..., 0]) - angles
+        backwards = np.cos(off) < 0.0
+        misaligned = np.abs(np.mod(off + math.pi / 2, math.pi) - math.pi / 2)
+        settled = ((np.hypot(velocities[..., 0], velocities[..., 1])
+                    > moving * self.wheel_limit) & (misaligned <= aligned))
         flips = np.zeros(angles.shape[1], dtype=int)
         for i in range(angles.shape[1]):
-            signs = np.sign(along[fast[:, i], i])
-            signs = signs[signs != 0.0]
-            flips[i] = int(np.count_nonzero(signs[1:] != signs[:-1]))
+            senses = backwards[settled[:, i], i]
+            flips[i] = int(np.count_nonzero(senses[1:] != senses[:-1]))
         return flips
 
     def steer_range_exits(self) -> int | None:

@@ -191,7 +191,8 @@ def _filled(directions: list[float | None]) -> list[float] | None:
 
 def ranged_commands(robot: SwerveModules, twist: FloatArray, steer_angles: FloatArray | None,
                     steer_range: tuple[float, float], rule: str, aim: FloatArray | None,
-                    dt: float | None, plan: FloatArray | None, durations: FloatArray | None
+                    dt: float | None, plan: FloatArray | None, durations: FloatArray | None,
+                    last_speeds: FloatArray | None = None
                     ) -> tuple[FloatArray, FloatArray, FloatArray | None]:
     """Signed speeds [rad/s], absolute steer angles [rad] and the turn rates [rad/s] (None
     without ``dt``) for ``twist`` from the present absolute ``steer_angles`` (None: 0).
@@ -201,6 +202,11 @@ def ranged_commands(robot: SwerveModules, twist: FloatArray, steer_angles: Float
     them, the tick rule (or no plan) at ``twist`` alone. A module ``twist`` leaves at rest
     turns towards its direction in the twist ``aim`` (if given; as without a range).
     Without ``dt`` a module points at its chosen branch at once (a reset).
+
+    ``last_speeds`` (n,) [rad/s]: the signed speeds last sent, at the present angles
+    (None: unknown, after a reset); with an acceleration limit each module's commanded
+    velocity vector changes by at most ``max_wheel_accel dt`` from that (:func:`_module_step`: a module turning to another
+    branch brakes along its heading before it turns).
     """
     lo, hi = steer_range
     n = robot.n_wheels
@@ -217,6 +223,9 @@ def ranged_commands(robot: SwerveModules, twist: FloatArray, steer_angles: Float
     reach = robot.max_steer_rate * times
     speeds, angles = np.zeros(n), np.empty(n)
     step = math.inf if dt is None else robot.max_steer_rate * dt * (1.0 - 1e-9)
+    limit_accel = robot.max_wheel_accel
+    accel = ([math.inf] * n if limit_accel is None or dt is None
+             else (limit_accel * dt * (1.0 - 1e-9)).tolist())
     for i in range(n):
         here = float(present[i])
         directions = [float(h) if m else None
@@ -231,13 +240,40 @@ def ranged_commands(robot: SwerveModules, twist: FloatArray, steer_angles: Float
         else:
             goal = plan_branch(here, directions, (magnitude[:, i] / limit[i]).tolist(),
                                reach.tolist(), lo, hi)
-        angle = min(max(here + min(max(goal - here, -step), step), lo), hi)
-        if driving:
-            x, y = velocities[0, i].tolist()
-            speeds[i] = x * math.cos(angle) + y * math.sin(angle)
-        angles[i] = angle
+        wanted = velocities[0, i].tolist() if driving else [0.0, 0.0]
+        turn = min(max(goal - here, -step), step)
+        previous = None if last_speeds is None else float(last_speeds[i])
+        angle, speed = _module_step(here, turn, wanted, previous, accel[i], lo, hi)
+        speeds[i], angles[i] = speed, angle
     rates = None if dt is None else (angles - present) / dt
     return speeds, angles, rates
+
+
+def _module_step(here: float, turn: float, wanted: list[float], previous: float | None,
+                 accel: float, lo: float, hi: float) -> tuple[float, float]:
+    """One module's (angle [rad], signed speed [rad/s]): the angle ``here + f turn`` with
+    the largest ``f`` of 1, 1/2, 1/4, ..., 0 at which some speed keeps the velocity vector
+    within ``accel`` [rad/s] of the last one (``previous`` along ``here``; None: no
+    bound), the speed the projection of ``wanted`` (x, y) on the new heading clipped to
+    those that do."""
+    x, y = wanted
+    fraction = 1.0
+    while True:
+        angle = min(max(here + fraction * turn, lo), hi)
+        c, s = math.cos(angle), math.sin(angle)
+        speed = x * c + y * s
+        if previous is None or accel == math.inf:
+            return angle, speed
+        # |speed e - previous e0|^2 <= accel^2: speed within along +- sqrt(accel^2 - across^2)
+        delta = angle - here
+        along, across = previous * math.cos(delta), previous * math.sin(delta)
+        if abs(across) <= accel or fraction < 1e-3:
+            half = math.sqrt(max(accel * accel - across * across, 0.0))
+            if abs(across) > accel:  # rounding at f ~ 0: keep the heading
+                angle, along, half = here, previous, accel
+                speed = x * math.cos(here) + y * math.sin(here)
+            return angle, min(max(speed, along - half), along + half)
+        fraction *= 0.5
 
 
 def settled_angles(robot: SwerveModules, last: FloatArray, steer_angles: FloatArray,

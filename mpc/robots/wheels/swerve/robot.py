@@ -360,16 +360,18 @@ class SwerveRobot(Robot):
 
     def planned_wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None,
                                aim: FloatArray | None, dt: float | None,
-                               plan: FloatArray | None,
-                               durations: FloatArray | None) -> WheelCommands:
+                               plan: FloatArray | None, durations: FloatArray | None,
+                               last_speeds: FloatArray | None = None) -> WheelCommands:
         """With a :attr:`steer_range`, each module's branch chosen along the plan's twists
-        ``plan`` (N, 3) of stage lengths ``durations`` (N,) [s]
+        ``plan`` (N, 3) of stage lengths ``durations`` (N,) [s], its velocity changed by at
+        most its acceleration limit from the speeds last sent ``last_speeds`` (n,) [rad/s]
         (:func:`~mpc.robots.wheels.swerve.ranges.ranged_commands`); without one,
         :meth:`wheel_commands`."""
         if self.steer_range is None:
             return self.wheel_commands(twist, steer_angles, aim, dt)
         speeds, angles, rates = ranged_commands(self, twist, steer_angles, self.steer_range,
-                                                self.steer_plan, aim, dt, plan, durations)
+                                                self.steer_plan, aim, dt, plan, durations,
+                                                last_speeds)
         if self.axle_offset:  # the wheel rolls with the body's rotation and its steering
             speeds = speeds + self.axle_correction(twist, rates)
         return WheelCommands(speeds, angles)
