@@ -117,7 +117,15 @@ def nearest_branch(present: float, direction: float, lo: float, hi: float) -> fl
 def plan_branch(present: float, directions: list[float | None], speeds: list[float],
                 reaches: list[float], lo: float, hi: float,
                 weights: BranchWeights = DEFAULT_WEIGHTS) -> float:
-    """The horizon rule for one module: the branch [rad] to turn towards now.
+    """The horizon rule for one module: the branch [rad] to turn towards now (the first
+    of :func:`plan_path`'s; the arguments are its)."""
+    return plan_path(present, directions, speeds, reaches, lo, hi, weights)[0]
+
+
+def plan_path(present: float, directions: list[float | None], speeds: list[float],
+              reaches: list[float], lo: float, hi: float,
+              weights: BranchWeights = DEFAULT_WEIGHTS) -> list[float]:
+    """The horizon rule for one module: its branch [rad] at every stage.
 
     Args:
         present: the module's absolute steer angle [rad].
@@ -128,14 +136,14 @@ def plan_branch(present: float, directions: list[float | None], speeds: list[flo
     """
     filled = _filled(directions)
     if filled is None:  # at rest over the whole plan: stay (inside the range)
-        return min(max(present, lo), hi)
+        return [min(max(present, lo), hi)] * len(directions)
     previous: list[tuple[float, int]] = [(present, 0)]
     costs = [0.0]
     choices: list[list[int]] = []
-    last_speed = speeds[0]
-    for direction, speed, reach in zip(filled, speeds, reaches, strict=True):
+    stages: list[list[float]] = []
+    for k, (direction, reach) in enumerate(zip(filled, reaches, strict=True)):
         here = candidates(direction, lo, hi)
-        moving = 0.5 * (speed + last_speed)
+        moving = max(speeds[max(k - 1, 0):k + 2])  # out of line before, during or after
         new_costs, picks = [], []
         for b, sign in here:
             best, pick = math.inf, 0
@@ -150,16 +158,19 @@ def plan_branch(present: float, directions: list[float | None], speeds: list[flo
             new_costs.append(best)
             picks.append(pick)
         choices.append(picks)
-        previous, costs, last_speed = here, new_costs, speed
+        stages.append([b for b, _ in here])
+        previous, costs = here, new_costs
     winding = _net_turn(filled)
     if winding != 0.0:
         for j, (b, _) in enumerate(previous):
             used = (b - lo) if winding > 0.0 else (hi - b)  # room behind: used up
             costs[j] += weights.room * used / (hi - lo)
     index = min(range(len(costs)), key=costs.__getitem__)
-    for picks in reversed(choices[1:]):
-        index = picks[index]
-    return _stage_zero(filled[0], lo, hi)[index]
+    path = []
+    for k in range(len(stages) - 1, -1, -1):
+        path.append(stages[k][index])
+        index = choices[k][index]
+    return path[::-1]
 
 
 def _net_turn(directions: list[float]) -> float:
@@ -168,10 +179,6 @@ def _net_turn(directions: list[float]) -> float:
     for before, after in zip(directions, directions[1:]):
         total += math.remainder(after - before, 2.0 * math.pi)
     return total
-
-
-def _stage_zero(direction: float, lo: float, hi: float) -> list[float]:
-    return [b for b, _ in candidates(direction, lo, hi)]
 
 
 def _filled(directions: list[float | None]) -> list[float] | None:
@@ -291,3 +298,53 @@ def settled_angles(robot: SwerveModules, last: FloatArray, steer_angles: FloatAr
             settled[i] = math.atan2(y, x)
     return settled
 
+
+
+#: A module planned to turn to another branch is held to this fraction of its speed
+#: limit over the stages its turn takes (:func:`slow_stages`), where it can slow that far.
+SLOW_FRACTION = 0.03
+
+
+def slow_stages(robot: SwerveModules, guess: FloatArray, last: FloatArray,
+                steer_angles: FloatArray, change_times: FloatArray,
+                steer_range: tuple[float, float]) -> FloatArray:
+    """Speed bounds (N, n) [rad/s] for a plan that turns modules to other branches: the
+    horizon rule's branches along ``guess`` (N, 3) from the present ``steer_angles``; where
+    a module turns further in a stage than its steering rate allows, its speed over that
+    stage and the ones its turn still takes is bounded by :data:`SLOW_FRACTION` of its
+    limit, or by what its acceleration limit can slow it to from ``last`` by then
+    (whichever is larger); elsewhere by its limit."""
+    lo, hi = steer_range
+    n, horizon = robot.n_wheels, len(guess)
+    limit = robot.max_wheel_speed
+    bounds = np.repeat(limit[None, :], horizon, axis=0)
+    velocities = np.einsum("ndj,kj->knd", robot.wheel_blocks, guess)
+    magnitude = np.hypot(velocities[..., 0], velocities[..., 1])
+    moving = magnitude * robot.wheel_radius >= STOPPED_MODULE_SPEED
+    heading = np.arctan2(velocities[..., 1], velocities[..., 0])
+    times = np.asarray(change_times, dtype=float)
+    reach = (robot.max_steer_rate * times).tolist()
+    ends = np.cumsum(times)
+    start = np.hypot(*(robot.wheel_blocks @ last).T)  # each module's speed now [rad/s]
+    accel = robot.max_wheel_accel
+    nominal = np.maximum(robot.nominal_max_wheel_speed, 1e-12)
+    for i in range(n):
+        directions = [float(h) if m else None
+                      for h, m in zip(heading[:, i].tolist(), moving[:, i].tolist(), strict=True)]
+        path = plan_path(float(steer_angles[i]), directions,
+                         (magnitude[:, i] / nominal[i]).tolist(), reach, lo, hi)
+        before = float(steer_angles[i])
+        for k, b in enumerate(path):
+            turn = abs(b - before)
+            if turn > reach[k]:
+                remaining = turn / robot.max_steer_rate
+                j = k
+                while j < horizon and remaining > 0.0:
+                    floor = SLOW_FRACTION * limit[i]
+                    if accel is not None:
+                        floor = max(floor, start[i] - 0.7 * accel[i] * ends[j])
+                    bounds[j, i] = min(bounds[j, i], floor)
+                    remaining -= times[j]
+                    j += 1
+            before = b
+    return bounds

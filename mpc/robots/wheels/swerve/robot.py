@@ -58,6 +58,7 @@ from mpc.robots.wheels.swerve.axle import axle_forward_kinematics, axle_speed_ra
 from mpc.robots.wheels.swerve.limits import (
     MOVING_MODULE_SPEED,
     STOPPED_MODULE_SPEED,
+    face_rows,
     linearised_stage_limits,
     nlp_stage_limits,
     qp_speed_rows,
@@ -70,6 +71,7 @@ from mpc.robots.wheels.swerve.ranges import (
     nearest_branch,
     ranged_commands,
     settled_angles,
+    slow_stages,
 )
 from mpc.robots.wheels.swerve.states import aimed_angles, module_states
 from mpc.validation import body_points, checked_arguments, metres, positive, shown
@@ -312,13 +314,27 @@ class SwerveRobot(Robot):
         bolder plans took a motor 0.6 % over its current limit on the motor plant (the
         clamp's motor step holds the wheels at the last command's speeds)."""
         if polygon_sides is None and not self.axle_offset and self.dynamics is None:
-            return linearised_stage_limits(self, change_times)
+            limits = linearised_stage_limits(self, change_times)
+            if self.steer_range is not None:  # speed faces bounded anew each tick
+                limits.inside = None
+                limits.memory["range_faces"] = face_rows(self.n_wheels, limits.rows)
+            return limits
         return super().stage_limits(change_times, polygon_sides)
 
     def update_stage_limits(self, limits: StageLimits, guess: FloatArray, last: FloatArray,
                             steer_angles: FloatArray | None) -> None:
+        """Turn the linearised speed faces to the guess; with a :attr:`steer_range`, also
+        hold modules the horizon rule turns to another branch slow while they turn
+        (:func:`~mpc.robots.wheels.swerve.ranges.slow_stages`)."""
         if not limits.constant:
             update_linearised(self, limits, guess, last)
+            faces = limits.memory.get("range_faces")
+            if faces is not None and steer_angles is not None and self.steer_range is not None:
+                bounds = slow_stages(self, guess, last, steer_angles, limits.change_times,
+                                     self.steer_range)
+                for i, rows in enumerate(faces):
+                    limits.upper[:, rows] = bounds[:, i:i + 1]
+                    limits.lower[:, rows] = -bounds[:, i:i + 1]
 
     def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
         """A regular polygon midway between the ones inscribed in and circumscribed about
