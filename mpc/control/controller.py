@@ -206,7 +206,8 @@ class Controller:
         self._delay = DelayCompensator(self.delay_ticks, self.dt, self.command_ramp)
         self._last = np.zeros(3)  # the last command's twist; reset() sets these
         self._steer: FloatArray | None = None  # steered wheels' commanded angles [rad]
-        self._speeds: FloatArray | None = None  # the wheel speeds last sent [rad/s]
+        # what the robot's wheel commands keep between ticks (steering ranges' turns)
+        self._memory: dict[str, FloatArray] = {}
         self._set_reference(trajectory)
         self.reset()
 
@@ -282,7 +283,7 @@ class Controller:
         elif steer is not None and last.any() and not self.robot.steer_states:
             steer = self.robot.wheel_commands(last, steer)[1]
         self._steer = steer
-        self._speeds = None if last.any() else np.zeros(self.robot.n_wheels)
+        self._memory.clear()
         self._delay.reset(last)
         self._first_tick = not last.any()  # never refuse a tick of a robot in motion
         self._warm.reset()
@@ -340,8 +341,7 @@ class Controller:
         twist, speeds, steer_rates, steer_prediction, self._steer = wheel_commands(
             self.robot, twist, target, self._steer, measured,
             result.twists if result.success else None, self.dt, self.model.durations,
-            self._speeds)
-        self._speeds = speeds
+            self._memory)
         feedforward = first_step_feedforward(self.robot, self._last, twist, self.dt, self._steer)
         self._last = twist
         self._delay.sent(twist)

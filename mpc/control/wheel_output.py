@@ -18,7 +18,7 @@ from mpc.robots.base import Robot
 def wheel_commands(robot: Robot, twist: FloatArray, target: FloatArray,
                    steer: FloatArray | None, measured: FloatArray | None,
                    planned: FloatArray | None, dt: float, durations: FloatArray,
-                   last_speeds: FloatArray | None = None
+                   memory: dict[str, FloatArray] | None = None
                    ) -> tuple[FloatArray, FloatArray, FloatArray | None,
                               Callable[[], FloatArray] | None, FloatArray | None]:
     """What the wheels are told for the clamped ``twist``: (the twist they will drive,
@@ -28,8 +28,8 @@ def wheel_commands(robot: Robot, twist: FloatArray, target: FloatArray,
     ``steer`` is the steer angles the controller believed in before this tick,
     ``measured`` the casters' measured angles (None for other robots), ``planned`` the
     plan's twists (N, 3), or None if the solve failed (casters then predict their angles
-    holding ``twist``), ``last_speeds`` the wheel speeds last sent [rad/s] (steering ranges
-    bound each module's change from them). The prediction is left to whoever reads it
+    holding ``twist``), ``memory`` what the robot's commands keep from tick to tick (the
+    controller's; steering ranges keep the speeds sent and the turns under way). The prediction is left to whoever reads it
     (:attr:`~mpc.control.command.Command.predicted_steer_angles`): it is not a command,
     and it took ~50 us of the caster preset's tick (an RK4 of the angles over the plan)."""
     if measured is not None:  # casters: joint rates held over the tick
@@ -41,7 +41,7 @@ def wheel_commands(robot: Robot, twist: FloatArray, target: FloatArray,
         return twist, speeds, steer_rates, predict, measured + steer_rates * dt
     previous = steer
     speeds, steer = robot.planned_wheel_commands(twist, steer, target, dt, planned, durations,
-                                                 last_speeds)
+                                                 memory)
     if steer is not None:  # steered wheels at rest: the twist they will drive
         turning = None if previous is None else (
             np.mod(steer - previous + math.pi, 2.0 * math.pi) - math.pi) / dt

@@ -309,10 +309,10 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
     def planned_wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None,
                                aim: FloatArray | None, dt: float | None,
                                plan: FloatArray | None, durations: FloatArray | None,
-                               last_speeds: FloatArray | None = None) -> WheelCommands:
+                               memory: dict[str, FloatArray] | None = None) -> WheelCommands:
         """:meth:`wheel_commands` given also the plan's twists ``plan`` (N, 3) (None: no
-        plan) of stage lengths ``durations`` (N,) [s] and the speeds last sent
-        ``last_speeds`` (n,) [rad/s] (None: unknown);
+        plan) of stage lengths ``durations`` (N,) [s], and ``memory``, a dict the caller
+        keeps from tick to tick (empty after a reset) for the robot's own use;
         steered wheels with a steering range choose their branch along it. Default:
         :meth:`wheel_commands`."""
         return self.wheel_commands(twist, steer_angles, aim, dt)

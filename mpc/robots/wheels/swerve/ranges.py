@@ -84,15 +84,17 @@ class BranchWeights:
         out_of_line: per radian turned beyond the stage's steering reach, times the
             module's speed over its limit (driving out of line while turning) [1/rad].
         flip: per flip (drive reversal) [1].
-        room: at the plan's end, per range width of room used up towards the stop the
-            module is turning to over the plan (its direction's net turn along the plan):
-            unwinds a module early, when it is slow [1].
+        room: at the plan's end, per ``margin`` of room short of ``margin`` towards the
+            stop the module is turning to over the plan (its direction's net turn along
+            the plan): unwinds a module before it reaches a stop, when it is slow [1].
+        margin: the room asked for at the plan's end [rad].
     """
 
     turn: float = 0.05
     out_of_line: float = 2.0
     flip: float = 0.3
     room: float = 2.0
+    margin: float = math.pi
 
 
 DEFAULT_WEIGHTS = BranchWeights()
@@ -163,8 +165,8 @@ def plan_path(present: float, directions: list[float | None], speeds: list[float
     winding = _net_turn(filled)
     if winding != 0.0:
         for j, (b, _) in enumerate(previous):
-            used = (b - lo) if winding > 0.0 else (hi - b)  # room behind: used up
-            costs[j] += weights.room * used / (hi - lo)
+            ahead = (hi - b) if winding > 0.0 else (b - lo)
+            costs[j] += weights.room * max(0.0, weights.margin - ahead) / weights.margin
     index = min(range(len(costs)), key=costs.__getitem__)
     path = []
     for k in range(len(stages) - 1, -1, -1):
@@ -199,7 +201,7 @@ def _filled(directions: list[float | None]) -> list[float] | None:
 def ranged_commands(robot: SwerveModules, twist: FloatArray, steer_angles: FloatArray | None,
                     steer_range: tuple[float, float], rule: str, aim: FloatArray | None,
                     dt: float | None, plan: FloatArray | None, durations: FloatArray | None,
-                    last_speeds: FloatArray | None = None
+                    memory: dict[str, FloatArray] | None = None
                     ) -> tuple[FloatArray, FloatArray, FloatArray | None]:
     """Signed speeds [rad/s], absolute steer angles [rad] and the turn rates [rad/s] (None
     without ``dt``) for ``twist`` from the present absolute ``steer_angles`` (None: 0).
@@ -210,13 +212,19 @@ def ranged_commands(robot: SwerveModules, twist: FloatArray, steer_angles: Float
     turns towards its direction in the twist ``aim`` (if given; as without a range).
     Without ``dt`` a module points at its chosen branch at once (a reset).
 
-    ``last_speeds`` (n,) [rad/s]: the signed speeds last sent, at the present angles
-    (None: unknown, after a reset); with an acceleration limit each module's commanded
-    velocity vector changes by at most ``max_wheel_accel dt`` from that (:func:`_module_step`: a module turning to another
+    ``memory``: a dict the caller keeps from tick to tick (empty after a reset), holding
+    ``"speeds"``, the signed speeds last sent at the present angles (with an acceleration
+    limit each module's commanded velocity vector changes by at most ``max_wheel_accel
+    dt`` from that), and ``"goals"``, the branch each module is turning to (NaN: none): a
+    turn under way goes on to it (the branch of the direction nearest it) rather than
+    back, whichever rule chose it (:func:`_module_step`: a module turning to another
     branch brakes along its heading before it turns).
     """
     lo, hi = steer_range
     n = robot.n_wheels
+    memory = {} if memory is None else memory
+    last_speeds = memory.get("speeds")
+    goals = memory.get("goals", np.full(n, np.nan))
     present = np.zeros(n) if steer_angles is None else np.asarray(steer_angles, dtype=float)
     stages = twist[None, :] if plan is None or rule == "tick" else np.vstack([twist, plan[1:]])
     times = (np.full(len(stages), 0.0 if dt is None else dt) if durations is None
@@ -231,6 +239,9 @@ def ranged_commands(robot: SwerveModules, twist: FloatArray, steer_angles: Float
     speeds, angles = np.zeros(n), np.empty(n)
     step = math.inf if dt is None else robot.max_steer_rate * dt * (1.0 - 1e-9)
     limit_accel = robot.max_wheel_accel
+    drive_limit = robot.max_wheel_speed
+    lever = robot.axle_offset / robot.wheel_radius
+    spin = (float(twist[2]), 0.0 if dt is None else 1.0 / dt)  # (omega, 1 / dt)
     accel = ([math.inf] * n if limit_accel is None or dt is None
              else (limit_accel * dt * (1.0 - 1e-9)).tolist())
     for i in range(n):
@@ -248,38 +259,51 @@ def ranged_commands(robot: SwerveModules, twist: FloatArray, steer_angles: Float
             goal = plan_branch(here, directions, (magnitude[:, i] / limit[i]).tolist(),
                                reach.tolist(), lo, hi)
         wanted = velocities[0, i].tolist() if driving else [0.0, 0.0]
+        if driving and not math.isnan(goals[i]):  # a turn under way: on to its branch
+            goal = min(candidates(directions[0], lo, hi), key=lambda c: abs(c[0] - goals[i]))[0]
         turn = min(max(goal - here, -step), step)
         previous = None if last_speeds is None else float(last_speeds[i])
-        angle, speed = _module_step(here, turn, wanted, previous, accel[i], lo, hi)
+        angle, speed = _module_step(here, turn, wanted, previous, accel[i],
+                                    (float(drive_limit[i]), lever, spin))
         speeds[i], angles[i] = speed, angle
+        goals[i] = goal if abs(goal - angle) > 1e-9 and dt is not None else math.nan
+    memory["speeds"], memory["goals"] = speeds.copy(), goals
     rates = None if dt is None else (angles - present) / dt
     return speeds, angles, rates
 
 
 def _module_step(here: float, turn: float, wanted: list[float], previous: float | None,
-                 accel: float, lo: float, hi: float) -> tuple[float, float]:
+                 accel: float, drive: tuple[float, float, tuple[float, float]]
+                 ) -> tuple[float, float]:
     """One module's (angle [rad], signed speed [rad/s]): the angle ``here + f turn`` with
     the largest ``f`` of 1, 1/2, 1/4, ..., 0 at which some speed keeps the velocity vector
-    within ``accel`` [rad/s] of the last one (``previous`` along ``here``; None: no
-    bound), the speed the projection of ``wanted`` (x, y) on the new heading clipped to
-    those that do."""
+    within ``accel`` [rad/s] of the last one (``previous`` along ``here``; None: no bound)
+    and the drive rate within its limit, the speed the projection of ``wanted`` (x, y)
+    on the new heading clipped to those that do. ``drive``: (the drive limit [rad/s],
+    the axle offset's ``L / r`` [1/m * m], ``(omega [rad/s], 1 / dt [1/s])``): with an
+    offset the drive rate is ``speed + L (omega + turn / dt) / r``."""
     x, y = wanted
+    limit, lever, spin = drive
     fraction = 1.0
     while True:
-        angle = min(max(here + fraction * turn, lo), hi)
-        c, s = math.cos(angle), math.sin(angle)
-        speed = x * c + y * s
-        if previous is None or accel == math.inf:
-            return angle, speed
-        # |speed e - previous e0|^2 <= accel^2: speed within along +- sqrt(accel^2 - across^2)
-        delta = angle - here
-        along, across = previous * math.cos(delta), previous * math.sin(delta)
-        if abs(across) <= accel or fraction < 1e-3:
+        delta = fraction * turn
+        angle = here + delta
+        speed = x * math.cos(angle) + y * math.sin(angle)
+        low, high = -math.inf, math.inf
+        if previous is not None and accel != math.inf:
+            # |speed e - previous e0| <= accel: speed within along +- sqrt(accel^2 - across^2)
+            along, across = previous * math.cos(delta), previous * math.sin(delta)
             half = math.sqrt(max(accel * accel - across * across, 0.0))
-            if abs(across) > accel:  # rounding at f ~ 0: keep the heading
-                angle, along, half = here, previous, accel
-                speed = x * math.cos(here) + y * math.sin(here)
-            return angle, min(max(speed, along - half), along + half)
+            low, high = (along - half, along + half) if abs(across) <= accel else (1.0, -1.0)
+        if lever:  # the axle offset's drive rate: speed + L (omega + turn rate) / r
+            correction = lever * (spin[0] + delta * spin[1])
+            low, high = max(low, -limit - correction), min(high, limit - correction)
+        if low <= high:
+            return angle, min(max(speed, low), high)
+        if fraction < 1e-3:  # rounding at f ~ 0: keep the heading, the speed clipped
+            speed = x * math.cos(here) + y * math.sin(here)
+            bound = limit - (lever * spin[0] if lever else 0.0)
+            return here, min(max(speed, -abs(bound)), abs(bound))
         fraction *= 0.5
 
 
@@ -299,52 +323,3 @@ def settled_angles(robot: SwerveModules, last: FloatArray, steer_angles: FloatAr
     return settled
 
 
-
-#: A module planned to turn to another branch is held to this fraction of its speed
-#: limit over the stages its turn takes (:func:`slow_stages`), where it can slow that far.
-SLOW_FRACTION = 0.03
-
-
-def slow_stages(robot: SwerveModules, guess: FloatArray, last: FloatArray,
-                steer_angles: FloatArray, change_times: FloatArray,
-                steer_range: tuple[float, float]) -> FloatArray:
-    """Speed bounds (N, n) [rad/s] for a plan that turns modules to other branches: the
-    horizon rule's branches along ``guess`` (N, 3) from the present ``steer_angles``; where
-    a module turns further in a stage than its steering rate allows, its speed over that
-    stage and the ones its turn still takes is bounded by :data:`SLOW_FRACTION` of its
-    limit, or by what its acceleration limit can slow it to from ``last`` by then
-    (whichever is larger); elsewhere by its limit."""
-    lo, hi = steer_range
-    n, horizon = robot.n_wheels, len(guess)
-    limit = robot.max_wheel_speed
-    bounds = np.repeat(limit[None, :], horizon, axis=0)
-    velocities = np.einsum("ndj,kj->knd", robot.wheel_blocks, guess)
-    magnitude = np.hypot(velocities[..., 0], velocities[..., 1])
-    moving = magnitude * robot.wheel_radius >= STOPPED_MODULE_SPEED
-    heading = np.arctan2(velocities[..., 1], velocities[..., 0])
-    times = np.asarray(change_times, dtype=float)
-    reach = (robot.max_steer_rate * times).tolist()
-    ends = np.cumsum(times)
-    start = np.hypot(*(robot.wheel_blocks @ last).T)  # each module's speed now [rad/s]
-    accel = robot.max_wheel_accel
-    nominal = np.maximum(robot.nominal_max_wheel_speed, 1e-12)
-    for i in range(n):
-        directions = [float(h) if m else None
-                      for h, m in zip(heading[:, i].tolist(), moving[:, i].tolist(), strict=True)]
-        path = plan_path(float(steer_angles[i]), directions,
-                         (magnitude[:, i] / nominal[i]).tolist(), reach, lo, hi)
-        before = float(steer_angles[i])
-        for k, b in enumerate(path):
-            turn = abs(b - before)
-            if turn > reach[k]:
-                remaining = turn / robot.max_steer_rate
-                j = k
-                while j < horizon and remaining > 0.0:
-                    floor = SLOW_FRACTION * limit[i]
-                    if accel is not None:
-                        floor = max(floor, start[i] - 0.7 * accel[i] * ends[j])
-                    bounds[j, i] = min(bounds[j, i], floor)
-                    remaining -= times[j]
-                    j += 1
-            before = b
-    return bounds

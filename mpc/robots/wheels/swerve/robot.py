@@ -58,7 +58,6 @@ from mpc.robots.wheels.swerve.axle import axle_forward_kinematics, axle_speed_ra
 from mpc.robots.wheels.swerve.limits import (
     MOVING_MODULE_SPEED,
     STOPPED_MODULE_SPEED,
-    face_rows,
     linearised_stage_limits,
     nlp_stage_limits,
     qp_speed_rows,
@@ -71,7 +70,6 @@ from mpc.robots.wheels.swerve.ranges import (
     nearest_branch,
     ranged_commands,
     settled_angles,
-    slow_stages,
 )
 from mpc.robots.wheels.swerve.states import aimed_angles, module_states
 from mpc.validation import body_points, checked_arguments, metres, positive, shown
@@ -314,27 +312,13 @@ class SwerveRobot(Robot):
         bolder plans took a motor 0.6 % over its current limit on the motor plant (the
         clamp's motor step holds the wheels at the last command's speeds)."""
         if polygon_sides is None and not self.axle_offset and self.dynamics is None:
-            limits = linearised_stage_limits(self, change_times)
-            if self.steer_range is not None:  # speed faces bounded anew each tick
-                limits.inside = None
-                limits.memory["range_faces"] = face_rows(self.n_wheels, limits.rows)
-            return limits
+            return linearised_stage_limits(self, change_times)
         return super().stage_limits(change_times, polygon_sides)
 
     def update_stage_limits(self, limits: StageLimits, guess: FloatArray, last: FloatArray,
                             steer_angles: FloatArray | None) -> None:
-        """Turn the linearised speed faces to the guess; with a :attr:`steer_range`, also
-        hold modules the horizon rule turns to another branch slow while they turn
-        (:func:`~mpc.robots.wheels.swerve.ranges.slow_stages`)."""
         if not limits.constant:
             update_linearised(self, limits, guess, last)
-            faces = limits.memory.get("range_faces")
-            if faces is not None and steer_angles is not None and self.steer_range is not None:
-                bounds = slow_stages(self, guess, last, steer_angles, limits.change_times,
-                                     self.steer_range)
-                for i, rows in enumerate(faces):
-                    limits.upper[:, rows] = bounds[:, i:i + 1]
-                    limits.lower[:, rows] = -bounds[:, i:i + 1]
 
     def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
         """A regular polygon midway between the ones inscribed in and circumscribed about
@@ -377,17 +361,18 @@ class SwerveRobot(Robot):
     def planned_wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None,
                                aim: FloatArray | None, dt: float | None,
                                plan: FloatArray | None, durations: FloatArray | None,
-                               last_speeds: FloatArray | None = None) -> WheelCommands:
+                               memory: dict[str, FloatArray] | None = None) -> WheelCommands:
         """With a :attr:`steer_range`, each module's branch chosen along the plan's twists
         ``plan`` (N, 3) of stage lengths ``durations`` (N,) [s], its velocity changed by at
-        most its acceleration limit from the speeds last sent ``last_speeds`` (n,) [rad/s]
+        most its acceleration limit from the last tick's, and a turn under way finished
+        (``memory``: the caller's dict, kept from tick to tick)
         (:func:`~mpc.robots.wheels.swerve.ranges.ranged_commands`); without one,
         :meth:`wheel_commands`."""
         if self.steer_range is None:
             return self.wheel_commands(twist, steer_angles, aim, dt)
         speeds, angles, rates = ranged_commands(self, twist, steer_angles, self.steer_range,
                                                 self.steer_plan, aim, dt, plan, durations,
-                                                last_speeds)
+                                                memory)
         if self.axle_offset:  # the wheel rolls with the body's rotation and its steering
             speeds = speeds + self.axle_correction(twist, rates)
         return WheelCommands(speeds, angles)
