@@ -274,15 +274,18 @@ class SimResult:
         turn = np.mod(np.diff(angles, axis=0) + math.pi / 2, math.pi) - math.pi / 2
         return turn / self.dt
 
-    def steer_flips(self, moving: float = 1e-3, aligned: float = 0.1) -> IntArray | None:
+    def steer_flips(self, moving: float = 1e-3, aligned: float = 0.1,
+                    hold: int = 3) -> IntArray | None:
         """Flips per steered module (n,), None without steered modules: how often a module
         settled along its direction of travel drives the other way round (backwards after
         forwards or the reverse) from the last time it was settled: it chose
-        ``angle + pi`` with ``-v`` over turning on (a turn by a whole turn is no flip).
+        ``angle + pi`` with ``-v`` over turning on. A module turning through a whole turn
+        relative to its direction passes the reversed sense for a tick or two: no flip.
 
-        A module's direction on a tick is that of its velocity in the commanded twist;
-        it is settled when it moves faster than ``moving`` of its speed limit and its
-        commanded angle is within ``aligned`` [rad] of that direction or its opposite.
+        A module's direction on a tick is that of its velocity in the commanded twist; it
+        is settled when it moves faster than ``moving`` of its speed limit with its
+        commanded angle within ``aligned`` [rad] of that direction or its opposite, for at
+        least ``hold`` ticks in a row in the same sense.
         """
         if self.steer_command is None or self.wheel_blocks.shape[1] != 2:
             return None
@@ -295,8 +298,15 @@ class SimResult:
                     > moving * self.wheel_limit) & (misaligned <= aligned))
         flips = np.zeros(angles.shape[1], dtype=int)
         for i in range(angles.shape[1]):
-            senses = backwards[settled[:, i], i]
-            flips[i] = int(np.count_nonzero(senses[1:] != senses[:-1]))
+            last, run, sense = None, 0, None
+            for here, back in zip(settled[:, i].tolist(), backwards[:, i].tolist(),
+                                  strict=True):
+                run = run + 1 if here and back == sense else (1 if here else 0)
+                sense = back if here else None
+                if run == hold:  # a settled stretch long enough to count
+                    if last is not None and back != last:
+                        flips[i] += 1
+                    last = back
         return flips
 
     def steer_range_exits(self) -> int | None:

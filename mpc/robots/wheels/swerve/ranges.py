@@ -145,7 +145,7 @@ def plan_path(present: float, directions: list[float | None], speeds: list[float
     stages: list[list[float]] = []
     for k, (direction, reach) in enumerate(zip(filled, reaches, strict=True)):
         here = candidates(direction, lo, hi)
-        moving = max(speeds[max(k - 1, 0):k + 2])  # out of line before, during or after
+        moving = max(speeds[max(k - 1, 0):k + 4])  # out of line before, during or after
         new_costs, picks = [], []
         for b, sign in here:
             best, pick = math.inf, 0
@@ -163,7 +163,8 @@ def plan_path(present: float, directions: list[float | None], speeds: list[float
         stages.append([b for b, _ in here])
         previous, costs = here, new_costs
     winding = _net_turn(filled)
-    if winding != 0.0:
+    now = (hi - present) if winding > 0.0 else (present - lo)
+    if winding != 0.0 and now < weights.margin:  # wound towards a stop already
         for j, (b, _) in enumerate(previous):
             ahead = (hi - b) if winding > 0.0 else (b - lo)
             costs[j] += weights.room * max(0.0, weights.margin - ahead) / weights.margin
