@@ -29,7 +29,8 @@ def wheel_commands(robot: Robot, twist: FloatArray, target: FloatArray,
     ``measured`` the casters' measured angles (None for other robots), ``planned`` the
     plan's twists (N, 3), or None if the solve failed (casters then predict their angles
     holding ``twist``), ``memory`` what the robot's commands keep from tick to tick (the
-    controller's; steering ranges keep the speeds sent and the turns under way). The prediction is left to whoever reads it
+    controller's; steering ranges keep the speeds sent and the turns under way). The
+    prediction is left to whoever reads it
     (:attr:`~mpc.control.command.Command.predicted_steer_angles`): it is not a command,
     and it took ~50 us of the caster preset's tick (an RK4 of the angles over the plan)."""
     if measured is not None:  # casters: joint rates held over the tick

@@ -17,9 +17,10 @@ Two rules choose each module's branch ``b``:
   stages ``k = 0..N-1`` (the command sent, then the planned twists), candidates the
   allowed ``b`` of each stage's module direction, cost (see :class:`BranchWeights`) the
   turn, the turn beyond what the steering rate allows in the stage weighted by the
-  module's speed (driving out of line), a flip, and, at the plan's end, too little
-  headroom to the stops. The module turns towards the first stage's choice, at most its
-  steering rate.
+  module's speed around it (driving out of line), a flip, and, for a module already
+  wound towards a stop, too little room towards it at the plan's end (so it unwinds
+  while it is slow, before it must). The module turns towards the first stage's choice,
+  at most its steering rate; a turn under way is finished (no turning back half way).
 
 The command: the module's angle steps from the present one towards the chosen ``b`` by at
 most ``max_steer_rate dt`` (so it never leaves the range, an interval), and its signed
@@ -29,6 +30,7 @@ part of its velocity it can).
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -86,8 +88,12 @@ class BranchWeights:
         flip: per flip (drive reversal) [1].
         room: at the plan's end, per ``margin`` of room short of ``margin`` towards the
             stop the module is turning to over the plan (its direction's net turn along
-            the plan): unwinds a module before it reaches a stop, when it is slow [1].
+            the plan), for a module already closer than ``margin`` to that stop: unwinds
+            a module before it reaches a stop, when it is slow [1].
         margin: the room asked for at the plan's end [rad].
+
+    The defaults were chosen on the closed-loop runs of ``python -m
+    benchmarks.steer_ranges`` (see ``docs/guide/steering-ranges.md``).
     """
 
     turn: float = 0.05
@@ -145,7 +151,9 @@ def plan_path(present: float, directions: list[float | None], speeds: list[float
     stages: list[list[float]] = []
     for k, (direction, reach) in enumerate(zip(filled, reaches, strict=True)):
         here = candidates(direction, lo, hi)
-        moving = max(speeds[max(k - 1, 0):k + 4])  # out of line before, during or after
+        # out of line before, during or a little after the turn (a module at rest now but
+        # soon fast costs its turning time too)
+        moving = max(speeds[max(k - 1, 0):k + 4])
         new_costs, picks = [], []
         for b, sign in here:
             best, pick = math.inf, 0
@@ -179,7 +187,7 @@ def plan_path(present: float, directions: list[float | None], speeds: list[float
 def _net_turn(directions: list[float]) -> float:
     """The net turn [rad] of a direction along the stages (each step the short way)."""
     total = 0.0
-    for before, after in zip(directions, directions[1:]):
+    for before, after in itertools.pairwise(directions):
         total += math.remainder(after - before, 2.0 * math.pi)
     return total
 
@@ -260,8 +268,9 @@ def ranged_commands(robot: SwerveModules, twist: FloatArray, steer_angles: Float
             goal = plan_branch(here, directions, (magnitude[:, i] / limit[i]).tolist(),
                                reach.tolist(), lo, hi)
         wanted = velocities[0, i].tolist() if driving else [0.0, 0.0]
-        if driving and not math.isnan(goals[i]):  # a turn under way: on to its branch
-            goal = min(candidates(directions[0], lo, hi), key=lambda c: abs(c[0] - goals[i]))[0]
+        if directions[0] is not None and driving and not math.isnan(goals[i]):
+            # a turn under way: on to the branch of the direction nearest its goal
+            goal = nearest_branch(float(goals[i]), directions[0], lo, hi)
         turn = min(max(goal - here, -step), step)
         previous = None if last_speeds is None else float(last_speeds[i])
         angle, speed = _module_step(here, turn, wanted, previous, accel[i],

@@ -454,7 +454,7 @@ def swerve(
     robot = SwerveRobot(module_positions, name=name, wheel_radius=wheel_radius,
                         max_speed=max_wheel_speed, max_steer_rate=max_steer_rate,
                         max_accel=max_wheel_accel, axle_offset=axle_offset,
-                        steer_range=steer_range, steer_plan=steer_plan)
+                        steer_range=check_steer_range(steer_range), steer_plan=steer_plan)
     check_plausible({"module_positions": (SIZE, robot.module_positions),
                      "wheel_radius": (WHEEL_RADIUS, robot.wheel_radius),
                      "axle_offset": (OFFSET, robot.axle_offset),
