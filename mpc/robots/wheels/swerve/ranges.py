@@ -145,6 +145,11 @@ def plan_path(present: float, directions: list[float | None], speeds: list[float
     filled = _filled(directions)
     if filled is None:  # at rest over the whole plan: stay (inside the range)
         return [min(max(present, lo), hi)] * len(directions)
+    # The present angle has no sense: a turn to the other branch now costs its turning
+    # only, not a flip (which the stages after it pay: no flipping back and forth along
+    # the plan). So a module flips now when that is cheap now (slow) rather than later
+    # at speed; charged here too, it waited for its stop as the per-tick rule does (see
+    # docs/guide/steering-ranges.md).
     previous: list[tuple[float, int]] = [(present, 0)]
     costs = [0.0]
     choices: list[list[int]] = []
