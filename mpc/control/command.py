@@ -36,7 +36,8 @@ class Command:
         wheel_speeds: wheel speeds to send [rad/s], shape (n,); within the
             limits always. Swerve: signed, after the flip rule.
         twist: the commanded body twist (vx, vy, omega) [m/s, m/s, rad/s].
-        steer_angles: swerve module steer angles [rad] in (-pi, pi]; casters: the angles
+        steer_angles: swerve module steer angles [rad] in (-pi, pi] (with a steering range:
+            absolute, inside it); casters: the angles
             the command turns them to by the end of the tick (measured + steer rate * dt);
             else None.
         predicted_poses: the plan's poses (N+1, 3) [m, m, rad].

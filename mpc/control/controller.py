@@ -219,6 +219,8 @@ class Controller:
         self._last = np.zeros(3)  # the last command's twist; reset() sets these
         self._steer: FloatArray | None = None  # steered wheels' commanded angles [rad]
         self._compiled: CompiledTick | None = None  # the tick as one program (mpc.tick)
+        # what the robot's wheel commands keep between ticks (steering ranges' turns)
+        self._memory: dict[str, FloatArray] = {}
         self._set_reference(trajectory)
         self.reset()
         if compiled is not False:
@@ -306,6 +308,7 @@ class Controller:
         elif steer is not None and last.any() and not self.robot.steer_states:
             steer = self.robot.wheel_commands(last, steer)[1]
         self._steer = steer
+        self._memory.clear()
         self._delay.reset(last)
         self._first_tick = not last.any()  # never refuse a tick of a robot in motion
         self._warm.reset()
@@ -368,7 +371,8 @@ class Controller:
         twist, clamped = clamp_command(self.robot, target, self._last, self.dt, self._steer)
         twist, speeds, steer_rates, steer_prediction, self._steer = wheel_commands(
             self.robot, twist, target, self._steer, measured,
-            result.twists if result.success else None, self.dt, self.model.durations)
+            result.twists if result.success else None, self.dt, self.model.durations,
+            self._memory)
         feedforward = first_step_feedforward(self.robot, self._last, twist, self.dt, self._steer)
         self._last = twist
         self._delay.sent(twist)

@@ -17,7 +17,8 @@ from mpc.robots.base import Robot
 
 def wheel_commands(robot: Robot, twist: FloatArray, target: FloatArray,
                    steer: FloatArray | None, measured: FloatArray | None,
-                   planned: FloatArray | None, dt: float, durations: FloatArray
+                   planned: FloatArray | None, dt: float, durations: FloatArray,
+                   memory: dict[str, FloatArray] | None = None
                    ) -> tuple[FloatArray, FloatArray, FloatArray | None,
                               Callable[[], FloatArray] | None, FloatArray | None]:
     """What the wheels are told for the clamped ``twist``: (the twist they will drive,
@@ -27,7 +28,9 @@ def wheel_commands(robot: Robot, twist: FloatArray, target: FloatArray,
     ``steer`` is the steer angles the controller believed in before this tick,
     ``measured`` the casters' measured angles (None for other robots), ``planned`` the
     plan's twists (N, 3), or None if the solve failed (casters then predict their angles
-    holding ``twist``). The prediction is left to whoever reads it
+    holding ``twist``), ``memory`` what the robot's commands keep from tick to tick (the
+    controller's; steering ranges keep the speeds sent and the turns under way). The
+    prediction is left to whoever reads it
     (:attr:`~mpc.control.command.Command.predicted_steer_angles`): it is not a command,
     and it is a sizeable part of a caster tick (docs/design/caster-steer-prediction.md)."""
     if measured is not None:  # casters: joint rates held over the tick
@@ -38,7 +41,8 @@ def wheel_commands(robot: Robot, twist: FloatArray, target: FloatArray,
                                     durations)
         return twist, speeds, steer_rates, predict, measured + steer_rates * dt
     previous = steer
-    speeds, steer = robot.wheel_commands(twist, steer, target, dt)
+    speeds, steer = robot.planned_wheel_commands(twist, steer, target, dt, planned, durations,
+                                                 memory)
     if steer is not None:  # steered wheels at rest: the twist they will drive
         turning = None if previous is None else (
             np.mod(steer - previous + math.pi, 2.0 * math.pi) - math.pi) / dt

@@ -306,6 +306,22 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         velocities = self.wheel_blocks @ twist  # (n, d)
         return self.commands_from_velocities(velocities, steer_angles)
 
+    def planned_wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None,
+                               aim: FloatArray | None, dt: float | None,
+                               plan: FloatArray | None, durations: FloatArray | None,
+                               memory: dict[str, FloatArray] | None = None) -> WheelCommands:
+        """:meth:`wheel_commands` given also the plan's twists ``plan`` (N, 3) (None: no
+        plan) of stage lengths ``durations`` (N,) [s], and ``memory``, a dict the caller
+        keeps from tick to tick (empty after a reset) for the robot's own use;
+        steered wheels with a steering range choose their branch along it. Default:
+        :meth:`wheel_commands`."""
+        return self.wheel_commands(twist, steer_angles, aim, dt)
+
+    def steer_angle_range(self) -> tuple[float, float] | None:
+        """Steered wheels' range of absolute steer angles (lo, hi) [rad], or None: angles
+        modulo a turn (default)."""
+        return None
+
     def steering_fraction(self, last: FloatArray, target: FloatArray,
                           steer_angles: FloatArray | None, dt: float) -> float:
         """The largest fraction of the step from ``last`` towards ``target`` (twists) that

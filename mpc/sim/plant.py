@@ -163,14 +163,17 @@ class Plant:
         self.steer_angles, self.steer_rates = angles, steer
 
     def _steer(self, target: FloatArray, h: float) -> None:
-        """Turn every steered wheel towards its commanded angle, at most ``max_steer_rate``."""
+        """Turn every steered wheel towards its commanded angle, at most ``max_steer_rate``:
+        the short way round, or for wheels with a steering range the absolute way (their
+        angles are absolute and stay unwrapped, so leaving the range shows)."""
         current = self.steer_angles if self.steer_angles is not None else np.zeros_like(target)
-        error = wrap_angle(target - current)
+        absolute = self.robot.steer_angle_range() is not None  # a range: no wrapping round
+        error = target - current if absolute else wrap_angle(target - current)
         rates = self.robot.max_steer_rates
         if self.config.steer_rate_limited and rates is not None:
             reach = rates * h
             error = np.clip(error, -reach, reach)
-        self.steer_angles = wrap_angle(current + error)
+        self.steer_angles = current + error if absolute else wrap_angle(current + error)
 
     def _integrate(self, twist: FloatArray, h: float) -> None:
         """RK4 of d/dt pose = R(theta) twist over ``h`` seconds."""

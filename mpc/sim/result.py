@@ -274,6 +274,51 @@ class SimResult:
         turn = np.mod(np.diff(angles, axis=0) + math.pi / 2, math.pi) - math.pi / 2
         return turn / self.dt
 
+    def steer_flips(self, moving: float = 1e-3, aligned: float = 0.1,
+                    hold: int = 3) -> IntArray | None:
+        """Flips per steered module (n,), None without steered modules: how often a module
+        settled along its direction of travel drives the other way round (backwards after
+        forwards or the reverse) from the last time it was settled: it chose
+        ``angle + pi`` with ``-v`` over turning on. A module turning through a whole turn
+        relative to its direction passes the reversed sense for a tick or two: no flip.
+
+        A module's direction on a tick is that of its velocity in the commanded twist; it
+        is settled when it moves faster than ``moving`` of its speed limit with its
+        commanded angle within ``aligned`` [rad] of that direction or its opposite, for at
+        least ``hold`` ticks in a row in the same sense.
+        """
+        if self.steer_command is None or self.wheel_blocks.shape[1] != 2:
+            return None
+        velocities = np.einsum("ndj,kj->knd", self.wheel_blocks, self.twist_command)
+        angles = self.steer_command
+        off = np.arctan2(velocities[..., 1], velocities[..., 0]) - angles
+        backwards = np.cos(off) < 0.0
+        misaligned = np.abs(np.mod(off + math.pi / 2, math.pi) - math.pi / 2)
+        settled = ((np.hypot(velocities[..., 0], velocities[..., 1])
+                    > moving * self.wheel_limit) & (misaligned <= aligned))
+        flips = np.zeros(angles.shape[1], dtype=int)
+        for i in range(angles.shape[1]):
+            last, run, sense = None, 0, None
+            for here, back in zip(settled[:, i].tolist(), backwards[:, i].tolist(),
+                                  strict=True):
+                run = run + 1 if here and back == sense else (1 if here else 0)
+                sense = back if here else None
+                if run == hold:  # a settled stretch long enough to count
+                    if last is not None and back != last:
+                        flips[i] += 1
+                    last = back
+        return flips
+
+    def steer_range_exits(self) -> int | None:
+        """Ticks on which a commanded steer angle lay outside the robot's steering range
+        (:meth:`~mpc.robots.Robot.steer_angle_range`); None without a range."""
+        bounds = None if self.robot is None else self.robot.steer_angle_range()
+        if bounds is None or self.steer_command is None:
+            return None
+        lo, hi = bounds
+        outside = (self.steer_command < lo) | (self.steer_command > hi)
+        return int(outside.any(axis=1).sum())
+
     def _steer_rate_ratio(self, keep: np.ndarray) -> float | None:
         rates, limit = self.steer_rates(), self.steer_rate_limit
         if rates is None or limit is None:

@@ -18,6 +18,8 @@ Module ``i`` at body position ``p_i = (x_i, y_i)`` [m] moves at
   flip); a module at (near) zero speed keeps its angle.
 
 Axle-offset modules (``axle_offset > 0``, Neobotix MPO-700): :mod:`mpc.robots.wheels.swerve.axle`.
+Steering ranges (``steer_range``: absolute angles, flips planned over the horizon):
+:mod:`mpc.robots.wheels.swerve.ranges`.
 Module states (flip rule, modules at rest, aiming): :mod:`mpc.robots.wheels.swerve.states`.
 """
 
@@ -62,6 +64,13 @@ from mpc.robots.wheels.swerve.limits import (
     steering_fraction,
     update_linearised,
 )
+from mpc.robots.wheels.swerve.ranges import (
+    check_steer_plan,
+    check_steer_range,
+    nearest_branch,
+    ranged_commands,
+    settled_angles,
+)
 from mpc.robots.wheels.swerve.states import aimed_angles, module_states
 from mpc.validation import body_points, checked_arguments, metres, positive, shown
 
@@ -79,6 +88,11 @@ class SwerveRobot(Robot):
         max_steer_rate: steering motor rate limit [rad/s].
         max_accel: per-module wheel acceleration limit [rad/s^2] (of the velocity
             vector, see the module docstring) or None.
+        steer_range: (lo, hi) absolute steer angles [rad] every module stays within
+            (``hi - lo >= pi``), or None: angles modulo a turn, today's flip rule
+            (:mod:`mpc.robots.wheels.swerve.ranges`).
+        steer_plan: with a range, how flips are chosen: ``"horizon"`` (over the plan,
+            the default) or ``"tick"`` (the per-tick rule kept inside the range).
     """
 
     kind = "swerve"
@@ -90,8 +104,12 @@ class SwerveRobot(Robot):
     max_steer_rate: float = field(default=10.0, kw_only=True)
     max_accel: float | None = field(default=None, kw_only=True)
     axle_offset: float = field(default=0.0, kw_only=True)
+    steer_range: tuple[float, float] | None = field(default=None, kw_only=True)
+    steer_plan: str = field(default="horizon", kw_only=True)
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "steer_range", check_steer_range(self.steer_range))
+        object.__setattr__(self, "steer_plan", check_steer_plan(self.steer_plan))
         positions = body_points("module_positions", self.module_positions, "modules", RobotError)
         object.__setattr__(self, "module_positions", readonly(positions))
         radius = metres("wheel_radius", self.wheel_radius, RobotError)
@@ -112,7 +130,8 @@ class SwerveRobot(Robot):
             self, "nominal_max_wheel_accel",
             None if self.max_accel is None else readonly(np.full(n, self.max_accel)))
         self._finish()
-        if not lever and self.rest_projector is None and self.dynamics is None:
+        if (not lever and self.rest_projector is None and self.dynamics is None
+                and self.steer_range is None):  # a range's clamp settles turning modules
             accel = self.max_wheel_accel
             object.__setattr__(self, "planar_modules", PlanarModules(
                 tuple((a, b, c, d, e, f)
@@ -194,7 +213,24 @@ class SwerveRobot(Robot):
 
     def _states(self, velocities: FloatArray,
                 steer_angles: FloatArray | None) -> tuple[FloatArray, FloatArray]:
-        return module_states(velocities, steer_angles, self.wheel_radius)
+        speeds, angles = module_states(velocities, steer_angles, self.wheel_radius)
+        if self.steer_range is None:
+            return speeds, angles
+        # a range: the per-tick rule's branch nearest the present absolute angle, inside it
+        lo, hi = self.steer_range
+        present = np.zeros(self.n_wheels) if steer_angles is None else steer_angles
+        for i, (speed, angle, here) in enumerate(zip(speeds.tolist(), angles.tolist(),
+                                                     present.tolist(), strict=True)):
+            if speed == 0.0:
+                angles[i] = min(max(here, lo), hi)
+            else:
+                direction = angle if speed > 0.0 else angle + np.pi
+                angles[i] = nearest_branch(here, direction, lo, hi)
+                speeds[i] = abs(speed) * np.cos(angles[i] - direction)
+        return speeds, angles
+
+    def steer_angle_range(self) -> tuple[float, float] | None:
+        return self.steer_range
 
     def states_from_velocities(
         self, velocities: FloatArray, current_angles: ArrayLike | None = None
@@ -300,12 +336,18 @@ class SwerveRobot(Robot):
                           steer_angles: FloatArray | None, dt: float) -> float:
         if steer_angles is None:
             return 1.0
+        if self.steer_range is not None:
+            steer_angles = settled_angles(self, last, steer_angles, dt)
         return steering_fraction(self, last, target, steer_angles, dt)
 
     def wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None,
                        aim: FloatArray | None = None, dt: float | None = None) -> WheelCommands:
         """Signed speeds and steer angles for ``twist`` with the flip rule; modules it leaves
-        at rest turn towards their direction in ``aim`` by at most ``max_steer_rate dt``."""
+        at rest turn towards their direction in ``aim`` by at most ``max_steer_rate dt``.
+        With a :attr:`steer_range`: :func:`~mpc.robots.wheels.swerve.ranges.ranged_commands`
+        (absolute angles; no plan to look along here, see :meth:`planned_wheel_commands`)."""
+        if self.steer_range is not None:
+            return self.planned_wheel_commands(twist, steer_angles, aim, dt, None, None)
         speeds, angles = self._states(self.wheel_blocks @ twist, steer_angles)
         if self.axle_offset:  # the wheel rolls with the body's rotation and its steering
             turning = None
@@ -315,6 +357,25 @@ class SwerveRobot(Robot):
         if aim is None or dt is None or steer_angles is None or self.axle_offset:
             return WheelCommands(speeds, angles)
         return WheelCommands(speeds, aimed_angles(self, speeds, angles, aim, steer_angles, dt))
+
+    def planned_wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None,
+                               aim: FloatArray | None, dt: float | None,
+                               plan: FloatArray | None, durations: FloatArray | None,
+                               memory: dict[str, FloatArray] | None = None) -> WheelCommands:
+        """With a :attr:`steer_range`, each module's branch chosen along the plan's twists
+        ``plan`` (N, 3) of stage lengths ``durations`` (N,) [s], its velocity changed by at
+        most its acceleration limit from the last tick's, and a turn under way finished
+        (``memory``: the caller's dict, kept from tick to tick)
+        (:func:`~mpc.robots.wheels.swerve.ranges.ranged_commands`); without one,
+        :meth:`wheel_commands`."""
+        if self.steer_range is None:
+            return self.wheel_commands(twist, steer_angles, aim, dt)
+        speeds, angles, rates = ranged_commands(self, twist, steer_angles, self.steer_range,
+                                                self.steer_plan, aim, dt, plan, durations,
+                                                memory)
+        if self.axle_offset:  # the wheel rolls with the body's rotation and its steering
+            speeds = speeds + self.axle_correction(twist, rates)
+        return WheelCommands(speeds, angles)
 
     def nlp_stage_limits(self, twists: ca.SX, last: ca.SX, steer_angles: ca.SX | None,
                          change_times: FloatArray
@@ -330,7 +391,9 @@ class SwerveRobot(Robot):
                 "module_positions": np.asarray(self.module_positions).tolist(),
                 "wheel_radius": self.wheel_radius, "max_wheel_speed": self.max_speed,
                 "max_steer_rate": self.max_steer_rate, "max_wheel_accel": self.max_accel,
-                **({"axle_offset": self.axle_offset} if self.axle_offset else {})}
+                **({"axle_offset": self.axle_offset} if self.axle_offset else {}),
+                **({"steer_range": list(self.steer_range), "steer_plan": self.steer_plan}
+                   if self.steer_range is not None else {})}
 
     def mobility_wheels(self) -> list[dict[str, Any]]:
         if self.axle_offset:
@@ -363,6 +426,8 @@ def swerve(
     max_steer_rate: float,
     max_wheel_accel: float | None = None,
     axle_offset: float = 0.0,
+    steer_range: ArrayLike | None = None,
+    steer_plan: str = "horizon",
     name: str = "swerve",
     allow_unusual: bool = False,
 ) -> SwerveRobot:
@@ -377,13 +442,19 @@ def swerve(
         axle_offset: the wheel's offset along its axle from the steer axis [m] >= 0
             (MPO-700-style modules; see :mod:`mpc.robots.wheels.swerve.axle`), 0 for centred
             modules.
+        steer_range: (lo, hi) absolute steer angles [rad] the modules stay within, finite,
+            ``hi - lo >= pi`` (e.g. ``(-pi, pi)`` for cable-wrapped modules), or None (no
+            range: angles modulo a turn). See :mod:`mpc.robots.wheels.swerve.ranges`.
+        steer_plan: with a range, ``"horizon"`` (flips chosen over the plan) or ``"tick"``
+            (the per-tick flip rule kept inside the range).
         allow_unusual: accept sizes and limits beyond any real robot's
             (:mod:`mpc.plausibility`); otherwise they raise RobotError naming the likely
             unit mistake.
     """
     robot = SwerveRobot(module_positions, name=name, wheel_radius=wheel_radius,
                         max_speed=max_wheel_speed, max_steer_rate=max_steer_rate,
-                        max_accel=max_wheel_accel, axle_offset=axle_offset)
+                        max_accel=max_wheel_accel, axle_offset=axle_offset,
+                        steer_range=check_steer_range(steer_range), steer_plan=steer_plan)
     check_plausible({"module_positions": (SIZE, robot.module_positions),
                      "wheel_radius": (WHEEL_RADIUS, robot.wheel_radius),
                      "axle_offset": (OFFSET, robot.axle_offset),
