@@ -68,3 +68,58 @@ def test_a_start_from_rest_with_a_small_heading_error_moves_off(heading: float) 
                     - math.pi / 2)
     assert turned.max() <= swerve_robot.max_steer_rate * DT * (1.0 + 1e-9)
     assert np.all(np.abs(result.wheel_command) <= result.wheel_limit * (1.0 + 1e-9))
+
+
+def test_a_slow_module_that_must_turn_far_stops_and_turns_instead_of_creeping() -> None:
+    """Modules along x at 1 mm/s, the target 1 mm/s along y (a quarter turn, reach 0.24
+    rad). The step from the last command reaches the edge of the steering cone at
+    g = tan(reach) / (1 + tan(reach)) = 0.197, where it is sqrt(2) (1 - g) |v| = 1.14 |v|
+    from the target: a stop, |v| from it, is nearer and within every limit (no
+    acceleration limit). The command is the stop and every module turns by its reach."""
+    swerve_robot = robot()
+    last, target = np.array([1e-3, 0.0, 0.0]), np.array([0.0, 1e-3, 0.0])
+    steer = np.zeros(4)
+    reach = swerve_robot.max_steer_rate * DT
+    fraction = turn_fraction(swerve_robot, last, target, steer, DT)
+    assert fraction == pytest.approx(math.tan(reach) / (1.0 + math.tan(reach)), rel=1e-6)
+    twist, clamped = clamp_command(swerve_robot, target, last, DT, steer)
+    assert clamped and np.array_equal(twist, np.zeros(3))
+    speeds, angles = swerve_robot.wheel_commands(twist, steer, target, DT)
+    assert np.array_equal(speeds, np.zeros(4)) and angles is not None
+    np.testing.assert_allclose(angles, np.full(4, reach), atol=1e-12)
+
+
+def test_the_stop_is_offered_only_within_the_acceleration_limits() -> None:
+    """The same quarter turn at 1 m/s with a 60 rad/s^2 limit (1.2 rad/s of wheel speed a
+    tick, 20 rad/s to stop): no stop, the step to the edge of the steering cone."""
+    swerve_robot = swerve(module_positions=[[0.3, 0.25], [0.3, -0.25], [-0.28, 0.27],
+                                            [-0.28, -0.27]],
+                          wheel_radius=0.05, max_wheel_speed=90.0, max_steer_rate=12.0,
+                          max_wheel_accel=60.0)
+    last, target = np.array([1.0, 0.0, 0.0]), np.array([1.0, 0.02, 0.0])
+    steer = np.zeros(4)
+    reach = swerve_robot.max_steer_rate * DT
+    twist, _ = clamp_command(swerve_robot, target, last, DT, steer)
+    assert twist[0] > 0.9
+    assert math.atan2(twist[1], twist[0]) <= reach
+
+
+def test_modules_settle_at_the_end_of_a_path_without_spinning() -> None:
+    """A quintic rest-to-rest reference: at its end the robot overshoots by under a
+    millimetre and the correction points back. The modules used to creep along the
+    clamp's step at ~0.1 mm/s for over 20 ticks, turning at up to their full rate
+    (12 rad of steering in the half second after the end), the error held; now they stop,
+    turn and drive back."""
+    swerve_robot = robot()
+    reference = SampledTrajectory([0.0, 1.0], [[0.0, 0.0, 0.0], [0.5, -0.3, -0.2]],
+                                  np.zeros((2, 3)), np.zeros((2, 3)))
+    controller = Controller(swerve_robot, reference, horizon=25, dt=DT)
+    result = simulate(controller, 1.5)
+    end = 50  # the tick at t = 1.0 s
+    assert result.steer_command is not None
+    turned = np.abs(np.mod(np.diff(result.steer_command, axis=0) + math.pi / 2, math.pi)
+                    - math.pi / 2)
+    assert turned.max() <= swerve_robot.max_steer_rate * DT * (1.0 + 1e-9)
+    assert turned[end:].sum() < 4.0
+    error = np.linalg.norm(result.pose[-1, :2] - result.reference[-1, :2])
+    assert error < 1e-4
