@@ -123,3 +123,20 @@ def test_modules_settle_at_the_end_of_a_path_without_spinning() -> None:
     assert turned[end:].sum() < 4.0
     error = np.linalg.norm(result.pose[-1, :2] - result.reference[-1, :2])
     assert error < 1e-4
+
+
+def test_a_last_command_that_turns_a_module_too_far_is_not_sent_again() -> None:
+    """A creep of 20 um/s along x with module 3 half a radian off it (as a creep the wheel
+    commands snapped partly to rest can leave it): no step from it keeps module 3 within
+    its reach, and sending it again would turn module 3 by 0.5 rad in a tick. The stop is
+    within every limit: the command, and module 3 turns by its reach."""
+    swerve_robot = robot()
+    last, target = np.array([2e-5, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])
+    steer = np.array([0.0, 0.0, 0.0, 0.5])
+    reach = swerve_robot.max_steer_rate * DT
+    assert turn_fraction(swerve_robot, last, target, steer, DT) == 0.0
+    twist, _ = clamp_command(swerve_robot, target, last, DT, steer)
+    assert np.array_equal(twist, np.zeros(3))
+    speeds, angles = swerve_robot.wheel_commands(twist, steer, target, DT)
+    assert np.array_equal(speeds, np.zeros(4)) and angles is not None
+    np.testing.assert_allclose(angles, [0.0, 0.0, 0.0, 0.5 - reach], atol=1e-12)
