@@ -267,7 +267,7 @@ def turn_fraction(robot: SwerveModules, last: FloatArray, target: FloatArray,
     for start, change, angle in modules:
         roots = _turn_roots(start, change, angle, slope, stopped)
         points = sorted({0.0, 1.0, *(root for root in roots if 0.0 < root < 1.0)})
-        resting = None  # where the module's present stretch at rest began
+        resting: float | None = None  # where the module's present stretch at rest began
         for low, high in itertools.pairwise(points):  # low fits (0 does, see above)
             middle = 0.5 * (low + high)
             if not _turn_fits(start, change, angle, middle, reach, radius):
