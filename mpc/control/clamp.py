@@ -149,7 +149,7 @@ def _clamp_planar(robot: Robot, modules: PlanarModules, target: FloatArray,
             safe = np.array((tx, ty, tw))
             fraction = robot.steering_fraction(last, safe, steer_angles, dt)
             if fraction < 1.0:
-                safe = last + fraction * (safe - last)
+                safe = _turn_step(robot, last, safe, fraction, steer_angles, dt)
             return safe, bool(not np.array_equal(safe, target))
     return _float_result(target, tx, ty, tw, changed)
 
@@ -209,5 +209,31 @@ def _limit_step(robot: Robot, safe: FloatArray, last: FloatArray, dt: float,
     if steer_angles is not None:
         fraction = robot.steering_fraction(last, safe, steer_angles, dt)
         if fraction < 1.0:
-            safe = last + fraction * (safe - last)
+            safe = _turn_step(robot, last, safe, fraction, steer_angles, dt)
     return safe
+
+
+def _turn_step(robot: Robot, last: FloatArray, aim: FloatArray, fraction: float,
+               steer_angles: FloatArray, dt: float) -> FloatArray:
+    """Step 4's command: ``fraction`` of the step from ``last`` to ``aim``, or a stop (every
+    module at rest, free to turn towards ``aim``) where the stop is within the acceleration
+    limits and either nearer ``aim`` in the wheels' velocities or the only command within
+    the steering rate (``last`` itself turns a module too far: a creep the wheel commands
+    snapped partly to rest). Without it a module that must turn far crept along the step,
+    its direction swept round by the step's, for many ticks."""
+    step = last + fraction * (aim - last)
+    if robot.dynamics is not None:  # braking is the motors' to bound: no stop offered
+        return step
+    accel = robot.max_wheel_accel
+    if accel is not None:
+        snap = robot.command_snap
+        bound = (accel * dt if snap == 0.0
+                 else np.maximum(accel * dt - 2.0 * snap, 0.5 * accel * dt))
+        if (robot.wheel_magnitudes(last) > bound).any():
+            return step
+    if fraction == 0.0 and robot.steering_fraction(last, last, steer_angles, dt) < 1.0:
+        return np.zeros(3)
+    blocks = robot.flat_wheel_blocks
+    if float(np.sum((blocks @ aim) ** 2)) < float(np.sum((blocks @ (step - aim)) ** 2)):
+        return np.zeros(3)
+    return step

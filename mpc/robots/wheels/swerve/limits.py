@@ -267,15 +267,31 @@ def turn_fraction(robot: SwerveModules, last: FloatArray, target: FloatArray,
     for start, change, angle in modules:
         roots = _turn_roots(start, change, angle, slope, stopped)
         points = sorted({0.0, 1.0, *(root for root in roots if 0.0 < root < 1.0)})
+        resting: float | None = None  # where the module's present stretch at rest began
         for low, high in itertools.pairwise(points):  # low fits (0 does, see above)
             middle = 0.5 * (low + high)
             if not _turn_fits(start, change, angle, middle, reach, radius):
-                fraction = min(fraction, low)
+                # A module that must turn past its reach as it leaves rest waits at rest
+                # from where its rest began: creeping to the stopped speed instead moved
+                # the other modules at about that speed, and a robot starting from rest
+                # stayed on such a creep, its angles held by it.
+                fraction = min(fraction, low if resting is None else resting)
                 break
             if not _turn_fits(start, change, angle, high, reach, radius):
                 fraction = min(fraction, middle)
                 break
+            at_rest = not _moving(start, change, middle, radius)
+            resting = (low if resting is None else resting) if at_rest else None
     return fraction
+
+
+def _moving(start: list[float], change: list[float], fraction: float,
+            wheel_radius: float) -> bool:
+    """Whether a module whose velocity is ``start + fraction * change`` [rad/s] moves (the
+    rest test of :func:`_turn_fits`)."""
+    x = start[0] + fraction * change[0]
+    y = start[1] + fraction * change[1]
+    return math.hypot(x, y) * wheel_radius > MOVING_MODULE_SPEED
 
 
 def _turn_fits(start: list[float], change: list[float], angle: float, fraction: float,
