@@ -10,7 +10,10 @@ feedback::
     V_demand = w_set / kv + R T_ff / kt + velocity_gain (w_set - w)
 
 ``T_ff`` is the command's own motor torque (:attr:`Command.motor_torques`) when it has
-one, otherwise the torque the commanded change of twist needs on this robot (an
+one (a swerve module's whose command carries its contact force vector,
+:attr:`Command.contact_forces`: that vector projected onto the way the module points
+now, each sub-step, plus the wheel's own inertia torque, as a team projects PathPlanner's
+robot-relative forces onto the measured module angle), otherwise the torque the commanded change of twist needs on this robot (an
 acceleration feedforward, as a well-identified ``kA`` gives: controllers that do not
 plan forces are not handicapped by a poorer wheel loop). The motor controller applies
 ``V_demand`` clipped to the bus voltage, then lowers it so that the current stays within
@@ -27,8 +30,11 @@ Physics per sub-step (implicit Euler in the twist and the wheel speeds):
   units); the body: ``M (du/dt + coriolis(u)) = sum W^T tau`` (:mod:`mpc.robots.drive.force_map`);
 - the floor: a stiff regularised contact, ``tau = k (w - W u)`` along each slip
   direction (a Swedish wheel's roller axis, a ball's two actuators, a swerve module's
-  rolling and lateral directions), ``k`` such that the contact creeps at
-  ``slip_speed + slip_ratio |v|`` (``v`` its ground speed) at ``mu N``, as a tyre whose
+  rolling and lateral directions), one ``k`` for every contact, such that a contact
+  creeps at ``slip_speed + slip_ratio |v|`` (``|v|`` the contacts' mean ground speed) at
+  the mean ``mu N``: so the force the directions no motor drives take is shared as the
+  planner's minimum-norm split shares it, under the same static normal loads (the force
+  model of :mod:`mpc.robots.drive.force_map`; ``docs/guide/traction.md``), as a tyre whose
   force saturates at a few degrees of slip angle or a few percent of slip; a contact
   whose force would exceed ``mu N`` slides with ``mu N`` (kinetic friction along the
   force it would have needed);
@@ -165,7 +171,7 @@ class MotorPlant(Plant):
     # ------------------------------------------------------------ one tick
     def apply(self, command: Command) -> FloatArray:
         """Run one tick under ``command``; return the wheel speeds reached [rad/s]."""
-        target_speeds, target_angles, feedforward = self._delayed_targets(command)
+        target_speeds, target_angles, feedforward, vectors = self._delayed_targets(command)
         config, forces = self.config, self.forces
         substeps = config.substeps
         h = self.dt / substeps
@@ -184,7 +190,8 @@ class MotorPlant(Plant):
             bus = self.robot.dynamics.battery_voltage - self.battery_resistance * (  # type: ignore[union-attr]
                 self._battery_current)
             lowest = min(lowest, bus)
-            ahead = forces.voltage(feedforward, setpoint) + self.velocity_gain * setpoint
+            torque = feedforward if vectors is None else self._projected(feedforward, vectors)
+            ahead = forces.voltage(torque, setpoint) + self.velocity_gain * setpoint
             previous = self.twist
             self.twist, self.wheel_speeds, sub = self._physics.step(
                 (self.twist, self.wheel_speeds), self.steer_angles, ahead, bus)
@@ -204,11 +211,14 @@ class MotorPlant(Plant):
         return self.wheel_speeds.copy()
 
     def _delayed_targets(self, command: Command
-                         ) -> tuple[FloatArray, FloatArray | None, FloatArray]:
-        """Queue ``command`` on the delay line; the wheel speeds, steer angles and wheel
-        torque feedforward of the command that comes out of it."""
+                         ) -> tuple[FloatArray, FloatArray | None, FloatArray,
+                                    FloatArray | None]:
+        """Queue ``command`` on the delay line; the wheel speeds, steer angles, wheel
+        torque feedforward [N m] of the command that comes out of it, and (swerve modules
+        whose command carries them) its contact force vectors [N] (n, 2)."""
         self._commands.append(command)
         delayed = self._commands.popleft()
+        vectors = None
         if delayed is None:  # the delay line still holds the robot at rest
             target_speeds, target_angles = np.zeros(self.robot.n_wheels), self.steer_angles
             feedforward = self._feedforward(np.zeros(3), None, target_angles)
@@ -216,7 +226,26 @@ class MotorPlant(Plant):
             target_speeds, target_angles = delayed.wheel_speeds, delayed.steer_angles
             feedforward = self._feedforward(np.asarray(delayed.twist, dtype=float),
                                             delayed.motor_torques, target_angles)
-        return target_speeds, target_angles, feedforward
+            if (delayed.contact_forces is not None and target_angles is not None
+                    and delayed.motor_torques is not None and self.robot.wheel_dim == 2):
+                vectors = np.asarray(delayed.contact_forces, dtype=float)
+                # the command's torque less its contact force's part along the commanded
+                # angle: the wheel's own inertia, which stays with the wheel
+                along = vectors[:, 0] * np.cos(target_angles) + vectors[:, 1] * np.sin(
+                    target_angles)
+                feedforward = feedforward - along * self.forces.radii
+        return target_speeds, target_angles, feedforward, vectors
+
+    def _projected(self, inertia: FloatArray, vectors: FloatArray) -> FloatArray:
+        """Swerve: each module's drive torque feedforward [N m] now, its contact force
+        ``vectors`` (n, 2) [N] projected onto the way the module points now (as a team
+        projects PathPlanner's robot-relative forces onto the measured module angle),
+        plus the wheel's own ``inertia`` torque."""
+        angles = self.steer_angles
+        if angles is None:  # pragma: no cover - swerve modules have angles
+            return inertia
+        along = vectors[:, 0] * np.cos(angles) + vectors[:, 1] * np.sin(angles)
+        return inertia + along * self.forces.radii
 
     def _module_ramp(self, start: FloatArray, target_speeds: FloatArray,
                      aims: FloatArray) -> tuple[FloatArray, FloatArray]:

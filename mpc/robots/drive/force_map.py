@@ -28,6 +28,12 @@ contact force does not include it.
 Static normal loads: the weight ``m g`` shared so that the loads balance about the body
 origin, the minimum-norm split (equal for the symmetric presets); load transfer from
 acceleration (centre-of-mass height) is neglected.
+
+This is the one force model of the project: the planner's rows, the clamp, the
+command's contact forces (:attr:`~mpc.control.command.Command.contact_forces`) and the
+motor plant (:mod:`mpc.sim.motor_plant`: its motors push with the plan's efforts, and
+its contacts, one stiffness for all, share what no motor drives as the minimum-norm
+split does) all use it: static loads, minimum-norm split, traction ``mu N`` per contact.
 """
 
 from __future__ import annotations
