@@ -13,15 +13,21 @@ feedback::
 one (a swerve module's whose command carries its contact force vector,
 :attr:`Command.contact_forces`: that vector projected onto the way the module points
 now, each sub-step, plus the wheel's own inertia torque, as a team projects PathPlanner's
-robot-relative forces onto the measured module angle), otherwise the torque the commanded change of twist needs on this robot (an
-acceleration feedforward, as a well-identified ``kA`` gives: controllers that do not
-plan forces are not handicapped by a poorer wheel loop). The motor controller applies
+robot-relative forces onto the measured module angle), otherwise the torque the
+commanded change of twist needs on this robot (an acceleration feedforward, as a
+well-identified ``kA`` gives: controllers that do not plan forces are not handicapped by
+a poorer wheel loop). The motor controller applies
 ``V_demand`` clipped to the bus voltage, then lowers it so that the current stays within
 the current limit (a stator current limit). Counted, per tick, on any sub-step:
 
 - a **voltage violation** when ``|V_demand|`` exceeds the bus voltage;
 - a **current violation** when the current of the clipped voltage exceeds the limit;
-- a **slip event** when a wheel's contact force reached ``mu N`` and the wheel slid.
+- a **slip event** when a wheel's contact force reached ``mu N`` and the wheel slid;
+
+and the **planned traction ratio**: the largest contact force / ``mu N`` that the
+command's own step (from the command before it to it, over the tick) needs by the
+rigid-body model (:mod:`mpc.robots.drive.force_map`), whoever made the command. A slip
+on a tick whose planned ratio is at most 1 is the plant's, not the plan's.
 
 Physics per sub-step (implicit Euler in the twist and the wheel speeds):
 
@@ -69,7 +75,7 @@ __all__ = ["EVENT_KEYS", "MIN_WHEEL_INERTIA", "MotorPlant", "MotorPlantConfig"]
 #: Event series a :class:`MotorPlant` records per tick (:meth:`MotorPlant.events`).
 EVENT_KEYS: tuple[str, ...] = ("voltage_violation", "current_violation", "slip",
                                "peak_voltage_ratio", "peak_current_ratio", "bus_voltage",
-                               "peak_traction_ratio")
+                               "peak_traction_ratio", "planned_traction_ratio")
 
 
 @dataclass(frozen=True)
@@ -171,6 +177,7 @@ class MotorPlant(Plant):
     # ------------------------------------------------------------ one tick
     def apply(self, command: Command) -> FloatArray:
         """Run one tick under ``command``; return the wheel speeds reached [rad/s]."""
+        planned = self._planned_traction(command)
         target_speeds, target_angles, feedforward, vectors = self._delayed_targets(command)
         config, forces = self.config, self.forces
         substeps = config.substeps
@@ -207,7 +214,7 @@ class MotorPlant(Plant):
         if target_angles is not None:
             self._last_angles = np.asarray(target_angles, dtype=float).copy()
         self._events.append((float(flags[0]), float(flags[1]), float(flags[2]),
-                             peaks[0], peaks[1], lowest, peaks[2]))
+                             peaks[0], peaks[1], lowest, peaks[2], planned))
         return self.wheel_speeds.copy()
 
     def _delayed_targets(self, command: Command
@@ -235,6 +242,19 @@ class MotorPlant(Plant):
                     target_angles)
                 feedforward = feedforward - along * self.forces.radii
         return target_speeds, target_angles, feedforward, vectors
+
+    def _planned_traction(self, command: Command) -> float:
+        """The largest contact force / ``mu N`` of the step from the last command that
+        came out of the delay line to the one that comes out now (call before
+        :meth:`_delayed_targets`); 0 without friction."""
+        limits = self.forces.friction_limits
+        if limits is None:
+            return 0.0
+        delayed = self._commands[0] if self._commands else command
+        twist = np.zeros(3) if delayed is None else np.asarray(delayed.twist, dtype=float)
+        accel = self.forces.acceleration(self._last_twist, twist, self.dt)
+        contact = self.forces.contact_forces(accel)
+        return float((np.hypot(contact[:, 0], contact[:, 1]) / limits).max())
 
     def _projected(self, inertia: FloatArray, vectors: FloatArray) -> FloatArray:
         """Swerve: each module's drive torque feedforward [N m] now, its contact force
@@ -298,7 +318,7 @@ class MotorPlant(Plant):
         """Per tick so far: ``voltage_violation``, ``current_violation``, ``slip`` (1.0 or
         0.0), ``peak_voltage_ratio`` (largest ``|V_demand| / V_bus``),
         ``peak_current_ratio`` (largest ``|I| / limit``), ``peak_traction_ratio`` (largest
-        contact force / ``mu N`` the contacts were asked for) and the lowest ``bus_voltage``
-        [V] over its sub-steps."""
+        contact force / ``mu N`` the contacts were asked for), the lowest ``bus_voltage``
+        [V] over its sub-steps and ``planned_traction_ratio`` (module docstring)."""
         table = np.array(self._events, dtype=float).reshape(-1, len(EVENT_KEYS))
         return {key: table[:, i].copy() for i, key in enumerate(EVENT_KEYS)}
