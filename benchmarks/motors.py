@@ -258,22 +258,34 @@ def traction(layouts: list[str], sizes: list[float], ratios: list[float],
                                "rms_position_error", "max_position_error",
                                "voltage_violations", "current_violations", "slip_events",
                                "unplanned_slip_events", "failures")},
-                           "planned_beyond_traction": int(np.sum(planned > 1.0))}
+                           "planned_beyond_traction": int(np.sum(planned > 1.0)),
+                           "unplanned_slip_steering": _unplanned_steering(events)}
                     rows.append(row)
                     log(f"{layout:8s} {size:3.1f} m x{ratio:.1f} {name:13s} "
                         f"{variant or '':22s} rms {row['rms_position_error'] * 1e3:6.1f} mm  "
                         f"V {row['voltage_violations']:3d}  I {row['current_violations']:3d}  "
                         f"slip {row['slip_events']:3d} (unplanned "
-                        f"{row['unplanned_slip_events']:3d})  failures {row['failures']:2d} "
+                        f"{row['unplanned_slip_events']:3d}, steering "
+                        f"{row['unplanned_slip_steering']:3d})  failures {row['failures']:2d} "
                         f"({time.perf_counter() - started:.1f} s)")
     return rows
+
+
+def _unplanned_steering(events: dict[str, FloatArray]) -> int:
+    """Slip ticks within the plan's traction on which a module's steering was at its
+    rate limit (the motor plant's events)."""
+    if "steer_saturated" not in events:
+        return 0
+    return int(np.sum((events["slip"] > 0) & (events["planned_traction_ratio"] <= 1.0)
+                      & (events["steer_saturated"] > 0)))
 
 
 def traction_table(rows: list[dict[str, Any]], variants: list[str]) -> str:
     """Markdown: per scenario the kinematic MPC's RMS error [mm], and per planner variant
     the motor-aware MPC's RMS error [mm] with its ratio to the kinematic MPC's; slip
-    ticks (those where the command's own step stayed within ``mu N`` in brackets) and
-    voltage / current violation ticks after ``/``."""
+    ticks (in brackets: those where the command's own step stayed within ``mu N``, and of
+    them those where a module's steering was at its rate limit) and voltage / current
+    violation ticks after ``/``."""
     head = ("| layout | size [m] | x free speed | mpc-kinematic | "
             + " | ".join(f"mpc-motors {v}" for v in variants) + " |")
     lines = [head, "|" + "---|" * (len(variants) + 4)]
@@ -282,8 +294,8 @@ def traction_table(rows: list[dict[str, Any]], variants: list[str]) -> str:
     def cell(r: dict[str, Any], base: float | None) -> str:
         ratio = "" if base is None else f" ({r['rms_position_error'] / base:.2f}x)"
         return (f"{r['rms_position_error'] * 1e3:.1f}{ratio}; slip {r['slip_events']} "
-                f"({r['unplanned_slip_events']}) / {r['voltage_violations']} / "
-                f"{r['current_violations']}")
+                f"({r['unplanned_slip_events']}, {r.get('unplanned_slip_steering', 0)}) / "
+                f"{r['voltage_violations']} / {r['current_violations']}")
 
     for layout, size, ratio in scenarios:
         mine = [r for r in rows if (r["layout"], r["size"], r["speed_ratio"])
@@ -543,8 +555,9 @@ def _traction_main(args: argparse.Namespace, argv: list[str]) -> int:
     rows = traction(layouts, sizes, ratios, variants, duration=args.duration,
                     skip=args.skip, seed=args.seed, log=lambda line: print(line, flush=True))
     print()
-    print("RMS position error [mm] (ratio to the kinematic MPC's); slip ticks (those whose "
-          "command needed at most mu N, in brackets) / voltage / current violation ticks")
+    print("RMS position error [mm] (ratio to the kinematic MPC's); slip ticks (in brackets: "
+          "those whose command needed at most mu N, and of them those with a module's "
+          "steering at its rate limit) / voltage / current violation ticks")
     print(traction_table(rows, variants))
     (out / "motors-traction.json").write_text(json.dumps(
         {"command": " ".join(["mpc-bench", "motors", *argv]), "machine": machine(),

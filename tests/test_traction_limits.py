@@ -46,8 +46,8 @@ def _judge(name: str, commands: list, motor, dyn) -> dict[str, float]:
     last_speeds = np.zeros(n)
     for command in commands:
         twist = np.asarray(command.twist, dtype=float)
-        for side, (u_turn, speeds) in enumerate(((twist, command.wheel_speeds),
-                                                 (last, last_speeds))):
+        for u_turn, speeds in ((twist, command.wheel_speeds),
+                                (last, last_speeds)):
             accel = (twist - last) / DT + np.array([-u_turn[2] * u_turn[1],
                                                     u_turn[2] * u_turn[0], 0.0])
             forces = a @ np.linalg.solve(a.T @ a, mass @ accel)  # min-norm rim forces

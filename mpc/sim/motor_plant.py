@@ -27,7 +27,9 @@ the current limit (a stator current limit). Counted, per tick, on any sub-step:
 and the **planned traction ratio**: the largest contact force / ``mu N`` that the
 command's own step (from the command before it to it, over the tick) needs by the
 rigid-body model (:mod:`mpc.robots.drive.force_map`), whoever made the command. A slip
-on a tick whose planned ratio is at most 1 is the plant's, not the plan's.
+on a tick whose planned ratio is at most 1 is the plant's, not the plan's; ``steer_saturated``
+says whether a swerve module's steering ran at its rate limit on the tick (then the
+module lags the velocity it should point along, and its contact slides sideways).
 
 Physics per sub-step (implicit Euler in the twist and the wheel speeds):
 
@@ -75,7 +77,8 @@ __all__ = ["EVENT_KEYS", "MIN_WHEEL_INERTIA", "MotorPlant", "MotorPlantConfig"]
 #: Event series a :class:`MotorPlant` records per tick (:meth:`MotorPlant.events`).
 EVENT_KEYS: tuple[str, ...] = ("voltage_violation", "current_violation", "slip",
                                "peak_voltage_ratio", "peak_current_ratio", "bus_voltage",
-                               "peak_traction_ratio", "planned_traction_ratio")
+                               "peak_traction_ratio", "planned_traction_ratio",
+                               "steer_saturated")
 
 
 @dataclass(frozen=True)
@@ -155,6 +158,7 @@ class MotorPlant(Plant):
         self._last_twist = np.zeros(3)
         self._last_angles: FloatArray | None = None  # last commanded steer angles
         self._events: list[tuple[float, ...]] = []
+        self._saturated = False  # a module's steering at its rate limit this tick
         self._commands: deque[Command | None] = deque([None] * config.delay_ticks)
         self._physics = SubStepModel.build(robot, forces, self.velocity_gain, config.slip_speed,
                                            config.slip_ratio, config.substeps, dt)
@@ -184,6 +188,7 @@ class MotorPlant(Plant):
         h = self.dt / substeps
         start = self._last_speeds
         flags = [False, False, False]
+        self._saturated = False
         peaks = [0.0, 0.0, 0.0]
         lowest = math.inf
         aims = target_angles if self.steer_angles is not None else None
@@ -214,7 +219,8 @@ class MotorPlant(Plant):
         if target_angles is not None:
             self._last_angles = np.asarray(target_angles, dtype=float).copy()
         self._events.append((float(flags[0]), float(flags[1]), float(flags[2]),
-                             peaks[0], peaks[1], lowest, peaks[2], planned))
+                             peaks[0], peaks[1], lowest, peaks[2], planned,
+                             float(self._saturated)))
         return self.wheel_speeds.copy()
 
     def _delayed_targets(self, command: Command
@@ -289,6 +295,10 @@ class MotorPlant(Plant):
         present = aims if self.steer_angles is None else self.steer_angles
         flip = np.abs(wrap_angle(angle - present)) > math.pi / 2
         angle = np.where(speed > 1e-9, np.where(flip, angle + math.pi, angle), aims)
+        rates = self.robot.max_steer_rates
+        if self.config.steer_rate_limited and rates is not None:
+            self._saturated |= bool(np.any(np.abs(wrap_angle(angle - present))
+                                           > rates * h * (1.0 + 1e-9)))
         self._steer(angle, h)
         pointing = aims if self.steer_angles is None else self.steer_angles
         setpoint: FloatArray = (velocity[:, 0] * np.cos(pointing)
@@ -319,6 +329,7 @@ class MotorPlant(Plant):
         0.0), ``peak_voltage_ratio`` (largest ``|V_demand| / V_bus``),
         ``peak_current_ratio`` (largest ``|I| / limit``), ``peak_traction_ratio`` (largest
         contact force / ``mu N`` the contacts were asked for), the lowest ``bus_voltage``
-        [V] over its sub-steps and ``planned_traction_ratio`` (module docstring)."""
+        [V] over its sub-steps, ``planned_traction_ratio`` and ``steer_saturated`` (module
+        docstring)."""
         table = np.array(self._events, dtype=float).reshape(-1, len(EVENT_KEYS))
         return {key: table[:, i].copy() for i, key in enumerate(EVENT_KEYS)}
