@@ -32,7 +32,9 @@ from mpc.robots.drive.force_map import ForceMap, apothem
 #: tick). A constant 12-gon, every edge midway: 70 iterations, 1.56 against 2.0 ms at the
 #: median, but swerve's circle 126.2 mm with 2 current-violation and 10 slip ticks and its
 #: figure-eight 25.1 mm, behind the kinematic MPC's 24.5 (2026-11-28).
-TRACTION_SIDES = 12
+#: 16 sides since the traction sweep (``mpc-bench motors --traction``,
+#: docs/guide/traction.md): corners 1.5 % beyond the disk, fewer slips, the same errors.
+TRACTION_SIDES = 16
 
 #: How a row's direction is chosen each tick (:attr:`MotorRows.direction`): fixed, a steered
 #: wheel's drive direction, a 2-D contact's planned force.
