@@ -23,6 +23,10 @@ feedforward for every controller) from rest on the reference. Reported per run: 
 position error after the settling time, ticks with a battery-voltage or current-limit
 violation (a wheel loop asked for more than the bus or the limit gives), slip events
 (ticks on which a wheel slid), and tick times.
+
+``--traction`` instead compares the motor-aware MPC under planner variants (headroom,
+battery sag, traction polygon) with the kinematic MPC on fixed-heading figure-eights timed
+to ratios of the geared free speed (:func:`traction`; docs/guide/traction.md).
 """
 
 from __future__ import annotations
