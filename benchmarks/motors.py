@@ -23,14 +23,21 @@ feedforward for every controller) from rest on the reference. Reported per run: 
 position error after the settling time, ticks with a battery-voltage or current-limit
 violation (a wheel loop asked for more than the bus or the limit gives), slip events
 (ticks on which a wheel slid), and tick times.
+
+``--traction`` instead compares the motor-aware MPC under planner variants (headroom,
+battery sag, traction polygon) with the kinematic MPC on fixed-heading figure-eights timed
+to ratios of the geared free speed (:func:`traction`; docs/guide/traction.md).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import dataclasses
 import json
 import math
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -48,6 +55,7 @@ from mpc.robots import (
     Robot,
     motor_preset,
 )
+from mpc.robots.drive import motor_rows
 from mpc.robots.drive.force_map import force_map
 from mpc.sim import (
     FeedforwardPController,
@@ -67,11 +75,14 @@ _PROBE_PERIOD = 10.0
 
 def kinematic_stand_in(robot: Robot) -> Robot:
     """``robot`` without dynamics, with the kinematic limits a team would derive from its
-    motors (Choreo's view): the speed limit is the free speed at the battery voltage, the
-    acceleration limit of wheel ``i`` is ``tau_max / (J + m_i / |W_i|^2)``, with
-    ``tau_max`` the smaller of the current-limited torque and the torque that reaches
-    traction when the wheel pushes alone, ``m_i`` its contact's share of the mass and
-    ``|W_i|`` its rolling map's planar norm (rad/s per m/s; 1 / r for a plain wheel)."""
+    motors (Choreo's view): the speed limit is the free speed at the battery voltage; the
+    acceleration limit of wheel ``i`` is its largest torque over its share of the mass at
+    its rim, ``tau_max / (J + m_i r_i^2)`` [rad/s^2] (the wheel's rim acceleration
+    ``tau_max / (r_i m_i)`` over ``r_i``), with ``tau_max`` the smaller of the
+    current-limited torque and the torque that reaches traction when the wheel pushes
+    alone (``mu N / |W_i|``, ``|W_i|`` its rolling map's planar norm: ``1 / r`` for a plain
+    wheel or a swerve module, ``1 / (r cos gamma)`` for a Swedish wheel, whose force lies
+    along its rollers), and ``m_i`` its contact's share of the mass."""
     forces = force_map(robot)
     dyn = forces.dynamics
     blocks = robot.wheel_blocks
@@ -81,7 +92,7 @@ def kinematic_stand_in(robot: Robot) -> Robot:
     traction = forces.friction_limits
     if traction is not None:
         limit = np.minimum(limit, traction[forces.contact_of] / reach)
-    accel = limit / (dyn.wheel_inertia + share / reach**2)
+    accel = limit / (dyn.wheel_inertia + share * forces.radii**2)
     speed = dyn.free_speed
     try:
         return robot.with_wheel_limits(speed, accel)
@@ -142,6 +153,165 @@ def motor_reference(name: str, robot: Robot, ratio: float = 1.0, size: float = 1
         else:
             high = middle
     return make(high)
+
+
+def free_speed_reference(name: str, robot: Robot, ratio: float = 1.0, size: float = 1.0,
+                         heading: str = "fixed") -> Trajectory:
+    """The named shape (``size`` [m]) timed so that its peak wheel speed over a lap is
+    ``ratio`` times the geared free speed (``robot.max_wheel_speed``: the motor's free
+    speed over the gearing); beyond 1 the reference asks for more than the robot can do."""
+    spec: Any = 0.0 if heading == "fixed" else "tangent"
+    shape = Circle if name == "circle" else FigureEight
+    probe_period = 10.0
+    probe = shape(size, probe_period, heading=spec)
+    times = np.linspace(0.0, probe_period, 2001)
+    wheel = np.einsum("ndj,kj->knd", robot.wheel_blocks, probe.body_twist(times))
+    peak = float(np.linalg.norm(wheel, axis=2).max())
+    return shape(size, probe_period * peak / (ratio * float(robot.max_wheel_speed.max())),
+                 heading=spec)
+
+
+#: The planner settings ``mpc-bench motors --traction`` compares by default (the shipped
+#: ones first): the headroom kept for the wheel loops, the battery's sag and the sides of
+#: the traction polygon.
+TRACTION_VARIANTS: tuple[str, ...] = ("default", "headroom=0.025", "headroom=0",
+                                      "no-sag", "headroom=0.025+no-sag", "sides=16")
+
+
+def variant_robot(robot: Robot, spec: str) -> tuple[Robot, int]:
+    """The robot the motor-aware MPC plans with under a planner variant ``spec`` (terms
+    joined by ``+``: ``default``, ``headroom=X`` (current and traction),
+    ``voltage_headroom=X``, ``no-sag`` (plan with an unsagged battery), ``sides=N`` (the
+    traction polygon's sides)) and the polygon's sides; the plant keeps the true robot."""
+    dyn = robot.dynamics
+    if dyn is None:
+        raise ScenarioError(f"robot {robot.name!r} has no dynamics")
+    sides = motor_rows.TRACTION_SIDES
+    changes: dict[str, Any] = {}
+    for term in spec.split("+"):
+        key, _, value = term.partition("=")
+        try:
+            if term == "default":
+                continue
+            if term == "no-sag":
+                changes["battery_resistance"] = 0.0
+            elif key in ("headroom", "voltage_headroom") and value:
+                changes[key] = float(value)
+            elif key == "sides" and value:
+                sides = int(value)
+                if sides < 4 or sides % 2:
+                    raise ValueError
+            else:
+                raise ValueError
+        except ValueError:
+            raise ScenarioError(f"planner variant {term!r}: expected default, headroom=X, "
+                                f"voltage_headroom=X, no-sag or sides=N (N even, >= 4)"
+                                ) from None
+    try:
+        return robot.with_dynamics(dataclasses.replace(dyn, **changes)), sides
+    except RobotError as error:
+        raise ScenarioError(f"planner variant {spec!r}: {error}") from None
+
+
+@contextlib.contextmanager
+def _polygon_sides(sides: int) -> Iterator[None]:
+    """The traction polygon's sides while a controller builds its rows."""
+    before = motor_rows.TRACTION_SIDES
+    motor_rows.TRACTION_SIDES = sides
+    try:
+        yield
+    finally:
+        motor_rows.TRACTION_SIDES = before
+
+
+def traction(layouts: list[str], sizes: list[float], ratios: list[float],
+             variants: list[str], *, duration: float = 12.0, skip: float = 2.0,
+             dt: float = 0.05, horizon: int = 20, seed: int = 0,
+             log: Any = print) -> list[dict[str, Any]]:
+    """Fixed-heading figure-eights of each size [m] timed to each ratio of the geared free
+    speed (:func:`free_speed_reference`), ``duration`` seconds on the motor plant from
+    rest: the kinematic MPC (its stand-in) and the motor-aware MPC under each planner
+    variant (:func:`variant_robot`). One row per run; ``variant`` is None for the
+    kinematic MPC."""
+    rows = []
+    for layout in layouts:
+        robot = motor_preset(layout)
+        for size in sizes:
+            for ratio in ratios:
+                reference = free_speed_reference("figure8", robot, ratio, size)
+                runs: list[tuple[str, str | None]] = [("mpc-kinematic", None)]
+                runs += [("mpc-motors", v) for v in variants]
+                for name, variant in runs:
+                    started = time.perf_counter()
+                    if variant is None:
+                        control = controller(name, robot, reference, dt, horizon)
+                    else:
+                        planner, sides = variant_robot(robot, variant)
+                        with _polygon_sides(sides):
+                            control = Controller(planner, reference, horizon, dt,
+                                                 command_ramp=True)
+                    result = simulate(control, duration, plant="motor", robot=robot,
+                                      seed=seed)
+                    m = result.metrics(skip=skip)
+                    events = result.plant_events or {}
+                    planned = events.get("planned_traction_ratio", np.zeros(1))
+                    row = {"layout": layout, "size": size, "speed_ratio": ratio,
+                           "period": float(reference.period or 0.0), "controller": name,
+                           "variant": variant,
+                           **{key: m[key] for key in (
+                               "rms_position_error", "max_position_error",
+                               "voltage_violations", "current_violations", "slip_events",
+                               "unplanned_slip_events", "failures")},
+                           "planned_beyond_traction": int(np.sum(planned > 1.0)),
+                           "unplanned_slip_steering": _unplanned_steering(events)}
+                    rows.append(row)
+                    log(f"{layout:8s} {size:3.1f} m x{ratio:.1f} {name:13s} "
+                        f"{variant or '':22s} rms {row['rms_position_error'] * 1e3:6.1f} mm  "
+                        f"V {row['voltage_violations']:3d}  I {row['current_violations']:3d}  "
+                        f"slip {row['slip_events']:3d} (unplanned "
+                        f"{row['unplanned_slip_events']:3d}, steering "
+                        f"{row['unplanned_slip_steering']:3d})  failures {row['failures']:2d} "
+                        f"({time.perf_counter() - started:.1f} s)")
+    return rows
+
+
+def _unplanned_steering(events: dict[str, FloatArray]) -> int:
+    """Slip ticks within the plan's traction on which a module's steering was at its
+    rate limit (the motor plant's events)."""
+    if "steer_saturated" not in events:
+        return 0
+    return int(np.sum((events["slip"] > 0) & (events["planned_traction_ratio"] <= 1.0)
+                      & (events["steer_saturated"] > 0)))
+
+
+def traction_table(rows: list[dict[str, Any]], variants: list[str]) -> str:
+    """Markdown: per scenario the kinematic MPC's RMS error [mm], and per planner variant
+    the motor-aware MPC's RMS error [mm] with its ratio to the kinematic MPC's; slip
+    ticks (in brackets: those where the command's own step stayed within ``mu N``, and of
+    them those where a module's steering was at its rate limit) and voltage / current
+    violation ticks after ``/``."""
+    head = ("| layout | size [m] | x free speed | mpc-kinematic | "
+            + " | ".join(f"mpc-motors {v}" for v in variants) + " |")
+    lines = [head, "|" + "---|" * (len(variants) + 4)]
+    scenarios = dict.fromkeys((r["layout"], r["size"], r["speed_ratio"]) for r in rows)
+
+    def cell(r: dict[str, Any], base: float | None) -> str:
+        ratio = "" if base is None else f" ({r['rms_position_error'] / base:.2f}x)"
+        return (f"{r['rms_position_error'] * 1e3:.1f}{ratio}; slip {r['slip_events']} "
+                f"({r['unplanned_slip_events']}, {r.get('unplanned_slip_steering', 0)}) / "
+                f"{r['voltage_violations']} / {r['current_violations']}")
+
+    for layout, size, ratio in scenarios:
+        mine = [r for r in rows if (r["layout"], r["size"], r["speed_ratio"])
+                == (layout, size, ratio)]
+        kinematic = next(r for r in mine if r["variant"] is None)
+        base = kinematic["rms_position_error"]
+        cells = [cell(kinematic, None)]
+        for v in variants:
+            found = [r for r in mine if r["variant"] == v]
+            cells.append(cell(found[0], base) if found else "-")
+        lines.append(f"| {layout} | {size:g} | {ratio:g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def controller(name: str, robot: Robot, trajectory: Trajectory, dt: float,
@@ -285,6 +455,20 @@ def _parser() -> Parser:
     parser.add_argument("--perf", action="store_true",
                         help="instead: tick times with and without the motor rows per layout "
                              "(mpc-bench perf's scenario, runs interleaved)")
+    parser.add_argument("--traction", action="store_true",
+                        help="instead: the motor-aware MPC under planner variants against the "
+                             "kinematic MPC on fixed-heading figure-eights timed to ratios of "
+                             "the geared free speed (--sizes, --speed-ratios, --variants, "
+                             "--duration; layouts default swerve, mecanum)")
+    parser.add_argument("--sizes", default="1,2,3", help="--traction: sizes [m] (1,2,3)")
+    parser.add_argument("--speed-ratios", default="1.0,1.2,1.3",
+                        help="--traction: peak wheel speed / geared free speed (1.0,1.2,1.3)")
+    parser.add_argument("--variants", default=",".join(TRACTION_VARIANTS),
+                        help="--traction: planner variants, comma list of terms joined by + "
+                             "(default, headroom=X, voltage_headroom=X, no-sag, sides=N); "
+                             f"default {','.join(TRACTION_VARIANTS)}")
+    parser.add_argument("--duration", type=float, default=12.0,
+                        help="--traction: seconds a run (12)")
     parser.add_argument("--ticks", type=int, default=400, help="--perf: ticks per run (400)")
     parser.add_argument("--repeats", type=int, default=3,
                         help="--perf: interleaved runs of each (3)")
@@ -303,6 +487,8 @@ def main(argv: list[str]) -> int:
         if not value <= high:
             raise ScenarioError(f"{flag} must be at most {high:g} (a bound of this command), "
                                 f"got {value:g}")
+    if args.traction:
+        return _traction_main(args, argv)
     layouts = choose("--layouts", "layout", args.layouts, MOTOR_ROBOT_PRESETS)
     if not args.perf and (args.ticks != 400 or args.repeats != 3):
         raise ScenarioError("--ticks and --repeats apply to --perf only")
@@ -341,4 +527,46 @@ def main(argv: list[str]) -> int:
                       "command_ramp": args.command_ramp},
          "rows": rows}, indent=1))
     print(f"\nwrote {out / 'motors.json'} ({time.perf_counter() - started:.0f} s)")
+    return 0
+
+
+def _numbers(flag: str, text: str, high: float) -> list[float]:
+    try:
+        values = [float(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise ScenarioError(f"{flag}: expected a comma list of numbers, got {text!r}") from None
+    if not values or not all(0.0 < v <= high for v in values):
+        raise ScenarioError(f"{flag}: expected numbers in (0, {high:g}], got {text!r}")
+    return values
+
+
+def _traction_main(args: argparse.Namespace, argv: list[str]) -> int:
+    """``mpc-bench motors --traction``: :func:`traction`, its table and motors-traction.json."""
+    layouts = choose("--layouts", "layout", args.layouts, MOTOR_ROBOT_PRESETS,
+                     ("swerve", "mecanum"))
+    sizes = _numbers("--sizes", args.sizes, 1e3)
+    ratios = _numbers("--speed-ratios", args.speed_ratios, 10.0)
+    variants = list(dict.fromkeys(v.strip() for v in args.variants.split(",") if v.strip()))
+    if not variants:
+        raise ScenarioError("--variants: expected at least one planner variant")
+    robot = motor_preset(layouts[0])
+    for variant in variants:
+        variant_robot(robot, variant)  # a bad variant fails before any run
+    if not 0.0 < args.duration <= 600.0 or args.skip >= args.duration:
+        raise ScenarioError("--duration must be in (0, 600] s and longer than --skip")
+    out = claim(args.out, ("motors-traction.json",), args.force)
+    started = time.perf_counter()
+    rows = traction(layouts, sizes, ratios, variants, duration=args.duration,
+                    skip=args.skip, seed=args.seed, log=lambda line: print(line, flush=True))
+    print()
+    print("RMS position error [mm] (ratio to the kinematic MPC's); slip ticks (in brackets: "
+          "those whose command needed at most mu N, and of them those with a module's "
+          "steering at its rate limit) / voltage / current violation ticks")
+    print(traction_table(rows, variants))
+    (out / "motors-traction.json").write_text(json.dumps(
+        {"command": " ".join(["mpc-bench", "motors", *argv]), "machine": machine(),
+         "settings": {"sizes": sizes, "speed_ratios": ratios, "variants": variants,
+                      "duration": args.duration, "skip": args.skip, "seed": args.seed},
+         "rows": rows}, indent=1))
+    print(f"\nwrote {out / 'motors-traction.json'} ({time.perf_counter() - started:.0f} s)")
     return 0

@@ -100,8 +100,9 @@ def test_first_step_feedforward_by_hand() -> None:
     last, twist = np.array([1.0, 0.0, 0.0]), np.array([1.0 + a * dt, 0.0, 0.0])
     feed = first_step_feedforward(robot, last, twist, dt, np.zeros(4))
     assert feed is not None
-    forces, torques, currents = feed
+    forces, torques, currents, vectors = feed
     np.testing.assert_allclose(forces, dyn.mass * a / 4, rtol=1e-12)
+    np.testing.assert_allclose(vectors, [[dyn.mass * a / 4, 0.0]] * 4, atol=1e-9)
     wheel_torque = dyn.mass * a * 0.05 / 4 + dyn.wheel_inertia * a / 0.05
     np.testing.assert_allclose(torques, wheel_torque / dyn.gearing, rtol=1e-12)
     np.testing.assert_allclose(currents, torques / (7.09 / 366.0), rtol=1e-12)
@@ -207,7 +208,7 @@ def test_controller_reports_the_feedforward_of_its_command() -> None:
     assert second.wheel_forces is not None and second.motor_torques is not None
     assert second.motor_currents is not None
     for mine, theirs in zip((second.wheel_forces, second.motor_torques,
-                             second.motor_currents), feed, strict=True):
+                             second.motor_currents, second.contact_forces), feed, strict=True):
         np.testing.assert_allclose(mine, theirs)
     forces = force_map(robot)
     np.testing.assert_allclose(second.motor_currents,

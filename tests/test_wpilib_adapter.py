@@ -391,3 +391,115 @@ def test_core_does_not_import_the_adapter() -> None:
             "mpc.Controller; "
             "assert 'mpc.adapters.wpilib' not in sys.modules and 'wpimath' not in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# ------------------------------------------------------------ per-module feedforward
+def _wrench_of_step(robot, last: np.ndarray, twist: np.ndarray, dt: float) -> np.ndarray:
+    """``(m a_x, m a_y, I alpha)`` of the step ``last -> twist`` (Coriolis at its middle)."""
+    dyn = robot.dynamics
+    middle = 0.5 * (last + twist)
+    accel = (twist - last) / dt + np.array([-middle[2] * middle[1], middle[2] * middle[0], 0.0])
+    return accel * [dyn.mass, dyn.mass, dyn.yaw_inertia]
+
+
+def _kinematics_matrix(to_wheels, count: int) -> np.ndarray:
+    """The (count rows, 3) linear map wpimath's inverse kinematics applies, read off it by
+    feeding it unit ChassisSpeeds."""
+    columns = [to_wheels(ChassisSpeeds(*unit)) for unit in np.eye(3)]
+    return np.array(columns).T.reshape(count, 3)
+
+
+def test_swerve_module_feedforwards_against_wpimath() -> None:
+    """The minimum-norm force split is wpimath's inverse kinematics of the speeds
+    ``(A^T A)^-1 wrench``: each module's force vector must be the module state wpimath
+    gives for them (speed along its angle), and along the commanded angle the linear force."""
+    from mpc.robots import motor_preset
+    from trajectories import FigureEight
+
+    shipped = motor_preset("swerve")
+    points = [(0.3, 0.25), (0.3, -0.25), (-0.35, 0.25), (-0.35, -0.25)]  # not centred
+    kinematics = SwerveDrive4Kinematics(*translations(points))
+    robot = robot_from_swerve_kinematics(
+        kinematics, wheel_radius=0.05, max_wheel_speed=float(shipped.max_wheel_speed[0]),
+        max_steer_rate=12.0).with_dynamics(shipped.dynamics)
+    follower = MpcFollower(robot, FigureEight(1.5, 6.0, heading=0.0), dt=0.05, horizon=12)
+    reference = follower.controller.trajectory
+    a = np.array([[1.0, 0.0, -y] for _, y in points] + [[0.0, 1.0, x] for x, _ in points])
+    last = np.zeros(3)
+    checked = 0
+    for k in range(8):
+        pose = reference.sample(np.array([0.05 * k])).pose[0]
+        follower.calculate(pose2d_from_pose(pose), 0.05 * k)
+        command = follower.last_command
+        feed = follower.feedforwards()
+        speeds = np.linalg.solve(a.T @ a, _wrench_of_step(robot, last, command.twist, 0.05))
+        states = kinematics.toSwerveModuleStates(ChassisSpeeds(*speeds))
+        want = np.array([[s.speed * s.angle.cos(), s.speed * s.angle.sin()] for s in states])
+        got = np.stack([feed.forces_x, feed.forces_y], axis=1)
+        scale = max(1.0, np.abs(want).max())
+        np.testing.assert_allclose(got, want, atol=1e-6 * scale)
+        along = (got[:, 0] * np.cos(command.steer_angles)
+                 + got[:, 1] * np.sin(command.steer_angles))
+        np.testing.assert_allclose(feed.linear_forces, along, atol=1e-6 * scale)
+        checked += int(np.abs(want).max() > 1.0)
+        last = np.asarray(command.twist, dtype=float)
+    assert checked >= 4
+    dyn = robot.dynamics
+    motor = dyn.wheel_motor
+    # torque-current: the linear force's torque at the wheel (plus the wheel's inertia)
+    # through the gearbox's kt; a swerve module's wheel inertia is small next to it
+    np.testing.assert_allclose(np.asarray(feed.torque_currents) * motor.kt,
+                               np.asarray(feed.linear_forces) * 0.05,
+                               atol=0.1 * np.abs(feed.linear_forces).max() * 0.05)
+
+
+def test_mecanum_module_feedforwards_against_wpimath() -> None:
+    """Mecanum: the rim forces ``linear_forces`` are wpimath's wheel speeds of
+    ``(K^T K)^-1 wrench`` (``K`` wpimath's own inverse kinematics); the x/y forces lie
+    along the rollers' axes and sum, with their moments, to the wrench."""
+    from mpc.adapters.wpilib import module_feedforwards
+    from mpc.robots import motor_preset
+    from trajectories import FigureEight
+
+    shipped = motor_preset("mecanum")
+    points = [(0.15, 0.125), (0.15, -0.125), (-0.15, 0.125), (-0.15, -0.125)]
+    kinematics = MecanumDriveKinematics(*translations(points))
+    robot = robot_from_mecanum_kinematics(
+        kinematics, wheel_radius=0.05,
+        max_wheel_speed=float(shipped.max_wheel_speed[0])).with_dynamics(shipped.dynamics)
+    controller = Controller(robot, FigureEight(1.0, 8.0, heading=0.0), horizon=12, dt=0.05)
+
+    def wheels(speeds):
+        w = kinematics.toWheelSpeeds(speeds)
+        return [w.frontLeft, w.frontRight, w.rearLeft, w.rearRight]
+
+    k_map = _kinematics_matrix(wheels, 4)
+    last = np.zeros(3)
+    for k in range(6):
+        pose = controller.trajectory.sample(np.array([0.05 * k])).pose[0]
+        command = controller.step(pose, 0.05 * k)
+        feed = module_feedforwards(robot, command)
+        wrench = _wrench_of_step(robot, last, np.asarray(command.twist), 0.05)
+        want = k_map @ np.linalg.solve(k_map.T @ k_map, wrench)
+        scale = max(1.0, np.abs(want).max())
+        np.testing.assert_allclose(feed.linear_forces, want, atol=1e-6 * scale)
+        vectors = np.stack([feed.forces_x, feed.forces_y], axis=1)
+        p = np.array(points)
+        total = np.r_[vectors.sum(axis=0),
+                      np.sum(p[:, 0] * vectors[:, 1] - p[:, 1] * vectors[:, 0])]
+        np.testing.assert_allclose(total, wrench, atol=1e-6 * scale)
+        last = np.asarray(command.twist, dtype=float)
+
+
+def test_module_feedforwards_need_dynamics() -> None:
+    from mpc.adapters.wpilib import module_feedforwards
+    from mpc.errors import RobotError
+    from trajectories import Circle
+
+    robot = robot_from_swerve_kinematics(SwerveDrive4Kinematics(*translations(
+        [(0.3, 0.3), (0.3, -0.3), (-0.3, 0.3), (-0.3, -0.3)])), wheel_radius=0.05,
+        max_wheel_speed=60.0, max_steer_rate=12.0)
+    command = Controller(robot, Circle(1.0, 8.0), horizon=10, dt=0.05).step(
+        np.array([1.0, 0.0, 0.0]), 0.0)
+    with pytest.raises(RobotError, match="dynamics"):
+        module_feedforwards(robot, command)

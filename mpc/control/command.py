@@ -65,6 +65,12 @@ class Command:
             (wheel inertia included); else None.
         motor_currents: the current of each of a wheel's motors [A] (n,), what a
             torque-current mode takes; else None.
+        contact_forces: robots with dynamics, the first step's planned floor-on-wheel
+            force vector of each wheel in the body frame [N] (n, 2): a swerve module's
+            drive and lateral force together, a Swedish wheel's along its rollers' axis
+            (each actuator of a ball its share); with their moments they sum to the
+            step's ``M a`` (:meth:`~mpc.robots.drive.force_map.ForceMap.wheel_forces`);
+            else None.
     """
 
     wheel_speeds: FloatArray
@@ -84,6 +90,7 @@ class Command:
     wheel_forces: FloatArray | None = None
     motor_torques: FloatArray | None = None
     motor_currents: FloatArray | None = None
+    contact_forces: FloatArray | None = None
     steer_prediction: Callable[[], FloatArray] | None = field(default=None, repr=False)
 
     @functools.cached_property

@@ -93,10 +93,11 @@ def tick_rates(robot: Robot, twist: FloatArray, angles: FloatArray,
     return drive, steer
 
 
-def feedforward_fields(values: tuple[FloatArray, FloatArray, FloatArray] | None
+def feedforward_fields(values: tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None
                        ) -> dict[str, FloatArray]:
     """``Command``'s motor feedforward fields (none without dynamics)."""
     if values is None:
         return {}
-    forces, torques, currents = values
-    return {"wheel_forces": forces, "motor_torques": torques, "motor_currents": currents}
+    forces, torques, currents, vectors = values
+    return {"wheel_forces": forces, "motor_torques": torques, "motor_currents": currents,
+            "contact_forces": vectors}

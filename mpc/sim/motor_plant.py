@@ -10,15 +10,26 @@ feedback::
     V_demand = w_set / kv + R T_ff / kt + velocity_gain (w_set - w)
 
 ``T_ff`` is the command's own motor torque (:attr:`Command.motor_torques`) when it has
-one, otherwise the torque the commanded change of twist needs on this robot (an
-acceleration feedforward, as a well-identified ``kA`` gives: controllers that do not
-plan forces are not handicapped by a poorer wheel loop). The motor controller applies
+one (a swerve module's whose command carries its contact force vector,
+:attr:`Command.contact_forces`: that vector projected onto the way the module points
+now, each sub-step, plus the wheel's own inertia torque, as a team projects PathPlanner's
+robot-relative forces onto the measured module angle), otherwise the torque the
+commanded change of twist needs on this robot (an acceleration feedforward, as a
+well-identified ``kA`` gives: controllers that do not plan forces are not handicapped by
+a poorer wheel loop). The motor controller applies
 ``V_demand`` clipped to the bus voltage, then lowers it so that the current stays within
 the current limit (a stator current limit). Counted, per tick, on any sub-step:
 
 - a **voltage violation** when ``|V_demand|`` exceeds the bus voltage;
 - a **current violation** when the current of the clipped voltage exceeds the limit;
-- a **slip event** when a wheel's contact force reached ``mu N`` and the wheel slid.
+- a **slip event** when a wheel's contact force reached ``mu N`` and the wheel slid;
+
+and the **planned traction ratio**: the largest contact force / ``mu N`` that the
+command's own step (from the command before it to it, over the tick) needs by the
+rigid-body model (:mod:`mpc.robots.drive.force_map`), whoever made the command. A slip
+on a tick whose planned ratio is at most 1 is the plant's, not the plan's; ``steer_saturated``
+says whether a swerve module's steering ran at its rate limit on the tick (then the
+module lags the velocity it should point along, and its contact slides sideways).
 
 Physics per sub-step (implicit Euler in the twist and the wheel speeds):
 
@@ -27,8 +38,11 @@ Physics per sub-step (implicit Euler in the twist and the wheel speeds):
   units); the body: ``M (du/dt + coriolis(u)) = sum W^T tau`` (:mod:`mpc.robots.drive.force_map`);
 - the floor: a stiff regularised contact, ``tau = k (w - W u)`` along each slip
   direction (a Swedish wheel's roller axis, a ball's two actuators, a swerve module's
-  rolling and lateral directions), ``k`` such that the contact creeps at
-  ``slip_speed + slip_ratio |v|`` (``v`` its ground speed) at ``mu N``, as a tyre whose
+  rolling and lateral directions), one ``k`` for every contact, such that a contact
+  creeps at ``slip_speed + slip_ratio |v|`` (``|v|`` the contacts' mean ground speed) at
+  the mean ``mu N``: so the force the directions no motor drives take is shared as the
+  planner's minimum-norm split shares it, under the same static normal loads (the force
+  model of :mod:`mpc.robots.drive.force_map`; ``docs/guide/traction.md``), as a tyre whose
   force saturates at a few degrees of slip angle or a few percent of slip; a contact
   whose force would exceed ``mu N`` slides with ``mu N`` (kinetic friction along the
   force it would have needed);
@@ -63,7 +77,8 @@ __all__ = ["EVENT_KEYS", "MIN_WHEEL_INERTIA", "MotorPlant", "MotorPlantConfig"]
 #: Event series a :class:`MotorPlant` records per tick (:meth:`MotorPlant.events`).
 EVENT_KEYS: tuple[str, ...] = ("voltage_violation", "current_violation", "slip",
                                "peak_voltage_ratio", "peak_current_ratio", "bus_voltage",
-                               "peak_traction_ratio")
+                               "peak_traction_ratio", "planned_traction_ratio",
+                               "steer_saturated")
 
 
 @dataclass(frozen=True)
@@ -143,6 +158,7 @@ class MotorPlant(Plant):
         self._last_twist = np.zeros(3)
         self._last_angles: FloatArray | None = None  # last commanded steer angles
         self._events: list[tuple[float, ...]] = []
+        self._saturated = False  # a module's steering at its rate limit this tick
         self._commands: deque[Command | None] = deque([None] * config.delay_ticks)
         self._physics = SubStepModel.build(robot, forces, self.velocity_gain, config.slip_speed,
                                            config.slip_ratio, config.substeps, dt)
@@ -165,12 +181,14 @@ class MotorPlant(Plant):
     # ------------------------------------------------------------ one tick
     def apply(self, command: Command) -> FloatArray:
         """Run one tick under ``command``; return the wheel speeds reached [rad/s]."""
-        target_speeds, target_angles, feedforward = self._delayed_targets(command)
+        planned = self._planned_traction(command)
+        target_speeds, target_angles, feedforward, vectors = self._delayed_targets(command)
         config, forces = self.config, self.forces
         substeps = config.substeps
         h = self.dt / substeps
         start = self._last_speeds
         flags = [False, False, False]
+        self._saturated = False
         peaks = [0.0, 0.0, 0.0]
         lowest = math.inf
         aims = target_angles if self.steer_angles is not None else None
@@ -184,7 +202,8 @@ class MotorPlant(Plant):
             bus = self.robot.dynamics.battery_voltage - self.battery_resistance * (  # type: ignore[union-attr]
                 self._battery_current)
             lowest = min(lowest, bus)
-            ahead = forces.voltage(feedforward, setpoint) + self.velocity_gain * setpoint
+            torque = feedforward if vectors is None else self._projected(feedforward, vectors)
+            ahead = forces.voltage(torque, setpoint) + self.velocity_gain * setpoint
             previous = self.twist
             self.twist, self.wheel_speeds, sub = self._physics.step(
                 (self.twist, self.wheel_speeds), self.steer_angles, ahead, bus)
@@ -200,15 +219,19 @@ class MotorPlant(Plant):
         if target_angles is not None:
             self._last_angles = np.asarray(target_angles, dtype=float).copy()
         self._events.append((float(flags[0]), float(flags[1]), float(flags[2]),
-                             peaks[0], peaks[1], lowest, peaks[2]))
+                             peaks[0], peaks[1], lowest, peaks[2], planned,
+                             float(self._saturated)))
         return self.wheel_speeds.copy()
 
     def _delayed_targets(self, command: Command
-                         ) -> tuple[FloatArray, FloatArray | None, FloatArray]:
-        """Queue ``command`` on the delay line; the wheel speeds, steer angles and wheel
-        torque feedforward of the command that comes out of it."""
+                         ) -> tuple[FloatArray, FloatArray | None, FloatArray,
+                                    FloatArray | None]:
+        """Queue ``command`` on the delay line; the wheel speeds, steer angles, wheel
+        torque feedforward [N m] of the command that comes out of it, and (swerve modules
+        whose command carries them) its contact force vectors [N] (n, 2)."""
         self._commands.append(command)
         delayed = self._commands.popleft()
+        vectors = None
         if delayed is None:  # the delay line still holds the robot at rest
             target_speeds, target_angles = np.zeros(self.robot.n_wheels), self.steer_angles
             feedforward = self._feedforward(np.zeros(3), None, target_angles)
@@ -216,7 +239,39 @@ class MotorPlant(Plant):
             target_speeds, target_angles = delayed.wheel_speeds, delayed.steer_angles
             feedforward = self._feedforward(np.asarray(delayed.twist, dtype=float),
                                             delayed.motor_torques, target_angles)
-        return target_speeds, target_angles, feedforward
+            if (delayed.contact_forces is not None and target_angles is not None
+                    and delayed.motor_torques is not None and self.robot.wheel_dim == 2):
+                vectors = np.asarray(delayed.contact_forces, dtype=float)
+                # the command's torque less its contact force's part along the commanded
+                # angle: the wheel's own inertia, which stays with the wheel
+                along = vectors[:, 0] * np.cos(target_angles) + vectors[:, 1] * np.sin(
+                    target_angles)
+                feedforward = feedforward - along * self.forces.radii
+        return target_speeds, target_angles, feedforward, vectors
+
+    def _planned_traction(self, command: Command) -> float:
+        """The largest contact force / ``mu N`` of the step from the last command that
+        came out of the delay line to the one that comes out now (call before
+        :meth:`_delayed_targets`); 0 without friction."""
+        limits = self.forces.friction_limits
+        if limits is None:
+            return 0.0
+        delayed = self._commands[0] if self._commands else command
+        twist = np.zeros(3) if delayed is None else np.asarray(delayed.twist, dtype=float)
+        accel = self.forces.acceleration(self._last_twist, twist, self.dt)
+        contact = self.forces.contact_forces(accel)
+        return float((np.hypot(contact[:, 0], contact[:, 1]) / limits).max())
+
+    def _projected(self, inertia: FloatArray, vectors: FloatArray) -> FloatArray:
+        """Swerve: each module's drive torque feedforward [N m] now, its contact force
+        ``vectors`` (n, 2) [N] projected onto the way the module points now (as a team
+        projects PathPlanner's robot-relative forces onto the measured module angle),
+        plus the wheel's own ``inertia`` torque."""
+        angles = self.steer_angles
+        if angles is None:  # pragma: no cover - swerve modules have angles
+            return inertia
+        along = vectors[:, 0] * np.cos(angles) + vectors[:, 1] * np.sin(angles)
+        return inertia + along * self.forces.radii
 
     def _module_ramp(self, start: FloatArray, target_speeds: FloatArray,
                      aims: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -240,6 +295,10 @@ class MotorPlant(Plant):
         present = aims if self.steer_angles is None else self.steer_angles
         flip = np.abs(wrap_angle(angle - present)) > math.pi / 2
         angle = np.where(speed > 1e-9, np.where(flip, angle + math.pi, angle), aims)
+        rates = self.robot.max_steer_rates
+        if self.config.steer_rate_limited and rates is not None:
+            self._saturated |= bool(np.any(np.abs(wrap_angle(angle - present))
+                                           > rates * h * (1.0 + 1e-9)))
         self._steer(angle, h)
         pointing = aims if self.steer_angles is None else self.steer_angles
         setpoint: FloatArray = (velocity[:, 0] * np.cos(pointing)
@@ -269,7 +328,8 @@ class MotorPlant(Plant):
         """Per tick so far: ``voltage_violation``, ``current_violation``, ``slip`` (1.0 or
         0.0), ``peak_voltage_ratio`` (largest ``|V_demand| / V_bus``),
         ``peak_current_ratio`` (largest ``|I| / limit``), ``peak_traction_ratio`` (largest
-        contact force / ``mu N`` the contacts were asked for) and the lowest ``bus_voltage``
-        [V] over its sub-steps."""
+        contact force / ``mu N`` the contacts were asked for), the lowest ``bus_voltage``
+        [V] over its sub-steps, ``planned_traction_ratio`` and ``steer_saturated`` (module
+        docstring)."""
         table = np.array(self._events, dtype=float).reshape(-1, len(EVENT_KEYS))
         return {key: table[:, i].copy() for i, key in enumerate(EVENT_KEYS)}

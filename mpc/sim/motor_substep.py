@@ -148,16 +148,17 @@ class SubStepModel:
             traction_ratio=traction)
 
     def _stiffness(self, rows: FloatArray, wheel: FloatArray, twist: FloatArray) -> FloatArray:
-        """Each channel's contact stiffness [N per m/s, in wheel torque units]: saturates at
-        ``slip_speed + slip_ratio`` times its contact's ground speed."""
-        n = self.robot.n_wheels
+        """Each channel's contact stiffness [N per m/s, in wheel torque units]: one stiffness
+        for every contact (the mean ``mu N`` over the creep at the contacts' mean ground
+        speed, ``slip_speed + slip_ratio |v|``), so that the directions no motor drives
+        (a swerve module's lateral one) share force as the planner's minimum-norm split
+        does (:mod:`mpc.robots.drive.force_map`)."""
         planar = np.linalg.norm(rows[:, :2], axis=1)  # rad/s per m/s along the direction
         points = self.robot.wheel_positions
         ground = np.hypot(twist[0] - twist[2] * points[:, 1],
                           twist[1] + twist[2] * points[:, 0])
-        creep = self.slip_speed + self.slip_ratio * ground
-        wheel_of = np.where(wheel >= 0, wheel, np.arange(len(wheel)) % n).astype(int)
-        stiffness: FloatArray = (self.contact_strength / creep)[wheel_of] / planar**2
+        creep = self.slip_speed + self.slip_ratio * float(ground.mean())
+        stiffness: FloatArray = (float(self.contact_strength.mean()) / creep) / planar**2
         return stiffness
 
     def _solve(self, state: tuple[FloatArray, FloatArray], coriolis: FloatArray,

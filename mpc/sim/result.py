@@ -186,8 +186,9 @@ class SimResult:
         commanded angles' turn per tick of swerve modules; None without steered wheels).
         Errors and the peak ratios cover the ticks after ``skip``; violations count every
         tick. On a motor plant also ``voltage_violations``, ``current_violations`` and
-        ``slip_events`` (ticks), ``peak_voltage_ratio``, ``peak_current_ratio`` and
-        ``min_bus_voltage`` [V] (every tick).
+        ``slip_events`` (ticks), ``unplanned_slip_events`` (slip ticks whose command's
+        own step needed at most ``mu N`` of every contact), ``peak_voltage_ratio``,
+        ``peak_current_ratio`` and ``min_bus_voltage`` [V] (every tick).
         """
         if not is_finite_number(skip) or skip < 0:
             raise SimulationError(f"skip must be a finite number of seconds >= 0, "
@@ -244,6 +245,8 @@ class SimResult:
         return {"voltage_violations": int(events["voltage_violation"].sum()),
                 "current_violations": int(events["current_violation"].sum()),
                 "slip_events": int(events["slip"].sum()),
+                "unplanned_slip_events": int(np.sum((events["slip"] > 0) & (
+                    events["planned_traction_ratio"] <= 1.0))),
                 "peak_voltage_ratio": float(events["peak_voltage_ratio"].max()),
                 "peak_current_ratio": float(events["peak_current_ratio"].max()),
                 "min_bus_voltage": float(events["bus_voltage"].min())}

@@ -26,7 +26,14 @@ Read before wiring it into a robot:
 - **Desaturation.** Commands are already within every wheel's limit, so WPILib's
   ``desaturateWheelSpeeds`` is not needed (it would leave them as they are).
 
+- **Feedforward.** With dynamics (``robot.with_dynamics(...)``) each command carries
+  each module's planned contact force; :func:`module_feedforwards` (or
+  :meth:`MpcFollower.feedforwards`) gives it as PathPlanner's ``DriveFeedforwards``
+  does: robot-relative force x/y per module [N], the force along the wheel [N] and the
+  drive motor's torque-current [A].
+
 The modules: :mod:`.conversions` (types), :mod:`.kinematics` (robots),
+:mod:`.feedforward` (per-module feedforward),
 :mod:`.follower` (:class:`MpcFollower`), :mod:`.reference` (:class:`WpilibReference`).
 """
 
@@ -38,6 +45,7 @@ from mpc.adapters.wpilib.conversions import (
     swerve_module_states,
     twist_from_chassis_speeds,
 )
+from mpc.adapters.wpilib.feedforward import ModuleFeedforwards, module_feedforwards
 from mpc.adapters.wpilib.follower import MpcFollower
 from mpc.adapters.wpilib.kinematics import (
     robot_from_mecanum_kinematics,
@@ -47,8 +55,8 @@ from mpc.adapters.wpilib.reference import WpilibReference, reference_from_wpilib
 from mpc.errors import ControllerError as _Error
 from mpc.validation import checked_public as _checked_public
 
-__all__ = ["MpcFollower", "WpilibReference", "chassis_speeds_from_twist",
-           "mecanum_wheel_speeds", "pose2d_from_pose", "pose_from_pose2d",
+__all__ = ["ModuleFeedforwards", "MpcFollower", "WpilibReference", "chassis_speeds_from_twist",
+           "mecanum_wheel_speeds", "module_feedforwards", "pose2d_from_pose", "pose_from_pose2d",
            "reference_from_wpilib_trajectory", "robot_from_mecanum_kinematics",
            "robot_from_swerve_kinematics", "swerve_module_states",
            "twist_from_chassis_speeds"]

@@ -16,6 +16,7 @@ from mpc.adapters.wpilib.conversions import (
     swerve_module_states,
     twist_from_chassis_speeds,
 )
+from mpc.adapters.wpilib.feedforward import ModuleFeedforwards, module_feedforwards
 from mpc.arrays import FloatArray
 from mpc.control import Command, Controller
 from mpc.errors import ControllerError
@@ -105,6 +106,11 @@ class MpcFollower:
     def module_states(self) -> list[SwerveModuleState]:
         """The last command as swerve module states [m/s] (see :func:`swerve_module_states`)."""
         return swerve_module_states(self.controller.robot, self.last_command)
+
+    def feedforwards(self) -> ModuleFeedforwards:
+        """The last command's per-module feedforward (see :func:`module_feedforwards`;
+        the robot needs dynamics)."""
+        return module_feedforwards(self.controller.robot, self.last_command)
 
     def wheel_speeds(self) -> MecanumDriveWheelSpeeds:
         """The last command as Mecanum wheel speeds [m/s] (see :func:`mecanum_wheel_speeds`)."""

@@ -28,6 +28,12 @@ contact force does not include it.
 Static normal loads: the weight ``m g`` shared so that the loads balance about the body
 origin, the minimum-norm split (equal for the symmetric presets); load transfer from
 acceleration (centre-of-mass height) is neglected.
+
+This is the one force model of the project: the planner's rows, the clamp, the
+command's contact forces (:attr:`~mpc.control.command.Command.contact_forces`) and the
+motor plant (:mod:`mpc.sim.motor_plant`: its motors push with the plan's efforts, and
+its contacts, one stiffness for all, share what no motor drives as the minimum-norm
+split does) all use it: static loads, minimum-norm split, traction ``mu N`` per contact.
 """
 
 from __future__ import annotations
@@ -91,6 +97,10 @@ class ForceMap:
             ``(u_k - u_{k-1}) / dt`` (the wheel's own inertia included).
         contact_of: each wheel's contact (n,); wheels at one point share it (a ball).
         contact_maps: contact force per body acceleration (c, 2, 3) [N per m/s^2].
+        wheel_force_maps: each wheel's own contact force per body acceleration (n, 2, 3)
+            [N per m/s^2], body frame: a swerve module's drive and lateral force together,
+            a Swedish wheel's along its rollers' axis, each actuator of a ball its share
+            (they sum to ``contact_maps`` at a shared contact).
         contact_directions: (c, 2) the unit direction of a contact whose force has one
             direction (a Swedish wheel's rollers), else zeros.
         normal_loads: static normal load of each contact (c,) [N].
@@ -108,6 +118,7 @@ class ForceMap:
     drive_map: FloatArray
     contact_of: IntArray
     contact_maps: FloatArray
+    wheel_force_maps: FloatArray
     contact_directions: FloatArray
     normal_loads: FloatArray
     radii: FloatArray
@@ -179,6 +190,21 @@ class ForceMap:
         """Floor-on-wheel contact forces (c, 2) [N] for a body acceleration (3,)."""
         return self.contact_maps @ acceleration
 
+    def wheel_forces(self, acceleration: FloatArray) -> FloatArray:
+        """Each wheel's floor-on-wheel force vector (n, 2) [N], body frame, for a body
+        acceleration (3,) or (..., 3) (then (..., n, 2))."""
+        return np.einsum("nkj,...j->...nk", self.wheel_force_maps, acceleration)
+
+    def plan_forces(self, last: FloatArray, twists: FloatArray,
+                    durations: FloatArray) -> FloatArray:
+        """Each wheel's force vector (N, n, 2) [N], body frame, on every stage of a plan:
+        twists (N, 3) held over ``durations`` (N,) [s], from the command before it
+        ``last`` (3,); each stage's acceleration as :meth:`acceleration` gives it."""
+        twists = np.asarray(twists, dtype=float)
+        before = np.vstack([np.asarray(last, dtype=float)[None, :], twists[:-1]])
+        rate = (twists - before) / np.asarray(durations, dtype=float)[:, None]
+        return self.wheel_forces(rate + coriolis(0.5 * (twists + before)))
+
     def wrench(self, efforts: FloatArray) -> FloatArray:
         """Body wrench ``sum_i W_i^T tau_i`` (Fx, Fy, Mz) [N, N, N m] of efforts (n, d)."""
         return np.einsum("ndj,nd->j", self.robot.wheel_blocks, efforts)
@@ -240,6 +266,7 @@ def _build(robot: DrivenRobot) -> ForceMap:
     distribution = np.linalg.pinv(flat.T).reshape(n, d, 3)
     effort = distribution @ mass
     drive = effort + dyn.wheel_inertia * blocks
+    wheel_forces = split_forces(blocks, mass, active)
     seen: dict[tuple[float, float], int] = {}  # contacts in order of first appearance
     contact_of = np.array([seen.setdefault((float(x), float(y)), len(seen))
                            for x, y in np.round(robot.wheel_positions, 9)], dtype=np.intp)
@@ -259,10 +286,27 @@ def _build(robot: DrivenRobot) -> ForceMap:
         robot=robot, dynamics=dyn, mass_matrix=readonly(mass),
         distribution=readonly(distribution), effort_map=readonly(effort),
         drive_map=readonly(drive), contact_of=contact_of.astype(np.intp),
-        contact_maps=readonly(maps), contact_directions=readonly(directions),
+        contact_maps=readonly(maps), wheel_force_maps=readonly(wheel_forces),
+        contact_directions=readonly(directions),
         normal_loads=readonly(loads), radii=readonly(radii), resistance=float(wheel.R),
         kv=float(wheel.kv), kt=float(wheel.kt), torque_limit=float(dyn.max_wheel_torque),
         count=int(wheel.count))
+
+
+def split_forces(blocks: FloatArray, mass_matrix: FloatArray,
+                 active: FloatArray | None = None) -> FloatArray:
+    """Each wheel's contact force per body acceleration (n, 2, 3) [N per m/s^2]: the
+    minimum-norm efforts ``pinv(W^T) M`` (module docstring) pushed through each wheel's
+    ground directions, ``W_i[:, :2]^T tau_i``. ``blocks``: the wheels' velocity maps
+    ``W`` (n, d, 3) [rad/s per twist unit]; ``mass_matrix`` ``diag(m, m, I_z)``;
+    ``active`` (n d,) which effort rows may carry load (default all). Needs no motors: a
+    robot's rigid-body split for any mass."""
+    n, d = blocks.shape[:2]
+    flat = blocks.reshape(-1, 3)
+    if active is not None:
+        flat = flat * np.asarray(active, dtype=float)[:, None]
+    effort = (np.linalg.pinv(flat.T) @ mass_matrix).reshape(n, d, 3)
+    return np.einsum("ndk,ndj->nkj", blocks[:, :, :2], effort)
 
 
 def _normal_loads(robot: DrivenRobot, contact_of: IntArray, contacts: int,

@@ -21,8 +21,9 @@ from mpc.robots.drive.force_map import ForceMap, apothem
 #: the whole traction along its force), the others midway between the inscribed and the
 #: circumscribed polygon. It tracked closer than every edge midway; a constant polygon
 #: took fewer daqp iterations but slipped and broke current limits on swerve
-#: (docs/design/traction-sides.md). The clamp keeps the command sent within the disk.
-TRACTION_SIDES = 12
+#: (docs/design/traction-sides.md). 16 sides since the traction sweep (fewer slips, the
+#: same errors: docs/guide/traction.md). The clamp keeps the command sent within the disk.
+TRACTION_SIDES = 16
 
 #: How a row's direction is chosen each tick (:attr:`MotorRows.direction`): fixed, a steered
 #: wheel's drive direction, a 2-D contact's planned force.

@@ -231,12 +231,14 @@ def _disk_fraction(start: FloatArray, slope: FloatArray, bound: FloatArray) -> f
 
 def first_step_feedforward(robot: Robot, last: FloatArray, twist: FloatArray, dt: float,
                            steer_angles: FloatArray | None
-                           ) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+                           ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None:
     """The first step's feedforward: per wheel the drive force at the floor [N] (the
     effort along the wheel's rolling direction over its radius, wheel inertia
     excluded), each motor's torque at its shaft [N m] and current [A] (wheel inertia
     included), signed like the wheel speeds sent (steered wheels: along their commanded
-    ``steer_angles``). None without dynamics."""
+    ``steer_angles``), and each wheel's whole contact force vector (n, 2) [N] in the body
+    frame (a swerve module's drive and lateral force; :meth:`ForceMap.wheel_forces`).
+    None without dynamics."""
     if robot.dynamics is None:
         return None
     forces = force_map(robot)
@@ -252,4 +254,4 @@ def first_step_feedforward(robot: Robot, last: FloatArray, twist: FloatArray, dt
         torque = torque[0::2] * cos + torque[1::2] * sin
     gearing = forces.dynamics.gearing
     return (static / forces.radii, torque / (gearing * forces.count),
-            forces.motor_current(torque))
+            forces.motor_current(torque), forces.wheel_forces(change + turn))
