@@ -36,7 +36,7 @@ from mpc.robots.limits import StageLimits
 from mpc.robots.wheels.slider import limits as slider_limits
 from mpc.robots.wheels.slider import rows as slider_rows
 from mpc.robots.wheels.slider.kinematics import SliderUnit
-from mpc.validation import checked_arguments, integer_at_least, real_array, shown
+from mpc.validation import MAX_COORDINATE, checked_arguments, integer_at_least, real_array, shown
 
 
 def _per_unit(name: str, value: object, count: int, unit: str, shape: tuple[int, ...] = ()
@@ -154,7 +154,7 @@ class SliderRobot(Robot):
     def check_joints(self, steer_angles: ArrayLike, slider_positions: ArrayLike,
                      error: type[Exception] = RobotError) -> tuple[FloatArray, FloatArray]:
         """Measured steer angles [rad] and slider positions [m], each (n,): finite, the angles
-        within +-pi/2 of the rail's normal (exclusive) and the positions within their stroke
+        within +-MAX_COORDINATE and the positions within their stroke
         up to 1 mm (a slider at its stop reads a little past it)."""
         n = self.n_wheels
         angles = real_array("steer_angles", steer_angles, f"{n} angles [rad]", error)
@@ -164,8 +164,8 @@ class SliderRobot(Robot):
             if array.shape != (n,) or not bool(np.all(np.isfinite(array))):
                 raise error(f"{name} must be {n} finite numbers {unit}, one a unit, got "
                             f"{shown(array)}")
-        if not bool(np.all(np.abs(angles) < 0.5 * math.pi)):
-            raise error(f"steer_angles must lie within +-pi/2 of each rail's normal, got "
+        if not bool(np.all(np.abs(angles) <= MAX_COORDINATE)):
+            raise error(f"steer_angles must lie within +-{MAX_COORDINATE:g} [rad], got "
                         f"{shown(angles)}")
         outside = (where < self.strokes[:, 0] - 1e-3) | (where > self.strokes[:, 1] + 1e-3)
         if outside.any():

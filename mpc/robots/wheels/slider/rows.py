@@ -4,16 +4,17 @@ For unit ``i`` (rail angle ``a``, wheel radius ``r``) at steer angle ``b`` and s
 position ``l`` the joint rates are linear in the twist ``u`` (:mod:`.kinematics`)::
 
     ldot   = L(b, l) u,  L = -[cos(a+b), sin(a+b), l sin b] / cos b
-    phidot = D(b, l) u,  D = ([-sin(a+b), cos(a+b), l cos b] + tan b [cos(a+b), sin(a+b), l sin b]) / r
+    phidot = D(b, l) u,  D = ([-sin(a+b), cos(a+b), l cos b] - sin b L) / r
 
 The steer angles are commanded, not set by the motion: each tick the controller chooses
 a schedule of them over the plan (:func:`steer_schedule`) from the plan it starts from
 (the shifted last one), turning each unit at most ``max_steer_rate`` towards the angle
 at which it rolls along the motion its contact point needs next, with its slider drifting
-back towards mid-stroke (:data:`CENTRING_RATE`), and never more than
-:data:`MAX_STEER_ANGLE` from the rail's normal (at 90 degrees the slider runs along the
-rolling direction and its rate is not defined). Both solvers then choose the twists with
-every joint limit at the schedule's angles: drive rate, slider rate, and the stroke.
+back towards mid-stroke (:data:`CENTRING_RATE`). A unit may turn through 90 degrees from
+the rail's normal (the wheel along the rail: a steered wheel whose slider is redundant);
+its rows are never taken within :data:`MIN_COS_STEER` of it. Both solvers then choose
+the twists with every joint limit at the schedule's angles: drive rate, slider rate, and
+the stroke.
 
 The joint parameter vector each tick (:func:`joint_parameters`) is ``(b_0 (n), l_0 (n),
 M (N, n))``: the measured steer angles [rad] and slider positions [m], and each stage's
@@ -31,9 +32,11 @@ import numpy as np
 
 from mpc.arrays import FloatArray
 
-#: Largest steer angle from the rail's normal [rad] a schedule turns a unit to (75 deg):
-#: the slider's rate is ``1 / cos b`` times the axle's motion, 3.9x at this angle.
-MAX_STEER_ANGLE = math.radians(75.0)
+#: Smallest ``|cos b|`` a row is taken at: at ``b = +-90 deg`` the slider runs along the
+#: rolling direction and the rows ``~ 1 / cos b`` are not defined; a stage whose mid
+#: angle is nearer is taken at this distance (0.6 deg: the slider row then lets the
+#: contact move across the wheel at most ``max_slider_speed / 100``: a steered wheel).
+MIN_COS_STEER = 0.01
 #: How fast a schedule steers the slider back towards mid-stroke, per metre off it [1/s],
 #: and at most this fraction of the slider's rate limit.
 CENTRING_RATE = 2.0
@@ -101,7 +104,7 @@ def aim_angles(robot: SliderGeometry, twist: FloatArray, positions: FloatArray,
                current: FloatArray) -> FloatArray:
     """Steer angles (n,) [rad] at which each unit rolls along its contact point's motion
     for ``twist`` plus a slider drift back towards mid-stroke, the representative (mod pi)
-    nearest ``current``, within +-:data:`MAX_STEER_ANGLE`; a unit whose contact barely
+    nearest ``current``; a unit whose contact barely
     moves keeps ``current``."""
     a = robot.rail_angles
     middle = robot.strokes.mean(axis=1)
@@ -114,7 +117,6 @@ def aim_angles(robot: SliderGeometry, twist: FloatArray, positions: FloatArray,
     ground[:, 1] += centring * np.sin(a)
     aim = np.arctan2(ground[:, 1], ground[:, 0]) - 0.5 * math.pi - a
     aim = current + np.mod(aim - current + 0.5 * math.pi, math.pi) - 0.5 * math.pi
-    aim = np.clip(aim, -MAX_STEER_ANGLE, MAX_STEER_ANGLE)
     moving = np.hypot(ground[:, 0], ground[:, 1]) > AIM_SPEED
     return np.where(moving, aim, current)
 
@@ -148,17 +150,28 @@ def steer_schedule(robot: SliderGeometry, angles: FloatArray, positions: FloatAr
         aim = aim_angles(robot, ahead, where[k], ends[k])
         turn = np.clip(aim - ends[k], -reach * durations[k], reach * durations[k])
         ends[k + 1] = ends[k] + turn
-        middle = ends[k] + 0.5 * turn
+        middle = middle_angles(ends[k:k + 2])[0]
         _, slide = joint_rows(robot, middle, where[k])
         where[k + 1] = np.clip(where[k] + durations[k] * (slide @ twists[k]), low, high)
     return ends, where
 
 
+def middle_angles(ends: FloatArray) -> FloatArray:
+    """Each stage's mid angle (N, n) [rad] of stage-end angles (N+1, n), moved to
+    :data:`MIN_COS_STEER` from +-90 deg where nearer (the angle the stage's rows and the
+    command's rates are taken at)."""
+    middle = 0.5 * (ends[:-1] + ends[1:])
+    # the angle from the nearest +-90 deg, in (-pi/2, pi/2]
+    off = np.mod(middle, math.pi) - 0.5 * math.pi
+    gap = math.asin(MIN_COS_STEER)
+    near = np.abs(off) < gap
+    return np.where(near, middle - off + np.where(off >= 0.0, gap, -gap), middle)
+
+
 def joint_parameters(angles: FloatArray, positions: FloatArray, ends: FloatArray) -> FloatArray:
     """The joint parameter vector (module docstring) of measured ``angles``, ``positions``
     (n,) and a schedule's stage-end angles (N+1, n)."""
-    middles = 0.5 * (ends[:-1] + ends[1:])
-    return np.concatenate([angles, positions, middles.ravel()])
+    return np.concatenate([angles, positions, middle_angles(ends).ravel()])
 
 
 def split_parameters(vector: FloatArray, n: int) -> tuple[FloatArray, FloatArray, FloatArray]:
