@@ -25,14 +25,20 @@ from mpc.control.controller import Controller
 from mpc.control.measurements import check_pose, check_time
 from mpc.errors import ControllerError
 from mpc.model.layout import TickInput
-from mpc.robots.wheels.slider.limits import clamp_at
+from mpc.robots.wheels.slider.limits import clamp_at, command_rates
 from mpc.robots.wheels.slider.robot import SliderRobot
-from mpc.robots.wheels.slider.rows import joint_parameters, middle_angles
+from mpc.robots.wheels.slider.rows import joint_parameters
 from mpc.solvers import SolveResult
 from mpc.validation import checked_arguments
 from trajectories import Trajectory, TrajectoryError
 
 __all__ = ["SliderCommand", "SliderController"]
+
+#: What the steer schedule aims the units along: this share of the reference's twists and
+#: the rest of the plan's (the shifted last plan). Aimed along the plan alone, a unit that
+#: the plan's own rows hold (a wheel along its rail cannot move its contact across) keeps
+#: the plan where it is, tick after tick.
+AIM_MIX = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,11 +119,12 @@ class SliderController(Controller):
 
     def _fill(self, tick: TickInput) -> None:
         """The steer schedule along the tick's guess, into its joint parameters."""
-        self._schedule(tick, tick.guess_twists)
+        self._schedule(tick, tick.guess_twists, AIM_MIX * tick.twists_ref
+                       + (1.0 - AIM_MIX) * tick.guess_twists)
 
-    def _schedule(self, tick: TickInput, twists: FloatArray) -> None:
+    def _schedule(self, tick: TickInput, twists: FloatArray, aims: FloatArray) -> None:
         self._ends, self._where = self.robot.steer_schedule(
-            self._angles, self._positions, twists, self.model.durations)
+            self._angles, self._positions, twists, self.model.durations, aims)
         if tick.steer_angles is not None:
             tick.steer_angles[:] = joint_parameters(self._angles, self._positions, self._ends)
 
@@ -172,19 +179,19 @@ class SliderController(Controller):
             if not np.isfinite(plan).all():
                 plan[:] = x0
         if not solved or not result.success:  # the schedule along the command held
-            self._schedule(tick, np.tile(np.nan_to_num(target), (self.horizon, 1)))
+            held = np.tile(np.nan_to_num(target), (self.horizon, 1))
+            self._schedule(tick, held, held)
         joints = joint_parameters(self._angles, self._positions, self._ends)
         twist, clamped = clamp_at(robot, np.nan_to_num(target), joints, self.dt)
-        middle = middle_angles(self._ends[:2])[0]
-        drive_rows, slide_rows = robot.slider_rows(middle, self._positions)
+        drive, slide = command_rates(robot, twist, joints, self.dt)
         steer_rates = (self._ends[1] - self._ends[0]) / self.dt
         self._last = twist
         self._delay.sent(twist)
         return SliderCommand(
-            wheel_speeds=drive_rows @ twist, twist=twist, steer_angles=self._ends[1].copy(),
+            wheel_speeds=drive, twist=twist, steer_angles=self._ends[1].copy(),
             predicted_poses=plan, status=status, solver_status=result.status,
             solve_time=result.solve_time, tick_time=time.perf_counter() - start,
             iterations=result.iterations, consecutive_failures=self._fallback.failures,
             clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time,
-            steer_rates=steer_rates, slider_rates=slide_rows @ twist,
+            steer_rates=steer_rates, slider_rates=slide,
             planned_steer_angles=self._ends.copy(), planned_slider_positions=self._where.copy())

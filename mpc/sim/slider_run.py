@@ -14,7 +14,9 @@ import numpy as np
 from mpc.arrays import FloatArray
 from mpc.control.command import Status
 from mpc.errors import SimulationError
+from mpc.robots.wheels.slider.robot import SliderRobot
 from mpc.sim.slider_plant import SliderPlant
+from trajectories.base import body_twist
 
 
 @dataclass(frozen=True)
@@ -50,16 +52,26 @@ class SliderRun:
     peak_slip: float
 
 
+def start_angles(robot: SliderRobot, twist: FloatArray) -> FloatArray:
+    """Steer angles [rad] (n,) that roll each wheel along its contact's motion for body
+    ``twist`` with every slider at mid-stroke and at rest (0 for a contact at rest)."""
+    speeds, angles = robot.wheel_commands(np.asarray(twist, dtype=float), None)
+    return np.asarray(angles, dtype=float)
+
+
 def run_slider(controller: Any, duration: float, plant: SliderPlant | None = None) -> SliderRun:
     """Run ``controller`` (with ``robot``, ``trajectory`` and ``dt``) for ``duration`` [s] on
     ``plant`` (default: a :class:`SliderPlant` of its robot at the reference's start pose,
-    steer angles 0 and sliders at mid-stroke)."""
+    sliders at mid-stroke, each wheel aimed to roll along its contact's motion at the
+    reference's start: :func:`start_angles`)."""
     dt = float(controller.dt)
     if not math.isfinite(duration) or duration <= 0:
         raise SimulationError(f"duration must be a finite number of seconds > 0, got {duration}")
     trajectory = controller.trajectory
     if plant is None:
-        plant = SliderPlant(controller.robot, trajectory.sample(0.0).pose)
+        start = trajectory.sample(0.0)
+        plant = SliderPlant(controller.robot, start.pose,
+                            steer_angles=start_angles(controller.robot, body_twist(start)))
     ticks = int(round(duration / dt))
     times = dt * np.arange(ticks + 1)
     poses = [plant.pose.copy()]

@@ -138,19 +138,36 @@ def stage_zero_rows(robot: SliderGeometry, joints: FloatArray,
     return np.concatenate([drive, slide]), lower, upper
 
 
+#: How far past a row's bound [rad/s or m/s] the clamp leaves a twist unscaled (solver
+#: tolerance); the command's joint rates are then clipped into the bounds.
+CLAMP_TOLERANCE = 1e-9
+
+
 def clamp_at(robot: SliderGeometry, target: FloatArray, joints: FloatArray,
              dt: float) -> tuple[FloatArray, bool]:
     """``target`` scaled by the largest factor in [0, 1] that keeps it within stage 0's
-    rows (the rows are linear and hold at rest), and whether it was scaled."""
+    rows (the rows are linear and hold at rest), and whether it was scaled. A row past its
+    bound by at most :data:`CLAMP_TOLERANCE` does not scale it (a slider at a stroke's
+    end has a bound of 0 there, and a solver's rounding past it would stop the robot)."""
     rows, lower, upper = stage_zero_rows(robot, joints, dt)
     values = rows @ target
     scale = 1.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        over = values > upper
-        under = values < lower
-        if over.any():
-            scale = min(scale, float((upper[over] / values[over]).min()))
-        if under.any():
-            scale = min(scale, float((lower[under] / values[under]).min()))
-    scale = max(0.0, scale * (1.0 - 1e-12)) if scale < 1.0 else 1.0
-    return target * scale, scale < 1.0
+    over = values > upper + CLAMP_TOLERANCE
+    under = values < lower - CLAMP_TOLERANCE
+    if over.any():
+        scale = min(scale, float((upper[over] / values[over]).min()))
+    if under.any():
+        scale = min(scale, float((lower[under] / values[under]).min()))
+    if scale < 1.0:
+        return target * max(0.0, scale * (1.0 - 1e-12)), True
+    return target, False
+
+
+def command_rates(robot: SliderGeometry, twist: FloatArray, joints: FloatArray,
+                  dt: float) -> tuple[FloatArray, FloatArray]:
+    """Drive rates [rad/s] and slider rates [m/s] (n,) for a clamped ``twist`` at stage 0's
+    rows, clipped into their bounds (what is left past them is the solver's rounding)."""
+    rows, lower, upper = stage_zero_rows(robot, joints, dt)
+    rates = np.clip(rows @ twist, lower, upper)
+    n = robot.n_wheels
+    return rates[:n], rates[n:]

@@ -182,11 +182,12 @@ class SliderRobot(Robot):
                                       np.asarray(positions, dtype=float))
 
     def steer_schedule(self, steer_angles: FloatArray, positions: FloatArray,
-                       twists: FloatArray, durations: FloatArray) -> tuple[FloatArray,
-                                                                          FloatArray]:
+                       twists: FloatArray, durations: FloatArray,
+                       aims: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
         """The plan's steer angles at the stages' ends and slider positions at their starts,
         each (N+1, n) (:func:`.rows.steer_schedule`)."""
-        return slider_rows.steer_schedule(self, steer_angles, positions, twists, durations)
+        return slider_rows.steer_schedule(self, steer_angles, positions, twists, durations,
+                                          aims)
 
     def predict_steer_angles(self, steer_angles: FloatArray, twists: FloatArray,
                              durations: FloatArray) -> FloatArray:

@@ -132,12 +132,15 @@ def stage_durations(change_times: FloatArray) -> FloatArray:
 
 
 def steer_schedule(robot: SliderGeometry, angles: FloatArray, positions: FloatArray,
-                   twists: FloatArray, durations: FloatArray) -> tuple[FloatArray, FloatArray]:
+                   twists: FloatArray, durations: FloatArray,
+                   aims: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
     """The steer angles at the stages' ends (N+1, n) [rad] and the slider positions at
     their starts (N+1, n) [m] along a plan of ``twists`` (N, 3) held for ``durations``
     (N,) [s], from the measured ``angles`` and ``positions`` (n,): each stage turns each unit
-    at most ``max_steer_rate * h`` towards :func:`aim_angles` of the next stage's twist; the
-    sliders move at the rates the twists then ask, stopped at their stroke's ends."""
+    at most ``max_steer_rate * h`` towards :func:`aim_angles` of the next stage's twist in
+    ``aims`` (N, 3) (default ``twists``); the sliders move at the rates ``twists`` then ask,
+    stopped at their stroke's ends."""
+    aims = twists if aims is None else aims
     horizon = len(durations)
     n = robot.n_wheels
     low, high = robot.strokes[:, 0], robot.strokes[:, 1]
@@ -146,7 +149,7 @@ def steer_schedule(robot: SliderGeometry, angles: FloatArray, positions: FloatAr
     ends[0], where[0] = angles, np.clip(positions, low, high)
     reach = robot.max_steer_rates * (1.0 - 1e-9)
     for k in range(horizon):
-        ahead = twists[min(k + 1, horizon - 1)]
+        ahead = aims[min(k + 1, horizon - 1)]
         aim = aim_angles(robot, ahead, where[k], ends[k])
         turn = np.clip(aim - ends[k], -reach * durations[k], reach * durations[k])
         ends[k + 1] = ends[k] + turn
