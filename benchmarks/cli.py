@@ -442,6 +442,8 @@ COMMANDS: dict[str, Command] = {
     "tune": Command("tune the MPC's cost weights for a robot (Optuna)", "benchmarks.tune"),
     "sweep": Command("Monte-Carlo over random robots, starts and plant faults",
                      "benchmarks.sweep"),
+    "slider": Command("the slider robot (SWOM) on its own plant, MPC against the reactive "
+                      "baseline", "benchmarks.slider"),
 }
 
 
