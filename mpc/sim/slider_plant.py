@@ -77,7 +77,8 @@ class SliderPlant:
         self.rate_violations = 0
         #: the largest commanded rate over its limit seen: (drive, steer, slider) ratios.
         self.peak_ratios = np.zeros(3)
-        #: ticks on which some slider met a stop.
+        #: ticks on which a command would have carried some slider past its stroke (the stop
+        #: held it).
         self.stroke_violations = 0
         #: how far past its stroke's end a command would have carried a slider, at most [m].
         self.overtravel = 0.0
@@ -105,25 +106,23 @@ class SliderPlant:
         drive, steer, slide = rates
         h = dt / self.substeps
         low, high = robot.strokes[:, 0], robot.strokes[:, 1]
-        stopped = False
+        unstopped = self.slider_positions + slide * dt
+        past = float(np.max(np.maximum(unstopped - high, low - unstopped)))
+        if past > STROKE_SLACK:
+            self.stroke_violations += 1
+            self.overtravel = max(self.overtravel, past)
         for _ in range(self.substeps):
-            wanted = self.slider_positions + slide * h
-            past = np.maximum(wanted - high, low - wanted)
-            if float(past.max()) > STROKE_SLACK:
-                stopped = True
-                self.overtravel = max(self.overtravel, float(past.max()))
-            moved = np.clip(wanted, low, high)
+            moved = np.clip(self.slider_positions + slide * h, low, high)
             actual = (moved - self.slider_positions) / h
             middle_angles = self.steer_angles + 0.5 * h * steer
             middle_positions = 0.5 * (self.slider_positions + moved)
-            self.twist = self._body_twist(drive, actual, middle_angles, middle_positions)
+            self.twist = self.body_twist(drive, actual, middle_angles, middle_positions)
             self.pose = _twist_step(self.pose, self.twist, h)
             self.steer_angles = self.steer_angles + h * steer
             self.slider_positions = moved
-        self.stroke_violations += stopped
         return self.pose.copy()
 
-    def _body_twist(self, drive: FloatArray, slide: FloatArray, angles: FloatArray,
+    def body_twist(self, drive: FloatArray, slide: FloatArray, angles: FloatArray,
                     positions: FloatArray) -> FloatArray:
         """The least-squares twist of each wheel's rolling and no-slip equations: the
         contact point (at ``positions`` along its rail) moves with the body plus the slider,
