@@ -8,8 +8,9 @@ corners and the reversal). Every controller runs on :class:`~mpc.sim.slider_plan
 stop), from rest with the wheels aimed along the reference's start and every slider at
 mid-stroke. The table gives the position error (RMS, peak), the largest commanded rate
 over its limit (drive, steer, slider; 1.000 is at the limit), the ticks with a rate over
-its limit and with a slider run into a stop, the sliders' range, and each controller's
-tick time as a ratio to the baseline's in the same run. Nothing is random.
+its limit and with a slider run into a stop, the sliders' range, the fastest slip at a
+contact (the wheels disagreeing on one rigid motion), and each controller's tick time as
+a ratio to the baseline's in the same run. Nothing is random.
 """
 
 from __future__ import annotations
@@ -102,7 +103,8 @@ def table(results: dict[tuple[str, str], SliderRun], robot: SliderRobot) -> str:
                Column("RMS", "[mm]"), Column("peak", "[mm]"), Column("drive", "/limit"),
                Column("steer", "/limit"), Column("slider", "/limit"),
                Column("over", "[ticks]"), Column("stops", "[ticks]"),
-               Column("slider range", "[mm]"), Column("tick", "/reactive"))
+               Column("slider range", "[mm]"), Column("slip", "[m/s]"),
+               Column("tick", "/reactive"))
     rows = []
     for (case, name), run in results.items():
         baseline = results.get((case, "reactive"))
@@ -112,7 +114,7 @@ def table(results: dict[tuple[str, str], SliderRun], robot: SliderRobot) -> str:
         rows.append([case, name, f"{1e3 * run.rms_error:.1f}", f"{1e3 * run.max_error:.1f}",
                      *(f"{value:.3f}" for value in run.peak_ratios),
                      str(run.rate_violations), str(run.stroke_violations),
-                     f"{low:.0f}-{high:.0f}", ratio])
+                     f"{low:.0f}-{high:.0f}", f"{run.peak_slip:.3f}", ratio])
     stroke = robot.strokes
     note = (f"robot {robot.name}: stroke {1e3 * stroke[:, 0].min():.0f}-"
             f"{1e3 * stroke[:, 1].max():.0f} mm, limits drive "
