@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
 from mpc.control.command import Command, Status
-from mpc.control.controller import Controller
+from mpc.control.controller import Controller, register_controller
 from mpc.control.measurements import check_pose, check_time
 from mpc.errors import ControllerError
 from mpc.model.layout import TickInput
@@ -195,3 +195,6 @@ class SliderController(Controller):
             clamped=clamped, reference_time=reference_time, lag=t_plan - reference_time,
             steer_rates=steer_rates, slider_rates=slide,
             planned_steer_angles=self._ends.copy(), planned_slider_positions=self._where.copy())
+
+
+register_controller("slider", SliderController)

@@ -13,6 +13,9 @@ largest). The pose is integrated exactly for a twist held over a substep.
 It shares no code with the controller's model: the equations are written out here, the
 joints move within the tick while the controller holds its rows at mid-tick values, and
 the stops are hard.
+
+:class:`SliderSimPlant` puts it behind :func:`mpc.sim.simulate`'s plant (registered for
+slider robots: ``simulate`` and ``mpc-bench`` runs use it).
 """
 
 from __future__ import annotations
@@ -23,8 +26,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
+from mpc.control.command import Command
 from mpc.errors import SimulationError
 from mpc.robots.wheels.slider.robot import SliderRobot
+from mpc.sim.plant import PlantConfig
+from mpc.sim.simulate import register_plant
+from trajectories import Trajectory
+from trajectories.base import body_twist
 
 #: Relative slack under which a commanded rate counts as within its limit (rounding).
 RATE_SLACK = 1e-9
@@ -150,3 +158,75 @@ class SliderPlant:
         slip = float(np.max(np.hypot(residual[0::2], residual[1::2])))
         self.peak_slip = max(self.peak_slip, slip)
         return np.asarray(twist, dtype=float)
+
+
+def start_angles(robot: SliderRobot, twist: FloatArray) -> FloatArray:
+    """Steer angles [rad] (n,) that roll each wheel along its contact's motion for body
+    ``twist`` with every slider at mid-stroke and at rest (0 for a contact at rest)."""
+    _, angles = robot.wheel_commands(np.asarray(twist, dtype=float), None)
+    return np.asarray(angles, dtype=float)
+
+
+class SliderSimPlant:
+    """:class:`SliderPlant` as :func:`mpc.sim.simulate`'s plant: built as
+    :class:`~mpc.sim.plant.Plant` is (``config``: its substeps and measurement noise; a
+    motor lag, delay or slip is not modelled for slider robots and raises)."""
+
+    def __init__(self, robot: SliderRobot, dt: float, pose: FloatArray, config: PlantConfig,
+                 rng: np.random.Generator) -> None:
+        unmodelled = [name for name in ("motor_lag", "delay_ticks", "slip")
+                      if getattr(config, name) != 0]
+        if unmodelled:
+            raise SimulationError(f"the slider plant does not model {', '.join(unmodelled)}; "
+                                  "use the ideal plant or noise only")
+        self.robot = robot
+        self.dt = dt
+        self.config = config
+        self.rng = rng
+        self.plant = SliderPlant(robot, pose, substeps=int(config.substeps))
+
+    @property
+    def pose(self) -> FloatArray:
+        return self.plant.pose
+
+    @property
+    def steer_angles(self) -> FloatArray:
+        return self.plant.steer_angles
+
+    @steer_angles.setter
+    def steer_angles(self, angles: FloatArray) -> None:
+        self.plant.steer_angles = np.array(angles, dtype=float)
+
+    def start_along(self, trajectory: Trajectory) -> None:
+        """Every wheel aimed along its contact's motion at the reference's start."""
+        self.steer_angles = start_angles(self.robot,
+                                         body_twist(trajectory.sample(trajectory.start_time)))
+
+    def measure(self) -> FloatArray:
+        """The pose a localisation system would report (with the config's noise)."""
+        config = self.config
+        if config.position_noise == 0.0 and config.heading_noise == 0.0:
+            return self.plant.pose.copy()
+        noise = self.rng.normal(size=3) * np.array(
+            [config.position_noise, config.position_noise, config.heading_noise])
+        return self.plant.pose + noise
+
+    def joint_states(self) -> dict[str, FloatArray]:
+        """What the controller measures each tick besides the pose."""
+        return {"steer_angles": self.plant.steer_angles.copy(),
+                "slider_positions": self.plant.slider_positions.copy()}
+
+    def apply(self, command: Command) -> FloatArray:
+        """Run one tick under ``command`` (drive, steer and slider rates); the drive rates
+        reached [rad/s] (each within its limit)."""
+        slide = getattr(command, "slider_rates", None)
+        if command.steer_rates is None or slide is None:
+            raise SimulationError("a slider robot's command needs steer_rates and "
+                                  "slider_rates (a SliderController's or the reactive "
+                                  "baseline's)")
+        self.plant.step(command.wheel_speeds, command.steer_rates, slide, self.dt)
+        limit = self.robot.max_wheel_speed
+        return np.clip(np.asarray(command.wheel_speeds, dtype=float), -limit, limit)
+
+
+register_plant("slider", SliderSimPlant)

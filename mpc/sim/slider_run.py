@@ -14,8 +14,7 @@ import numpy as np
 from mpc.arrays import FloatArray
 from mpc.control.command import Status
 from mpc.errors import SimulationError
-from mpc.robots.wheels.slider.robot import SliderRobot
-from mpc.sim.slider_plant import SliderPlant
+from mpc.sim.slider_plant import SliderPlant, start_angles
 from trajectories.base import body_twist
 
 
@@ -50,13 +49,6 @@ class SliderRun:
     failures: int
     mean_tick: float
     peak_slip: float
-
-
-def start_angles(robot: SliderRobot, twist: FloatArray) -> FloatArray:
-    """Steer angles [rad] (n,) that roll each wheel along its contact's motion for body
-    ``twist`` with every slider at mid-stroke and at rest (0 for a contact at rest)."""
-    speeds, angles = robot.wheel_commands(np.asarray(twist, dtype=float), None)
-    return np.asarray(angles, dtype=float)
 
 
 def run_slider(controller: Any, duration: float, plant: SliderPlant | None = None) -> SliderRun:
