@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from benchmarks.slider import (
+    SliderCase,
     figure_eight,
     peak_turn_rate,
     run_case,
@@ -20,11 +21,10 @@ from benchmarks.slider import (
 from mpc.control.slider import SliderController
 from mpc.errors import ControllerError, RobotError
 from mpc.robots import SliderRobot, from_dict, preset, robot_mobility, robot_types, slider
-from mpc.robots.wheels.slider.kinematics import SliderUnit
 from mpc.robots.wheels.slider.limits import nlp_stage_limits, stage_limits, update_stage_limits
 from mpc.robots.wheels.slider.rows import joint_parameters, middle_angles, stage_durations
 from mpc.sim.slider_plant import SliderPlant
-from mpc.sim.slider_run import run_slider
+from mpc.sim.slider_run import SliderRun, run_slider
 from trajectories import Circle
 
 SLACK = 1e-9  # relative: a commanded rate at its limit reads this far over it at most
@@ -71,7 +71,7 @@ def test_plant_moves_the_body_by_consistent_joint_rates_without_slip() -> None:
     angles = np.array([0.3, -0.2, 1.0, 0.1])
     twist = np.array([0.2, -0.1, 0.3])
     plant = SliderPlant(robot, steer_angles=angles, substeps=1)
-    rates = [unit.joint_rates(twist, float(b), float(l)) for unit, b, l in
+    rates = [unit.joint_rates(twist, float(b), float(where)) for unit, b, where in
              zip(robot.units, angles, plant.slider_positions, strict=True)]
     drive = np.array([rate[0] for rate in rates])
     slide = np.array([rate[1] for rate in rates])
@@ -140,11 +140,11 @@ def test_controller_needs_the_joint_states() -> None:
         SliderController(preset("swerve"), Circle(0.5, 8.0))  # type: ignore[arg-type]
 
 
-def _within_every_limit(run: object) -> None:
-    assert run.rate_violations == 0  # type: ignore[attr-defined]
-    assert run.stroke_violations == 0  # type: ignore[attr-defined]
-    assert bool((run.peak_ratios <= 1.0 + SLACK).all())  # type: ignore[attr-defined]
-    positions = run.slider_positions  # type: ignore[attr-defined]
+def _within_every_limit(run: SliderRun) -> None:
+    assert run.rate_violations == 0
+    assert run.stroke_violations == 0
+    assert bool((run.peak_ratios <= 1.0 + SLACK).all())
+    positions = run.slider_positions
     assert positions.min() >= 0.15 - 1e-12 and positions.max() <= 0.35 + 1e-12
 
 
@@ -155,12 +155,12 @@ def _within_every_limit(run: object) -> None:
     (square_with_reversals(), "mpc-ipopt", 10),
 ])
 def test_both_solvers_beat_the_reactive_baseline_within_every_limit(
-        case: object, solver: str, horizon: int) -> None:
+        case: SliderCase, solver: str, horizon: int) -> None:
     robot = _swom()
     # each case asks for turns faster than the units steer
-    assert peak_turn_rate(case.trajectory, case.duration) > robot.max_steer_rates.max()  # type: ignore[attr-defined]
-    mpc = run_case(case, solver, robot, horizon)  # type: ignore[arg-type]
-    reactive = run_case(case, "reactive", robot)  # type: ignore[arg-type]
+    assert peak_turn_rate(case.trajectory, case.duration) > robot.max_steer_rates.max()
+    mpc = run_case(case, solver, robot, horizon)
+    reactive = run_case(case, "reactive", robot)
     _within_every_limit(mpc)
     _within_every_limit(reactive)
     assert mpc.failures == 0
@@ -179,3 +179,24 @@ def test_a_slider_started_at_its_end_is_steered_back_inside() -> None:
     _within_every_limit(run)
     assert run.failures == 0
     assert run.rms_error < 0.02
+
+
+def test_generic_entry_points_drive_the_slider_robot() -> None:
+    """``Controller``, ``FeedforwardPController`` and ``simulate`` take a slider robot as any
+    other (what ``mpc-bench --layouts swom`` runs): the slider's controller, baseline and
+    plant, through the registries."""
+    from mpc import Controller
+    from mpc.sim import FeedforwardPController, simulate
+    from mpc.sim.slider_baseline import ReactiveSliderController
+
+    robot = _swom()
+    case = square_with_reversals(edges=2)
+    control = Controller(robot, case.trajectory, 10, 0.05)
+    assert isinstance(control, SliderController)
+    baseline = FeedforwardPController(robot, case.trajectory, 0.05, saturation="clip")
+    assert isinstance(baseline, ReactiveSliderController)
+    ours = simulate(control, case.duration).metrics()
+    theirs = simulate(baseline, case.duration).metrics()
+    assert ours["limit_violations"] == 0 and ours["steer_violations"] == 0
+    assert ours["failures"] == 0
+    assert ours["rms_position_error"] < theirs["rms_position_error"]

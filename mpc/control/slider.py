@@ -100,7 +100,7 @@ class SliderController(Controller):
         if not isinstance(robot, SliderRobot):
             raise ControllerError(f"SliderController drives slider robots "
                                   f"(mpc.robots.slider), got {type(robot).__name__}")
-        self._angles = robot.initial_steer_angles()
+        self._angles = np.zeros(robot.n_wheels)
         self._positions = robot.initial_slider_positions()
         self._ends = np.tile(self._angles, (2, 1))
         self._where = np.tile(self._positions, (2, 1))

@@ -21,7 +21,9 @@ class SteerStateJoints:
         kind: ClassVar[str]
         name: str
         steered: ClassVar[bool]
-        n_wheels: int
+
+        @property
+        def n_wheels(self) -> int: ...
 
     def joint_parameter_size(self, horizon: int) -> int:
         """Numbers of joint state the solvers take each tick as a parameter, for a plan of

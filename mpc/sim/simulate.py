@@ -127,7 +127,7 @@ def simulate(
                                          true_robot.n_wheels, "steer angles [rad]",
                                          SimulationError)
     elif joint_plant is not None and kind is joint_plant:
-        sim.start_along(trajectory)
+        sim.start_along(trajectory)  # type: ignore[union-attr]
     elif true_robot.steer_states:
         sim.steer_angles = trailing_start(true_robot, trajectory)
     joints = getattr(sim, "joint_states", None)

@@ -23,9 +23,9 @@ from mpc.angles import wrap_angle
 from mpc.control.command import Status
 from mpc.control.slider import SliderCommand
 from mpc.errors import ControllerError
-from mpc.sim.baselines import SATURATIONS, register_baseline
 from mpc.robots.wheels.slider.robot import SliderRobot
 from mpc.robots.wheels.slider.rows import contact_velocities, middle_angles
+from mpc.sim.baselines import SATURATIONS, register_baseline
 from mpc.validation import is_finite_number, shown
 from trajectories import Trajectory
 

@@ -65,7 +65,7 @@ def run_slider(controller: Any, duration: float, plant: SliderPlant | None = Non
         plant = SliderPlant(controller.robot, start.pose,
                             steer_angles=start_angles(controller.robot, body_twist(start)))
     ticks = int(round(duration / dt))
-    times = dt * np.arange(ticks + 1)
+    times = dt * np.arange(ticks + 1, dtype=float)
     poses = [plant.pose.copy()]
     angles = [plant.steer_angles.copy()]
     positions = [plant.slider_positions.copy()]

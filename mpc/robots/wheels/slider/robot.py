@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, listed, readonly
-from mpc.errors import RobotError
+from mpc.errors import MpcError, RobotError
 from mpc.plausibility import SIZE, STEER_RATE, WHEEL_RADIUS, WHEEL_SPEED, check_plausible
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
 from mpc.robots.description.registry import register
@@ -56,7 +56,8 @@ class SliderRobot(Robot):
     """A robot of steered wheels on radial sliders (module docstring).
 
     Attributes:
-        rail_angles: (n,) each rail's angle from the body x axis [rad], n >= 2.
+        rails: (n,) each rail's angle from the body x axis [rad], n >= 2
+            (:attr:`rail_angles`).
         stroke: (n, 2) each slider's ``(l_min, l_max)`` [m].
         wheel_radius: (n,) [m].
         max_speed: (n,) drive-rate limits [rad/s].
@@ -68,7 +69,7 @@ class SliderRobot(Robot):
     steered = True
     steer_states = True
 
-    rail_angles: ArrayLike = field(default_factory=lambda: np.zeros(0))
+    rails: ArrayLike = field(default_factory=lambda: np.zeros(0))
     stroke: ArrayLike = field(default=(0.15, 0.35), kw_only=True)
     wheel_radius: ArrayLike = field(default=0.05, kw_only=True)
     max_speed: ArrayLike = field(default=20.0, kw_only=True)
@@ -77,7 +78,7 @@ class SliderRobot(Robot):
     units: tuple[SliderUnit, ...] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        angles = real_array("rail_angles", self.rail_angles, "n >= 2 angles [rad]", RobotError)
+        angles = real_array("rail_angles", self.rails, "n >= 2 angles [rad]", RobotError)
         if angles.ndim != 1 or angles.size < 2:
             raise RobotError(f"rail_angles must be n >= 2 angles [rad], got {shown(angles)}")
         n = angles.size
@@ -95,7 +96,7 @@ class SliderRobot(Robot):
                                  float(values["max_slider_speed"][i]))
                       for i, (a, s) in enumerate(zip(angles, stroke, strict=True)))
         object.__setattr__(self, "units", units)
-        object.__setattr__(self, "rail_angles", readonly(angles.astype(float)))
+        object.__setattr__(self, "rails", readonly(angles.astype(float)))
         object.__setattr__(self, "stroke", readonly(np.array([u.stroke for u in units])))
         for attribute, name in (("wheel_radius", "wheel_radius"), ("max_speed", "max_wheel_speed"),
                                 ("max_steer_rate", "max_steer_rate"),
@@ -117,6 +118,11 @@ class SliderRobot(Robot):
         self._finish()
 
     # ------------------------------------------------------------ description
+    @property
+    def rail_angles(self) -> FloatArray:
+        """(n,) each rail's angle from the body x axis [rad]."""
+        return np.asarray(self.rails, dtype=float)
+
     @property
     def strokes(self) -> FloatArray:
         """(n, 2) each slider's ``(l_min, l_max)`` [m]."""
@@ -152,7 +158,7 @@ class SliderRobot(Robot):
         return self.n_wheels * (2 + horizon)
 
     def check_joints(self, steer_angles: ArrayLike, slider_positions: ArrayLike,
-                     error: type[Exception] = RobotError) -> tuple[FloatArray, FloatArray]:
+                     error: type[MpcError] = RobotError) -> tuple[FloatArray, FloatArray]:
         """Measured steer angles [rad] and slider positions [m], each (n,): finite, the angles
         within +-MAX_COORDINATE and the positions within their stroke
         up to 1 mm (a slider at its stop reads a little past it)."""
