@@ -28,7 +28,6 @@ from mpc.model.layout import TickInput
 from mpc.robots.wheels.slider.limits import clamp_at, command_rates
 from mpc.robots.wheels.slider.robot import SliderRobot
 from mpc.robots.wheels.slider.rows import joint_parameters
-from mpc.solvers import SolveResult
 from mpc.validation import checked_arguments
 from trajectories import Trajectory, TrajectoryError
 
@@ -59,32 +58,25 @@ class SliderCommand(Command):
     planned_slider_positions: FloatArray | None = None
 
 
-class _ScheduledSolver:
-    """The controller's solver with the steer schedule filled into each tick's joint
-    parameters just before it solves (from the guess that tick holds then)."""
+class _ScheduledWarmStart:
+    """The controller's warm start, with the steer schedule filled into the tick's joint
+    parameters whenever it fills the guess (the solvers then see the schedule of the guess
+    they start from)."""
 
-    def __init__(self, solver: Any, fill: Any) -> None:
-        self._solver = solver
+    def __init__(self, warm: Any, fill: Any) -> None:
+        self._warm = warm
         self._fill = fill
 
-    @property
-    def profile(self) -> Any:
-        return self._solver.profile
+    def fill(self, *args: Any, **kwargs: Any) -> None:
+        self._warm.fill(*args, **kwargs)
+        self._fill()
 
-    @profile.setter
-    def profile(self, profile: Any) -> None:
-        self._solver.profile = profile
-
-    def reset(self) -> None:
-        self._solver.reset()
-
-    def solve(self, tick: TickInput) -> SolveResult:
-        self._fill(tick)
-        result: SolveResult = self._solver.solve(tick)
-        return result
+    def hold(self, *args: Any, **kwargs: Any) -> None:
+        self._warm.hold(*args, **kwargs)
+        self._fill()
 
     def __getattr__(self, name: str) -> Any:
-        return getattr(self._solver, name)
+        return getattr(self._warm, name)
 
 
 class SliderController(Controller):
@@ -106,7 +98,7 @@ class SliderController(Controller):
         self._where = np.tile(self._positions, (2, 1))
         super().__init__(robot, trajectory, *args, **kwargs)
         self.robot: SliderRobot = robot
-        self.solver = _ScheduledSolver(self.solver, self._fill)  # type: ignore[assignment]
+        self._warm = _ScheduledWarmStart(self._warm, self._fill)  # type: ignore[assignment]
 
     def reset(self, last_twist: ArrayLike | None = None,
               steer_angles: ArrayLike | None = None) -> None:
@@ -117,8 +109,9 @@ class SliderController(Controller):
         super().reset(last_twist)
         self._steer = None  # the joint parameters are filled by the schedule, not here
 
-    def _fill(self, tick: TickInput) -> None:
+    def _fill(self) -> None:
         """The steer schedule along the tick's guess, into its joint parameters."""
+        tick = self._tick
         self._schedule(tick, tick.guess_twists, AIM_MIX * tick.twists_ref
                        + (1.0 - AIM_MIX) * tick.guess_twists)
 
