@@ -138,22 +138,25 @@ def stage_zero_rows(robot: SliderGeometry, joints: FloatArray,
     return np.concatenate([drive, slide]), lower, upper
 
 
-#: How far past a row's bound [rad/s or m/s] the clamp leaves a twist unscaled (solver
-#: tolerance); the command's joint rates are then clipped into the bounds.
-CLAMP_TOLERANCE = 1e-9
+#: How far past a row's bound the clamp leaves a twist unscaled, relative to the row's rate
+#: limit: a solver's rounding (IPOPT's bounds are relaxed by 1e-8 of their size), not a
+#: broken row. The command's joint rates are then clipped into the bounds exactly.
+CLAMP_TOLERANCE = 1e-6
 
 
 def clamp_at(robot: SliderGeometry, target: FloatArray, joints: FloatArray,
              dt: float) -> tuple[FloatArray, bool]:
     """``target`` scaled by the largest factor in [0, 1] that keeps it within stage 0's
     rows (the rows are linear and hold at rest), and whether it was scaled. A row past its
-    bound by at most :data:`CLAMP_TOLERANCE` does not scale it (a slider at a stroke's
-    end has a bound of 0 there, and a solver's rounding past it would stop the robot)."""
+    bound by at most :data:`CLAMP_TOLERANCE` of its rate limit does not scale it (a slider
+    at a stroke's end has a bound of 0 there, and a solver's rounding past it would stop
+    the robot)."""
     rows, lower, upper = stage_zero_rows(robot, joints, dt)
     values = rows @ target
+    slack = CLAMP_TOLERANCE * np.concatenate([robot.max_wheel_speed, robot.max_slider_speeds])
     scale = 1.0
-    over = values > upper + CLAMP_TOLERANCE
-    under = values < lower - CLAMP_TOLERANCE
+    over = values > upper + slack
+    under = values < lower - slack
     if over.any():
         scale = min(scale, float((upper[over] / values[over]).min()))
     if under.any():
