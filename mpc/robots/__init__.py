@@ -7,7 +7,8 @@ twists ``(vx, vy, omega)`` in m/s and rad/s, wheel speeds in rad/s. Wheel
 orders: Mecanum FL, FR, RL, RR; omni counter-clockwise from
 ``first_wheel_angle``; swerve as ``module_positions`` lists them; driven
 balls ball by ball, the actuator about +x then the one about +y; casters as ``positions``
-lists them (steer angles measured each tick: they are states); another source's order,
+lists them (steer angles measured each tick: they are states); slider units as
+``rail_angles`` lists them (steer angles and slider positions measured each tick); another source's order,
 signs and units through :data:`CONVENTIONS` (``Command.wheel_speeds_as``). A new
 wheel type is one module in :mod:`mpc.robots.wheels` (imported with the package): a
 :class:`Robot` subclass answering for itself (``description``, ``mobility_wheels``,

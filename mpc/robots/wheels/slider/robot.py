@@ -224,12 +224,12 @@ class SliderRobot(Robot):
 
     def commands_from_velocities(self, velocities: FloatArray,
                                  steer_angles: FloatArray | None) -> WheelCommands:
-        """Sliders at mid-stroke and at rest: each unit's steer angle (the representative
-        within +-pi/2 of the rail's normal nearest the present one) rolls it along its
-        velocity (n, 2) / r; a unit at rest keeps its angle."""
+        """Sliders at mid-stroke and at rest: each unit's steer angle (of the two that roll
+        it along its velocity (n, 2) / r, the one nearer the present angle, the drive
+        signed to match); a unit at rest keeps its angle."""
         current = np.zeros(self.n_wheels) if steer_angles is None else steer_angles
         aim = np.arctan2(velocities[:, 1], velocities[:, 0]) - 0.5 * math.pi - self.rail_angles
-        aim = np.mod(aim + 0.5 * math.pi, math.pi) - 0.5 * math.pi
+        aim = current + np.mod(aim - current + 0.5 * math.pi, math.pi) - 0.5 * math.pi
         moving = np.hypot(velocities[:, 0], velocities[:, 1]) * self.radii > 1e-9
         angles = np.where(moving, aim, current)
         heading = self.rail_angles + angles
