@@ -200,3 +200,23 @@ def test_generic_entry_points_drive_the_slider_robot() -> None:
     assert ours["limit_violations"] == 0 and ours["steer_violations"] == 0
     assert ours["failures"] == 0
     assert ours["rms_position_error"] < theirs["rms_position_error"]
+
+
+def test_desaturating_baseline_keeps_every_limit() -> None:
+    from mpc.sim.slider_baseline import ReactiveSliderController
+
+    robot = _swom()
+    case = square_with_reversals(edges=4)
+    run = run_slider(ReactiveSliderController(robot, case.trajectory, 0.05,
+                                              saturation="desaturate"), case.duration)
+    _within_every_limit(run)
+
+
+def test_mpc_bench_slider_prints_its_table(capsys: pytest.CaptureFixture[str]) -> None:
+    from benchmarks.cli import main
+
+    assert main(["slider", "--cases", "square-reversals", "--controllers",
+                 "mpc-daqp,reactive", "--horizon", "10"]) == 0
+    out = capsys.readouterr().out
+    assert "square-reversals mpc-daqp" in out and "square-reversals reactive" in out
+    assert main(["slider", "--cases", "circle"]) == 2  # an unknown case: one line, exit 2
