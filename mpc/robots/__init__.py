@@ -2,22 +2,23 @@
 driven-ball, powered-caster and slider (SWOM) layouts, and wheel sets by type (refused unless
 omnidirectional).
 
-Conventions: REP-103 body frame (x forward, y left, yaw counter-clockwise), twists ``(vx,
-vy, omega)`` in m/s and rad/s, wheel speeds in rad/s. Wheel orders: Mecanum FL, FR, RL,
-RR; omni counter-clockwise from ``first_wheel_angle``; swerve as ``module_positions``
-lists them; driven balls ball by ball, the actuator about +x then the one about +y;
-casters as ``positions`` lists them (steer angles measured each tick: they are states);
-slider units as ``rail_angles`` lists them (steer angles and slider positions measured
-each tick); another source's order, signs and units through :data:`CONVENTIONS`
-(``Command.wheel_speeds_as``). A new wheel type is one module in :mod:`mpc.robots.wheels`
-(imported with the package): a :class:`Robot` subclass answering for itself
-(``description``, ``mobility_wheels``, ``drive_radii``, ``with_wheel_limits``) and a
-factory passed to :func:`register` (a wheel-set builder and a sweep sampler too, if it has
-them), plus a preset file in ``description/presets``. Motors: :class:`DCMotor` (WPILib's
-DC motor model and presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel);
-:class:`RobotDynamics` (mass, motors, battery, traction) through
-:meth:`Robot.with_dynamics` adds motor-aware limits
-(:mod:`mpc.robots.drive.motor_limits`); :func:`motor_preset` ships them per layout.
+Conventions: REP-103 body frame (x forward, y left, yaw counter-clockwise),
+twists ``(vx, vy, omega)`` in m/s and rad/s, wheel speeds in rad/s. Wheel
+orders: Mecanum FL, FR, RL, RR; omni counter-clockwise from
+``first_wheel_angle``; swerve as ``module_positions`` lists them; driven
+balls ball by ball, the actuator about +x then the one about +y; casters as ``positions``
+lists them (steer angles measured each tick: they are states); another source's order,
+signs and units through :data:`CONVENTIONS` (``Command.wheel_speeds_as``). A new
+wheel type is one module in :mod:`mpc.robots.wheels` (imported with the package): a
+:class:`Robot` subclass answering for itself (``description``, ``mobility_wheels``,
+``drive_radii``, ``with_wheel_limits``) and a factory passed to :func:`register` (a
+wheel-set builder and a sweep sampler too, if it has them), plus a preset file in
+``description/presets``. Motors: :class:`DCMotor` (WPILib's DC motor model and
+presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel); :class:`RobotDynamics`
+(mass, motors, battery, traction) through :meth:`Robot.with_dynamics` adds motor-aware
+limits (:mod:`mpc.robots.drive.motor_limits`); :func:`motor_preset` ships them per layout.
+Slider units (:func:`slider`) in ``rail_angles`` order; their steer angles and slider
+positions are measured each tick.
 """
 
 from mpc.angles import wrap_angle
