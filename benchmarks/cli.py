@@ -445,6 +445,8 @@ COMMANDS: dict[str, Command] = {
     "docs-pages": Command("regenerate the docs' Benchmarks and Performance pages and the "
                           "README's results table from benchmarks/results/",
                           "benchmarks.docs_pages"),
+    "slider": Command("the slider robot (SWOM) on its own plant, MPC against the reactive "
+                      "baseline", "benchmarks.slider"),
 }
 
 

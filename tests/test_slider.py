@@ -10,7 +10,7 @@ import pytest
 
 from mpc.errors import RobotError
 from mpc.robots import mobility
-from mpc.robots.wheels.slider_kinematics import SliderUnit, slider_twist
+from mpc.robots.wheels.slider.kinematics import SliderUnit, slider_twist
 
 
 def _unit(alpha: float, radius: float = 0.05) -> SliderUnit:

@@ -9,16 +9,20 @@
 - :mod:`.fallback`: what to command when the solver fails;
 - :mod:`.delay`: known actuator latency;
 - :mod:`.clamp`: the last-line limits clamp;
-- :mod:`.command`: :class:`Command` and :class:`Status`.
+- :mod:`.command`: :class:`Command` and :class:`Status`;
+- :mod:`.slider`: the controller of slider robots (their joint states each tick), which
+  ``Controller(robot, ...)`` builds for them.
 """
 
 from mpc.control.clamp import clamp_command
 from mpc.control.command import Command, Status
 from mpc.control.controller import SOLVERS, Controller
+from mpc.control.slider import SliderCommand, SliderController
 from mpc.errors import ControllerError as _Error
 from mpc.validation import checked_public as _checked_public
 
-__all__ = ["SOLVERS", "Command", "Controller", "Status", "clamp_command"]
+__all__ = ["SOLVERS", "Command", "Controller", "SliderCommand", "SliderController", "Status",
+           "clamp_command"]
 
 # Arguments that do not fit a public callable's signature raise ControllerError, not TypeError.
 _checked_public(globals(), _Error)

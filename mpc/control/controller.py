@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -54,12 +54,25 @@ from trajectories import Trajectory, TrajectoryError
 if TYPE_CHECKING:
     from mpc.tick import CompiledTick
 
-__all__ = ["DEFAULT_POLYGON_SIDES", "MEASURED_SLACK", "MODES", "SOLVERS", "Controller"]
+__all__ = ["DEFAULT_POLYGON_SIDES", "MEASURED_SLACK", "MODES", "SOLVERS", "Controller",
+           "register_controller"]
 
 #: How far beyond the wheels' speed limits a measured ``last_twist`` (:meth:`Controller.reset`)
 #: may be and be scaled into them (odometry noise at top speed); further is refused (a
 #: twist in the wrong units, or a robot pushed far past what its wheels drive).
 MEASURED_SLACK = 0.10
+
+
+#: Controllers of wheel types whose joint states each tick takes besides the pose (sliders),
+#: by :attr:`~mpc.robots.Robot.kind`: ``Controller(robot, ...)`` builds one of these for
+#: such a robot. Registered by their modules (:func:`register_controller`).
+_JOINT_CONTROLLERS: dict[str, type[Controller]] = {}
+
+
+def register_controller(kind: str, controller: type[Controller]) -> None:
+    """Make ``Controller(robot, ...)`` of a robot of ``kind`` a ``controller`` (a subclass
+    of :class:`Controller` taking the same arguments)."""
+    _JOINT_CONTROLLERS[kind] = controller
 
 
 class Controller:
@@ -150,6 +163,11 @@ class Controller:
             tick with its Hessian rebuilt every tick (docs/guide/compiled-tick.md).
             :attr:`tick_path` says which path runs.
     """
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> Controller:
+        robot = args[0] if args else kwargs.get("robot")
+        chosen = _JOINT_CONTROLLERS.get(getattr(robot, "kind", "")) if cls is Controller else None
+        return super().__new__(chosen or cls)
 
     @checked_arguments(ControllerError)
     def __init__(

@@ -101,7 +101,7 @@ class TrackingModel:
         self.change_times = np.concatenate(([tick], self.durations[:-1]))
         for array in (self.durations, self.offsets, self.change_times):
             array.setflags(write=False)
-        steered = self.robot.n_wheels if self.robot.steered else 0
+        steered = self.robot.joint_parameter_size(n)
         self.layouts = tracking_layouts(n, self.path, steered)
         pose, twist, h = ca.SX.sym("x", 3), ca.SX.sym("u", 3), ca.SX.sym("h")
         following = twist_integral(pose, twist, h)

@@ -1,5 +1,5 @@
 """Robot descriptions: Swedish-wheel (omni, Mecanum), swerve (centred or axle-offset modules),
-driven-ball and powered-caster layouts, and wheel sets by type (refused unless
+driven-ball, powered-caster and slider (SWOM) layouts, and wheel sets by type (refused unless
 omnidirectional).
 
 Conventions: REP-103 body frame (x forward, y left, yaw counter-clockwise),
@@ -17,6 +17,8 @@ wheel-set builder and a sweep sampler too, if it has them), plus a preset file i
 presets) and :class:`SysIdMotor` (``kS, kV, kA`` per wheel); :class:`RobotDynamics`
 (mass, motors, battery, traction) through :meth:`Robot.with_dynamics` adds motor-aware
 limits (:mod:`mpc.robots.drive.motor_limits`); :func:`motor_preset` ships them per layout.
+Slider units (:func:`slider`) in ``rail_angles`` order; their steer angles and slider
+positions are measured each tick.
 """
 
 from mpc.angles import wrap_angle
@@ -46,6 +48,7 @@ from mpc.robots.description.wheel_set import wheel_set
 from mpc.robots.drive.dynamics import RobotDynamics, choreo_dynamics, dynamics
 from mpc.robots.drive.motor import MOTOR_PRESETS, DCMotor, SysIdMotor
 from mpc.robots.wheels.caster.robot import CasterRobot, caster
+from mpc.robots.wheels.slider.robot import SliderRobot, slider
 from mpc.robots.wheels.spherical import SphericalRobot, spherical
 from mpc.robots.wheels.swedish import SwedishRobot, SwedishWheel, mecanum, omni
 from mpc.robots.wheels.swerve.robot import SwerveRobot, swerve
@@ -63,6 +66,7 @@ __all__ = [
     "RobotDynamics",
     "SEED_PRESETS",
     "SpeedRows",
+    "SliderRobot",
     "SphericalRobot",
     "SwedishRobot",
     "SwedishWheel",
@@ -87,6 +91,7 @@ __all__ = [
     "robot_mobility",
     "robot_types",
     "shipped_presets",
+    "slider",
     "spherical",
     "swerve",
     "wheel_convention",

@@ -20,6 +20,16 @@ class SteerStateJoints:
     if TYPE_CHECKING:
         kind: ClassVar[str]
         name: str
+        steered: ClassVar[bool]
+
+        @property
+        def n_wheels(self) -> int: ...
+
+    def joint_parameter_size(self, horizon: int) -> int:
+        """Numbers of joint state the solvers take each tick as a parameter, for a plan of
+        ``horizon`` stages: the steer angles of steered wheels (n), none otherwise; a type
+        with more joint states (sliders) says its own."""
+        return self.n_wheels if self.steered else 0
 
     def joint_rates(self, twist: ArrayLike, steer_angles: ArrayLike) -> tuple[FloatArray,
                                                                              FloatArray]:

@@ -12,6 +12,9 @@
 - :mod:`.baselines`: feedforward + P controllers with per-wheel clipping or desaturation;
 - :mod:`.setpoint`: feedforward + P through a swerve setpoint generator (Team 254 style,
   :mod:`.setpoint_generator`);
+- :mod:`.slider_plant`, :mod:`.slider_baseline`, :mod:`.slider_run`: slider robots' own
+  plant (joint states integrated, the stroke a hard stop), reactive baseline and closed
+  loop (``simulate`` and ``FeedforwardPController`` take them for slider robots);
 - :mod:`.bag`: :func:`write_bag`, a run as a ROS 2 bag (MCAP) for Foxglove or RViz (the
   ``ros`` extra, imported only when called).
 """
@@ -25,6 +28,9 @@ from mpc.sim.recorder import Recorder
 from mpc.sim.result import LIMIT_RTOL, SimResult
 from mpc.sim.setpoint import FeedforwardPSetpointController, SwerveSetpoint, generate_setpoint
 from mpc.sim.simulate import TrackingController, simulate
+from mpc.sim.slider_baseline import ReactiveSliderController
+from mpc.sim.slider_plant import SliderPlant, SliderSimPlant
+from mpc.sim.slider_run import SliderRun, run_slider
 from mpc.validation import checked_public as _checked_public
 
 __all__ = [
@@ -37,11 +43,16 @@ __all__ = [
     "MotorPlantConfig",
     "Plant",
     "PlantConfig",
+    "ReactiveSliderController",
     "Recorder",
     "SimResult",
+    "SliderPlant",
+    "SliderRun",
+    "SliderSimPlant",
     "SwerveSetpoint",
     "TrackingController",
     "generate_setpoint",
+    "run_slider",
     "simulate",
     "write_bag",
 ]

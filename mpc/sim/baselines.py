@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -44,6 +45,18 @@ from trajectories import Trajectory
 SATURATIONS: tuple[str, ...] = ("clip", "desaturate")
 
 
+#: Baselines of wheel types whose joint states each tick takes besides the pose (sliders),
+#: by :attr:`~mpc.robots.Robot.kind`: ``FeedforwardPController(robot, ...)`` builds one of
+#: these for such a robot (same arguments). Registered by their modules.
+_JOINT_BASELINES: dict[str, type] = {}
+
+
+def register_baseline(kind: str, baseline: type) -> None:
+    """Make ``FeedforwardPController(robot, ...)`` of a robot of ``kind`` a ``baseline``
+    taking the same arguments."""
+    _JOINT_BASELINES[kind] = baseline
+
+
 class FeedforwardPController:
     """Reference feedforward plus proportional pose feedback.
 
@@ -57,6 +70,14 @@ class FeedforwardPController:
             tick rate, which tracks fast without ringing under a tick of delay.
         saturation: ``"clip"`` or ``"desaturate"`` (see the module docstring).
     """
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> Any:
+        robot = args[0] if args else kwargs.get("robot")
+        chosen = _JOINT_BASELINES.get(getattr(robot, "kind", "")) if cls is FeedforwardPController \
+            else None
+        if chosen is not None:
+            return chosen(*args, **kwargs)
+        return super().__new__(cls)
 
     def __init__(
         self,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from typing import Protocol, cast
+from typing import Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -47,6 +47,19 @@ class SteerMeasuringController(Protocol):
 
     def step(self, pose: ArrayLike, t: float, steer_angles: ArrayLike | None = None
              ) -> Command: ...
+
+
+#: Plants of wheel types whose joint states the controller takes each tick besides the pose
+#: (sliders), by :attr:`~mpc.robots.Robot.kind`, registered by their modules: built as
+#: :class:`~mpc.sim.plant.Plant` is, they also have ``joint_states()`` (the keyword
+#: arguments of the controller's ``step``) and ``start_along(trajectory)`` (the joints at
+#: the start of a run).
+_JOINT_PLANTS: dict[str, Callable[..., Any]] = {}
+
+
+def register_plant(kind: str, plant: Callable[..., Any]) -> None:
+    """Make :func:`simulate` of a robot of ``kind`` run on ``plant`` (not the motor plant)."""
+    _JOINT_PLANTS[kind] = plant
 
 
 @checked_arguments(SimulationError)
@@ -103,7 +116,8 @@ def simulate(
         # a heading in degrees, checked as the controller's first tick checks it
         check_heading("initial_pose", float(start[2]), float(trajectory.sample(0.0).pose[2]),
                       getattr(controller, "allow_unusual", False) is True, SimulationError)
-    kind = MotorPlant if isinstance(config, MotorPlantConfig) else Plant
+    joint_plant = _JOINT_PLANTS.get(true_robot.kind)
+    kind = (MotorPlant if isinstance(config, MotorPlantConfig) else joint_plant or Plant)
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
                              or seed < 0):
         raise SimulationError(f"seed must be None or an integer >= 0, got {shown(seed)}")
@@ -112,15 +126,20 @@ def simulate(
         sim.steer_angles = finite_vector("initial_steer_angles", initial_steer_angles,
                                          true_robot.n_wheels, "steer angles [rad]",
                                          SimulationError)
+    elif joint_plant is not None and kind is joint_plant:
+        sim.start_along(trajectory)  # type: ignore[union-attr]
     elif true_robot.steer_states:
         sim.steer_angles = trailing_start(true_robot, trajectory)
+    joints = getattr(sim, "joint_states", None)
     measuring = controller.robot.steer_states
     controller.reset()
     recorder = Recorder(controller.robot, trajectory, dt)
     for k in range(ticks):
         t = k * dt
         pose, measured = sim.pose, sim.measure()
-        if measuring and sim.steer_angles is not None:
+        if joints is not None:
+            command = controller.step(measured, t, **joints())  # type: ignore[call-arg]
+        elif measuring and sim.steer_angles is not None:
             command = cast(SteerMeasuringController, controller).step(
                 measured, t, steer_angles=sim.steer_angles.copy())
         else:

@@ -18,8 +18,8 @@ along the rolling direction and the no-slip row loses it)
 
 Both rows are linear in the twist: forward kinematics is their least-squares twist. The
 slider position and the steer angle are states (the stroke ``[l_min, l_max]`` bounds the
-first); this module is the kinematics of one or more units. The controller does not
-drive slider robots yet.
+first); this module is the kinematics of one or more units (the robot, its limits and
+its joint states: the rest of :mod:`mpc.robots.wheels.slider`).
 """
 
 from __future__ import annotations
