@@ -202,7 +202,7 @@ def test_coupled_flip_costs_its_speed() -> None:
     # speed-weighted flip cost here: an uncoupled module flips; a coupled one turns on
     # when fast (a flip costs 2 x 0.9 > 0.05 x 3.0) and flips when slow.
     weights = BranchWeights(flip=0.0, room=0.0)
-    directions: list[float | None] = [0.0] * 5 + [3.0] * 11
+    directions: list[float | None] = [0.0 if k < 5 else 3.0 for k in range(16)]
     for coupling, speed, end in ((0.0, 0.9, 3.0 - PI), (1.0, 0.9, 3.0), (1.0, 0.02, 3.0 - PI)):
         path = plan_path(0.0, directions, [speed] * 16, [3.5] * 16, -PI, PI, weights,
                          coupling)

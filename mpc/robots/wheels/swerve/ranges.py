@@ -16,11 +16,13 @@ Two rules choose each module's branch ``b``:
 - ``"horizon"`` (the default): a small dynamic programme per module over the plan's
   stages ``k = 0..N-1`` (the command sent, then the planned twists), candidates the
   allowed ``b`` of each stage's module direction, cost (see :class:`BranchWeights`) the
-  turn, the turn beyond what the steering rate allows in the stage weighted by the
-  module's speed around it (driving out of line), a flip, and, for a module already
-  wound towards a stop, too little room towards it at the plan's end (so it unwinds
-  while it is slow, before it must). The module turns towards the first stage's choice,
-  at most its steering rate; a turn under way is finished (no turning back half way).
+  turn, the turn beyond what the module can turn in the stage weighted by its speed
+  around it (driving out of line; with an axle offset the turn takes drive rate, so a
+  fast module turns slower: :func:`steer_reaches`), a flip (an offset module's by its
+  speed too), and, for a module already wound towards a stop or winding fast towards
+  it, too little room towards it at the plan's end (so it unwinds while it is slow,
+  before it must). The module turns towards the first stage's choice, at most its
+  steering rate; a turn under way is finished (no turning back half way).
 
 The command: the module's angle steps from the present one towards the chosen ``b`` by at
 most ``max_steer_rate dt`` (so it never leaves the range, an interval), and its signed
