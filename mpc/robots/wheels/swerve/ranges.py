@@ -16,11 +16,13 @@ Two rules choose each module's branch ``b``:
 - ``"horizon"`` (the default): a small dynamic programme per module over the plan's
   stages ``k = 0..N-1`` (the command sent, then the planned twists), candidates the
   allowed ``b`` of each stage's module direction, cost (see :class:`BranchWeights`) the
-  turn, the turn beyond what the steering rate allows in the stage weighted by the
-  module's speed around it (driving out of line), a flip, and, for a module already
-  wound towards a stop, too little room towards it at the plan's end (so it unwinds
-  while it is slow, before it must). The module turns towards the first stage's choice,
-  at most its steering rate; a turn under way is finished (no turning back half way).
+  turn, the turn beyond what the module can turn in the stage weighted by its speed
+  around it (driving out of line; with an axle offset the turn takes drive rate, so a
+  fast module turns slower: :func:`steer_reaches`), a flip (an offset module's by its
+  speed too), and, for a module already wound towards a stop or winding fast towards
+  it, too little room towards it at the plan's end (so it unwinds while it is slow,
+  before it must). The module turns towards the first stage's choice, at most its
+  steering rate; a turn under way is finished (no turning back half way).
 
 The command: the module's angle steps from the present one towards the chosen ``b`` by at
 most ``max_steer_rate dt`` (so it never leaves the range, an interval), and its signed
@@ -86,11 +88,19 @@ class BranchWeights:
         out_of_line: per radian turned beyond the stage's steering reach, times the
             module's speed over its limit (driving out of line while turning) [1/rad].
         flip: per flip (drive reversal) [1].
+        flip_speed: per flip, times the module's speed over its limit around it and its
+            steer-drive coupling (:func:`steer_coupling`: 0 without an axle offset): an
+            offset module's turn takes drive rate, so its flips belong where it is slow [1].
         room: at the plan's end, per ``margin`` of room short of ``margin`` towards the
             stop the module is turning to over the plan (its direction's net turn along
-            the plan), for a module already closer than ``margin`` to that stop: unwinds
-            a module before it reaches a stop, when it is slow [1].
+            the plan), for a module already closer than ``margin``, or than ``spread``
+            times that net turn, to that stop: unwinds a module before it reaches a stop,
+            when it is slow [1].
         margin: the room asked for at the plan's end [rad].
+        spread: a module whose direction turns fast over the plan (more than ``margin /
+            spread`` in it) is asked for room while it is this many plans' turning away
+            from its stop, not only ``margin`` (it would get there before it is slow
+            again) [1].
 
     The defaults were chosen on the closed-loop runs of ``python -m
     benchmarks.steer_ranges`` (see ``docs/guide/steering-ranges.md``).
@@ -99,8 +109,10 @@ class BranchWeights:
     turn: float = 0.05
     out_of_line: float = 2.0
     flip: float = 0.3
+    flip_speed: float = 2.0
     room: float = 2.0
     margin: float = math.pi
+    spread: float = 2.0
 
 
 DEFAULT_WEIGHTS = BranchWeights()
@@ -124,15 +136,16 @@ def nearest_branch(present: float, direction: float, lo: float, hi: float) -> fl
 
 def plan_branch(present: float, directions: list[float | None], speeds: list[float],
                 reaches: list[float], lo: float, hi: float,
-                weights: BranchWeights = DEFAULT_WEIGHTS) -> float:
+                weights: BranchWeights = DEFAULT_WEIGHTS, coupling: float = 0.0) -> float:
     """The horizon rule for one module: the branch [rad] to turn towards now (the first
     of :func:`plan_path`'s; the arguments are its)."""
-    return plan_path(present, directions, speeds, reaches, lo, hi, weights)[0]
+    return plan_path(present, directions, speeds, reaches, lo, hi, weights, coupling)[0]
 
 
 def plan_path(present: float, directions: list[float | None], speeds: list[float],
               reaches: list[float], lo: float, hi: float,
-              weights: BranchWeights = DEFAULT_WEIGHTS) -> list[float]:
+              weights: BranchWeights = DEFAULT_WEIGHTS, coupling: float = 0.0
+              ) -> list[float]:
     """The horizon rule for one module: its branch [rad] at every stage.
 
     Args:
@@ -141,6 +154,8 @@ def plan_path(present: float, directions: list[float | None], speeds: list[float
         speeds: its speed at each stage over its limit (0..1).
         reaches: how far it may turn in each stage [rad].
         lo, hi: its range [rad].
+        weights: the costs.
+        coupling: its steer-drive coupling (0..1, :func:`steer_coupling`).
     """
     filled = _filled(directions)
     if filled is None:  # at rest over the whole plan: stay (inside the range)
@@ -167,7 +182,7 @@ def plan_path(present: float, directions: list[float | None], speeds: list[float
                 total = (cost + weights.turn * turn
                          + weights.out_of_line * moving * max(0.0, turn - reach))
                 if before and sign != before:
-                    total += weights.flip
+                    total += weights.flip + weights.flip_speed * coupling * moving
                 if total < best:
                     best, pick = total, j
             new_costs.append(best)
@@ -177,7 +192,8 @@ def plan_path(present: float, directions: list[float | None], speeds: list[float
         previous, costs = here, new_costs
     winding = _net_turn(filled)
     now = (hi - present) if winding > 0.0 else (present - lo)
-    if winding != 0.0 and now < weights.margin:  # wound towards a stop already
+    if winding != 0.0 and now < max(weights.margin, weights.spread * abs(winding)):
+        # wound towards a stop already, or turning fast towards it
         for j, (b, _) in enumerate(previous):
             ahead = (hi - b) if winding > 0.0 else (b - lo)
             costs[j] += weights.room * max(0.0, weights.margin - ahead) / weights.margin
@@ -187,6 +203,29 @@ def plan_path(present: float, directions: list[float | None], speeds: list[float
         path.append(stages[k][index])
         index = choices[k][index]
     return path[::-1]
+
+
+def steer_coupling(robot: SwerveModules) -> FloatArray:
+    """Per module (n,), how much of its drive a turn at its full steering rate takes
+    (0..1): ``L max_steer_rate / max_wheel_speed`` with the axle offset's ``L / r``
+    [1/m * m]; 0 without an offset."""
+    lever = robot.axle_offset / robot.wheel_radius
+    drive = np.maximum(np.asarray(robot.max_wheel_speed, dtype=float), 1e-12)
+    return np.minimum(1.0, lever * robot.max_steer_rate / drive) * np.ones(robot.n_wheels)
+
+
+def steer_reaches(robot: SwerveModules, magnitude: FloatArray, spins: FloatArray,
+                  times: FloatArray) -> FloatArray:
+    """How far [rad] each module may turn in each stage (K, n): its steering rate times
+    the stage lengths ``times`` (K,) [s]; with an axle offset at most the rate its drive
+    has left over its speed ``magnitude`` (K, n) [rad/s] and the body's rotation
+    ``spins`` (K,) [rad/s] (its drive rate is ``speed + L (omega + turn rate) / r``)."""
+    rate = np.full(magnitude.shape, float(robot.max_steer_rate))
+    lever = robot.axle_offset / robot.wheel_radius
+    if lever:
+        spare = robot.max_wheel_speed - magnitude - lever * np.abs(spins)[:, None]
+        rate = np.clip(spare / lever, 0.0, rate)
+    return rate * np.asarray(times, dtype=float)[:, None]
 
 
 def _net_turn(directions: list[float]) -> float:
@@ -249,7 +288,8 @@ def ranged_commands(robot: SwerveModules, twist: FloatArray, steer_angles: Float
     heading = np.arctan2(velocities[..., 1], velocities[..., 0])
     aimed = None if aim is None else robot.wheel_blocks @ aim  # (n, 2)
     limit = np.maximum(robot.nominal_max_wheel_speed, 1e-12)
-    reach = robot.max_steer_rate * times
+    reaches = steer_reaches(robot, magnitude, stages[:, 2], times)  # (K, n) [rad]
+    coupling = steer_coupling(robot)
     speeds, angles = np.zeros(n), np.empty(n)
     step = math.inf if dt is None else robot.max_steer_rate * dt * (1.0 - 1e-9)
     limit_accel = robot.max_wheel_accel
@@ -271,7 +311,7 @@ def ranged_commands(robot: SwerveModules, twist: FloatArray, steer_angles: Float
                     else nearest_branch(here, directions[0], lo, hi))
         else:
             goal = plan_branch(here, directions, (magnitude[:, i] / limit[i]).tolist(),
-                               reach.tolist(), lo, hi)
+                               reaches[:, i].tolist(), lo, hi, coupling=float(coupling[i]))
         wanted = velocities[0, i].tolist() if driving else [0.0, 0.0]
         if directions[0] is not None and driving and not math.isnan(goals[i]):
             # a turn under way: on to the branch of the direction nearest its goal
