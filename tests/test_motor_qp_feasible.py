@@ -41,3 +41,4 @@ def test_first_stage_rows_hold_the_last_command() -> None:
     held = limits.now[0, m:] @ last + limits.before[0, m:] @ last
     assert np.all(limits.lower[0, m:] <= held + 1e-12)
     assert np.all(held <= limits.upper[0, m:] + 1e-12)
+
