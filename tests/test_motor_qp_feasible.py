@@ -16,6 +16,7 @@ from mpc import Controller
 from mpc.robots import motor_preset
 from mpc.robots.drive.motor_limits import MotorStageLimits, update_stage_limits
 from mpc.sim import simulate
+from mpc.solvers.dense import DenseSolver
 
 
 def test_recorded_infeasible_tick_now_solves() -> None:
@@ -32,7 +33,9 @@ def test_first_stage_rows_hold_the_last_command() -> None:
     reference = free_speed_reference("figure8", robot, 1.0, 2.0)
     control = Controller(robot, reference, 20, 0.05, command_ramp=True)
     simulate(control, 0.5, plant="motor", robot=robot, seed=0)
-    limits = control.solver.limits
+    solver = control.solver
+    assert isinstance(solver, DenseSolver)
+    limits = solver.limits
     assert isinstance(limits, MotorStageLimits) and limits.kinematic is not None
     m = limits.kinematic.rows
     last = np.array([2.0, -1.0, 0.5])  # far from the plan the rows were linearised on
