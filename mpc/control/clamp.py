@@ -217,12 +217,14 @@ def _turn_step(robot: Robot, last: FloatArray, aim: FloatArray, fraction: float,
                steer_angles: FloatArray, dt: float) -> FloatArray:
     """Step 4's command: ``fraction`` of the step from ``last`` to ``aim``, or a stop (every
     module at rest, free to turn towards ``aim``) where the stop is within the acceleration
-    limits and either nearer ``aim`` in the wheels' velocities or the only command within
-    the steering rate (``last`` itself turns a module too far: a creep the wheel commands
-    snapped partly to rest). Without it a module that must turn far crept along the step,
+    limits (a robot with dynamics: its motors brake to it within the tick) and either
+    nearer ``aim`` in the wheels' velocities or the only command within the steering rate
+    (``last`` itself turns a module too far: a creep the wheel commands snapped partly to
+    rest). Without it a module that must turn far crept along the step,
     its direction swept round by the step's, for many ticks."""
     step = last + fraction * (aim - last)
-    if robot.dynamics is not None:  # braking is the motors' to bound: no stop offered
+    if (robot.dynamics is not None  # a stop only where the motors can brake to it
+            and motor_step_fraction(robot, last, np.zeros(3), dt, steer_angles) < 1.0 - 1e-9):
         return step
     accel = robot.max_wheel_accel
     if accel is not None:

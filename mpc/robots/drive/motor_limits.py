@@ -191,6 +191,20 @@ def update_stage_limits(robot: Robot, limits: StageLimits, guess: FloatArray,
         _sag_voltage_rows(robot, limits, forces, guess, previous, offset, m)
     np.subtract(bound, offset, out=limits.upper[:, m:])
     np.subtract(-bound, offset, out=limits.lower[:, m:])
+    _reach_last(limits, last, m)
+
+
+def _reach_last(limits: MotorStageLimits, last: FloatArray, m: int) -> None:
+    """Widen the first stage's motor rows to hold its start (``u_0 = u_{-1}``, the last
+    command: always within reach). Their bus sag, Coriolis term and directions are
+    linearised around the plan the solver starts from; where that plan is out of reach
+    of the last command (the clamp cut the step it asked for), the rows could exclude
+    every first command and the QP was infeasible (a voltage row under the sag of the
+    plan's power against the current and traction rows). The clamp still keeps the
+    command sent within the limits."""
+    held = limits.now[0, m:] @ last + limits.before[0, m:] @ last
+    np.minimum(limits.lower[0, m:], held, out=limits.lower[0, m:])
+    np.maximum(limits.upper[0, m:], held, out=limits.upper[0, m:])
 
 
 def _update_kinematic_rows(robot: Robot, limits: MotorStageLimits, kinematic: StageLimits,
