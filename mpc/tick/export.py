@@ -1,7 +1,8 @@
 """``mpc.export_c(controller, folder)``: one controller's tick as a self-contained C library
 (the generated graphs, ``tick.c``, one header, a ``CMakeLists.txt``, a README of the
 interface and an example ``main.c``), daqp linked from the casadi wheel that generated it
-(its ``include/daqp`` and ``libdaqpstat.a``; none of daqp's code is copied).
+(its ``include/daqp`` and ``libdaqpstat.a``) or, for another target, built from daqp's
+released source (``-DMPC_DAQP_SOURCE``, ``daqp.cmake``); none of daqp's code is copied.
 
 The reference is the caller's: each tick takes the reference's poses and world velocities
 at the stage times (``t + MPC_STAGE_OFFSETS``), as the controller samples them.
@@ -55,7 +56,7 @@ def export_c(controller: Exportable, folder: str | Path) -> Path:
     (out / "README.md").write_text(_README.format(
         robot=robot.name, kind=robot.kind, wheels=robot.n_wheels, horizon=graphs.horizon,
         dt=graphs.tick, offsets=", ".join(f"{value:g}" for value in graphs.offsets),
-        casadi=casadi.as_posix(), max_iter=compiled.max_iter))
+        casadi=casadi.as_posix(), max_iter=compiled.max_iter, daqp=DAQP_RELEASE))
     return out
 
 
@@ -96,7 +97,8 @@ DAQP_RELEASE = "0.5.1"
 
 _DAQP_CMAKE = """\
 # daqp built from its released source for the target (CMakeLists.txt, MPC_DAQP_SOURCE):
-#   pip download --no-binary :all: --no-deps daqp==@DAQP_RELEASE@ && tar xzf daqp-@DAQP_RELEASE@.tar.gz
+#   pip download --no-binary :all: --no-deps daqp==@DAQP_RELEASE@
+#   tar xzf daqp-@DAQP_RELEASE@.tar.gz
 if(EXISTS "${MPC_DAQP_SOURCE}/csrc/src/api.c")
   set(DAQP_C "${MPC_DAQP_SOURCE}/csrc")
 else()
@@ -174,6 +176,14 @@ Build (CMake >= 3.13, a C compiler; daqp from the casadi wheel at `{casadi}`, or
 
     cmake -S . -B build && cmake --build build
     ./build/mpc_tick_example < ticks.txt
+
+For another target, build daqp from its released source (`daqp.cmake`; daqp {daqp}, whose
+headers are the casadi wheel's) with the target's compiler, e.g. 32-bit ARM:
+
+    pip download --no-binary :all: --no-deps daqp=={daqp} && tar xzf daqp-{daqp}.tar.gz
+    cmake -S . -B arm -DMPC_DAQP_SOURCE=$PWD/daqp-{daqp} -DCMAKE_SYSTEM_NAME=Linux \\
+      -DCMAKE_C_COMPILER=arm-linux-gnueabihf-gcc -DCMAKE_EXE_LINKER_FLAGS=-static
+    cmake --build arm && qemu-arm ./arm/mpc_tick_example < ticks.txt
 
 ## Interface (`mpc_tick.h`)
 
