@@ -144,13 +144,16 @@ def test_a_cross_build_without_daqp_source_stops_with_advice(source: Path) -> No
 
 @pytest.mark.parametrize("target", sorted(TARGETS))
 def test_the_cross_built_library_gives_the_same_commands_under_qemu(
-        target: str, source: Path, daqp_source: Path,
-        ticks: dict[str, tuple[str, list[Command]]], native: dict[str, np.ndarray]) -> None:
+        target: str, request: pytest.FixtureRequest) -> None:
     compiler, qemu, processor = TARGETS[target]
     missing = [tool for tool in (compiler, qemu) if shutil.which(tool) is None]
-    if missing:
+    if missing:  # before the fixtures: nothing built for a skipped target
         pytest.skip(f"{target}: {' and '.join(missing)} not installed (Debian: apt-get install"
                     " gcc-arm-linux-gnueabihf gcc-aarch64-linux-gnu qemu-user)")
+    source: Path = request.getfixturevalue("source")
+    daqp_source: Path = request.getfixturevalue("daqp_source")
+    ticks: dict[str, tuple[str, list[Command]]] = request.getfixturevalue("ticks")
+    native: dict[str, np.ndarray] = request.getfixturevalue("native")
     program = _build(source, source.parent / target, daqp_source,
                      "-DCMAKE_SYSTEM_NAME=Linux", f"-DCMAKE_SYSTEM_PROCESSOR={processor}",
                      f"-DCMAKE_C_COMPILER={compiler}", "-DCMAKE_EXE_LINKER_FLAGS=-static")
