@@ -184,7 +184,7 @@ int main(void) {
   double pose[3] = {0.05, -0.02, 0.1}, poses[3 * (MPC_N + 1)], velocities[3 * (MPC_N + 1)];
   double last[3] = {0.0, 0.0, 0.0}, out[4096];
   int k, i, solved = 0;
-  mpc_tick* tick = mpc_tick_init(1000, 0);
+  mpc_tick* tick = mpc_tick_init(1000, 0, 1.0);
   if (!tick) return 2;
   mpc_tick_reset(tick, last);
   counting = 1;
