@@ -20,10 +20,11 @@ from tick_loop import DT, HORIZON, TICKS, Broken, hessian_every_tick, plant_step
 import benchmarks.perf as perf
 from benchmarks.cli import main
 from mpc import Command, Controller, ControllerError, Status
+from mpc.control.lookahead import Lookahead
 from mpc.robots import preset
 from mpc.tick import UnsupportedTickError
 from mpc.tick.build import casadi_folder, write_sources
-from mpc.tick.graphs import build_graphs
+from mpc.tick.graphs import FEEDFORWARD, PREVIOUS_PLAN, SOLVED, UNPLANNED, build_graphs
 from trajectories import FigureEight
 
 
@@ -281,7 +282,8 @@ def test_perf_shows_the_compiled_tick_beside_the_others(tmp_path: Path,
                                                         capsys: pytest.CaptureFixture[str]
                                                         ) -> None:
     """``mpc-bench perf --sections compiled``: rows of the compiled tick, the Python tick,
-    the virtual machine and the IPOPT path on the same ticks, with their ratios; a layout
+    the virtual machine, the compiled tick rebuilding its Hessian every tick and the IPOPT
+    path on the same ticks, with their ratios; a layout
     it does not cover is skipped with one line (at N = 8 here, for a quick build)."""
     monkeypatch.setattr(perf, "REFERENCE_HORIZON", HORIZON)
     assert main(["perf", "--sections", "compiled", "--layouts", "mecanum,swerve",
@@ -291,9 +293,12 @@ def test_perf_shows_the_compiled_tick_beside_the_others(tmp_path: Path,
     assert "swerve   beyond  skipped: compiled tick: robot 'swerve'" in out
     rows = [row for row in json.loads((tmp_path / "perf.json").read_text())["rows"]
             if row["section"] == "compiled"]
-    assert {row["solver"] for row in rows} == {"compiled", "python", "virtual-machine",
-                                               "ipopt"}
+    assert {row["solver"] for row in rows} == {"compiled", "compiled-rebuild", "python",
+                                               "virtual-machine", "ipopt"}
     by = {row["solver"]: row for row in rows}
+    # the rebuild row builds a Hessian every tick, the compiled tick keeps one between
+    assert by["compiled-rebuild"]["hessian_builds"] == 20
+    assert 0 < by["compiled"]["hessian_builds"] <= 20
     assert by["compiled"]["tick_path"] == "compiled"
     assert by["virtual-machine"]["tick_path"] == "virtual-machine"
     assert by["ipopt"]["ipopt_over_compiled_tick"] == pytest.approx(
@@ -318,3 +323,52 @@ def test_an_iteration_budget_gives_the_same_fallbacks() -> None:
         got = replay(controller, poses)
         assert_same(expected, got)
         assert_safe("mecanum", got)
+
+
+@pytest.mark.parametrize("flag", [1, 2, -1, -2, -3, -4, -5, -6, UNPLANNED])
+def test_every_exit_flag_gets_a_status_and_a_safe_twist(flag: int) -> None:
+    """``finish`` for each of daqp's exit flags (and a tick with no QP), with and without a
+    kept plan: solved only for a positive flag and a finite step, else the fallback in
+    :class:`~mpc.control.fallback.FallbackPolicy`'s order; the twist finite and within the
+    wheel speed limits either way (a NaN step included)."""
+    robot = preset("mecanum")
+    controller = Controller(robot, FigureEight(1.0, 16.0), horizon=HORIZON, dt=DT)
+    assert robot.scalar_wheels is not None
+    graphs = build_graphs(controller.model, robot.scalar_wheels, DT)
+    trajectory = FigureEight(1.0, 16.0)
+    window = Lookahead(trajectory, controller.model.offsets, DT).window(0.0)
+    pose = trajectory.sample(0.0).pose
+    last, plan = np.array([0.1, 0.0, 0.0]), np.tile([[0.2], [0.0], [0.1]], (1, HORIZON))
+    carry = graphs.prepare(pose, window[0].T, window[1].T, last, plan, 0.0,
+                           np.zeros(graphs.terms))[3]
+    step = np.full(graphs.variables, 0.01)
+    for kept_plan in (0.0, 1.0):
+        for values in (step, np.full(graphs.variables, np.nan)):
+            out = graphs.finish(values, float(flag), carry, last, plan, [0.0, kept_plan])
+            status, twist, speeds = int(out[0]), np.array(out[1]).ravel(), np.array(out[2])
+            solved = flag > 0 and np.all(np.isfinite(values))
+            expected = SOLVED if solved else (PREVIOUS_PLAN if kept_plan else FEEDFORWARD)
+            assert status == expected, (kept_plan, values[0])
+            assert np.all(np.isfinite(twist))
+            assert np.all(np.abs(speeds) <= robot.max_wheel_speed * (1 + 1e-9))
+            assert int(out[6][0]) == (0 if solved else 1)  # failures in a row
+
+
+def test_the_iteration_cap_bounds_every_tick() -> None:
+    """``max_iter=30`` beyond the limits (a budget: no second solve): no tick runs more than
+    30 of daqp's iterations; the ticks that run out say so and fall back, within the
+    limits; the others solve."""
+    trajectory = FigureEight(1.0, 6.0, heading="tangent")
+    for compiled in (True, "virtual-machine"):
+        controller = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
+                                max_iter=30, compiled=compiled)
+        pose = trajectory.sample(0.0).pose + np.array([0.15, -0.05, 0.2])
+        commands = []
+        for k in range(TICKS):
+            commands.append(controller.step(pose, k * DT))
+            pose = plant_step(pose, commands[-1].twist)
+        assert max(command.iterations for command in commands) <= 30
+        capped = [c for c in commands if c.solver_status == "maximum iterations reached"]
+        assert capped and all(c.status is not Status.SOLVED for c in capped)
+        assert any(c.status is Status.SOLVED for c in commands)
+        assert_safe("mecanum", commands)
