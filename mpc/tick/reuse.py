@@ -13,8 +13,8 @@ the kept Hessian was built from, as a multiple of
 :data:`~mpc.solvers.hessian_reuse.SENSITIVITY_TOLERANCE` ``* dt``: the Python tick's
 measure (:class:`~mpc.solvers.hessian_reuse.HessianReuse`), rotations of the whole plan
 not counted where the cost weighs positions alike in every direction. The runners rebuild
-when it exceeds :data:`REBUILD_DRIFT` (at once: a whole rebuild in C costs less than the
-Python tick's staging saves), when nothing is kept (the first tick, after a reset, after a
+when it exceeds :data:`REBUILD_DRIFT` (whole and at once, not staged over four ticks as
+the Python tick's rebuild is), when nothing is kept (the first tick, after a reset, after a
 failed tick, for the second solve from the last command held).
 """
 
