@@ -51,7 +51,6 @@ def main(argv: list[str]) -> int:
     if not math.isfinite(args.rebuild_drift):
         raise ScenarioError(f"--rebuild-drift must be finite, got {args.rebuild_drift}")
     robot = preset(args.robot)
-    out = claim(args.out, WRITES, args.force)
     saved = reuse.REBUILD_DRIFT
     reuse.REBUILD_DRIFT = args.rebuild_drift
     try:
@@ -61,6 +60,7 @@ def main(argv: list[str]) -> int:
                                 compiled="virtual-machine")
     finally:
         reuse.REBUILD_DRIFT = saved
+    out = claim(args.out, WRITES, args.force)  # (after the options are known good)
     mpc.export_c(controller, out)
     print(f"wrote {robot.name!r} (N={args.horizon}, dt={args.dt:g} s) as C into {out}; "
           f"build: cmake -S {out} -B {out}/build && cmake --build {out}/build")
