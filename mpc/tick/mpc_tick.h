@@ -39,7 +39,8 @@ typedef struct mpc_tick mpc_tick;
  * tick, no reuse). */
 mpc_tick* mpc_tick_init(int max_iter, int budgeted, double rebuild_drift);
 void mpc_tick_free(mpc_tick* tick);
-/* Forget the plan, the failures and daqp's active set; last: the twist executing now. */
+/* Forget the plan, the failures, daqp's active set and the kept Hessian; last: the twist
+ * executing now. */
 void mpc_tick_reset(mpc_tick* tick, const double* last);
 /* One tick: the measured pose (x, y, theta), the reference's poses and world velocities
  * (dx, dy, dtheta per second) at the stage times t + MPC_STAGE_OFFSETS, each 3 x

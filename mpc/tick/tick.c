@@ -64,11 +64,15 @@ struct mpc_tick {
 
 int mpc_tick_output_size(void) { return MPC_OUT_SIZE; }
 
-/* daqp with no active row: the next solve starts cold (and the Hessian is rebuilt, as the
- * Python tick's solver.reset() does). */
+/* daqp with no active row: the next solve starts cold. */
 static void qp_cold(mpc_tick* t) {
   memset(t->sense, 0, sizeof(t->sense));
   t->qp_cold = 1;
+}
+
+/* The active set and the kept Hessian dropped (the Python tick's solver.reset()). */
+static void forget(mpc_tick* t) {
+  qp_cold(t);
   t->kept = 0;
 }
 
@@ -104,7 +108,7 @@ mpc_tick* mpc_tick_init(int max_iter, int budgeted, double rebuild_drift) {
     return NULL;
   }
   t->work.settings->iter_limit = max_iter;
-  qp_cold(t);
+  forget(t);
   return t;
 }
 
@@ -115,14 +119,14 @@ void mpc_tick_free(mpc_tick* t) {
   free(t);
 }
 
-/* Forget the plan, the failures and the active set; ``last`` is the twist the robot is
+/* Forget the plan, the failures, the active set and the kept Hessian; ``last`` is the twist the robot is
  * executing [m/s, m/s, rad/s]. */
 void mpc_tick_reset(mpc_tick* t, const double* last) {
   memcpy(t->last, last, sizeof(t->last));
   memset(t->plan, 0, sizeof(t->plan));
   t->memory[0] = t->memory[1] = 0.0;
   t->warm = 0;
-  qp_cold(t);
+  forget(t);
 }
 
 /* L with H = L L' (lower, column-major: a column's entries together) from H's lower
@@ -266,7 +270,7 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   } else {
     flag = solve(t, &iterations, &seconds);
     if (!(flag > 0 && finite_vector(t->y, MPC_NV)) && cold && !t->budgeted) {
-      qp_cold(t); /* solve again from the last command held (a Hessian of its own) */
+      forget(t); /* solve again from the last command held (a Hessian of its own) */
       prepare(t, pose, ref_poses, ref_velocities, MPC_HOLD, planned);
       rebuilt += t->rebuilt;
       flag = solve(t, &iterations, &seconds);
@@ -291,7 +295,7 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   t->out[6] = t->memory_next;
   mpc_tick_finish(t->arg, t->out, t->iw, t->w, 0);
   t->warm = t->status == 0.0;
-  if (!t->warm) qp_cold(t);
+  if (!t->warm) forget(t);
   memcpy(t->last, t->twist, sizeof(t->last));
   memcpy(t->plan, t->plan_next, sizeof(t->plan));
   memcpy(t->memory, t->memory_next, sizeof(t->memory));
