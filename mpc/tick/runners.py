@@ -171,7 +171,7 @@ class VirtualTick:
         self._forget()
 
     def _forget(self) -> None:
-        """daqp's model and the kept Hessian dropped (``tick.c``'s ``qp_cold``)."""
+        """daqp's model and the kept Hessian dropped (``tick.c``'s ``forget``)."""
         self._solver = None
         self._kept = False
 
