@@ -435,6 +435,8 @@ COMMANDS: dict[str, Command] = {
     "qp-replay": Command("the fast path's QPs from a run, solved again by each installed QP "
                          "solver", "benchmarks.qp_replay"),
     "soak": Command("memory and tick time over a long run", "benchmarks.soak"),
+    "export": Command("one robot preset's controller as a self-contained C library "
+                      "(mpc.export_c)", "benchmarks.export"),
     "motors": Command("motor-aware MPC against kinematic control on the motor plant",
                       "benchmarks.motors"),
     "fuzz": Command("seeded abuse of every robot and control path, counting unsafe commands",

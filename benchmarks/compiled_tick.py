@@ -1,10 +1,11 @@
 """``mpc-bench perf --sections compiled``: the compiled tick (``Controller(compiled=True)``,
-:mod:`mpc.tick`) beside the Python tick (daqp), the compiled tick's virtual-machine path
-and the project's IPOPT path, on the scenarios it supports (constant-Jacobian layouts,
-time mode), inside and beyond the limits: the same ticks on the same ideal plant, every
-controller built once and run ``rounds`` times in turns (the order rotated each round) so
-that their ratios are taken under the same load; tick times pooled over the rounds, errors
-from the first round.
+:mod:`mpc.tick`) beside the same with its Hessian rebuilt every tick (no reuse,
+:data:`mpc.tick.reuse.REBUILD_DRIFT` below 0), the Python tick (daqp), the compiled tick's
+virtual-machine path and the project's IPOPT path, on the scenarios it supports
+(constant-Jacobian layouts, time mode), inside and beyond the limits: the same ticks on the same
+ideal plant, every controller built once and run ``rounds`` times in turns (the order
+rotated each round) so that their ratios are taken under the same load; tick times pooled
+over the rounds, errors from the first round.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import mpc.tick.reuse as reuse
 from mpc import Controller, ControllerError
 from mpc.robots import preset
 from mpc.sim import TrackingController
@@ -22,6 +24,7 @@ from trajectories import Trajectory
 CONTROLLERS: dict[str, dict[str, Any]] = {
     "python": {"solver": "daqp"},
     "compiled": {"solver": "daqp", "compiled": True},
+    "compiled-rebuild": {"solver": "daqp", "compiled": True},
     "virtual-machine": {"solver": "daqp", "compiled": "virtual-machine"},
     "ipopt": {"solver": "ipopt"},
 }
@@ -50,8 +53,7 @@ def compiled_section(layouts: list[str], speeds: dict[str, float], shape: str, h
             try:
                 for name in ("compiled", *(name for name in CONTROLLERS if name != "compiled")):
                     started = time.perf_counter()
-                    control = Controller(robot, trajectory, horizon=horizon, dt=dt,
-                                         **CONTROLLERS[name])
+                    control = _built(name, robot, trajectory, horizon, dt)
                     built[name] = control, time.perf_counter() - started
             except ControllerError as error:  # a layout the compiled tick does not cover
                 say(f"{layout:8s} {speed:7s} skipped: {error}")
@@ -65,7 +67,8 @@ def compiled_section(layouts: list[str], speeds: dict[str, float], shape: str, h
                                       layout=layout, mode="time", speed=speed,
                                       peak_ratio=ratio, solver=name, horizon=horizon,
                                       build_time=build, rounds=rounds,
-                                      tick_path=getattr(control, "tick_path", None))
+                                      tick_path=getattr(control, "tick_path", None),
+                                      hessian_builds=_builds(control))
                             for name, (control, build) in built.items()}
             compiled = section_rows["compiled"]["tick_p50"]
             for name, item in section_rows.items():
@@ -82,7 +85,36 @@ def compiled_section(layouts: list[str], speeds: dict[str, float], shape: str, h
                     f"{item['tick_path'] or ''}")
             say(f"{layout:8s} {speed:7s} python / compiled "
                 f"{section_rows['python']['tick_p50'] / compiled:.2f}, IPOPT path / compiled "
-                f"{section_rows['ipopt']['tick_p50'] / compiled:.1f} (tick p50, same ticks)")
+                f"{section_rows['ipopt']['tick_p50'] / compiled:.1f}, rebuild every tick / "
+                f"compiled {section_rows['compiled-rebuild']['tick_p50'] / compiled:.2f} "
+                f"(tick p50, same ticks); Hessians built: "
+                f"{section_rows['compiled']['hessian_builds']} compiled, "
+                f"{section_rows['python']['hessian_builds']} python")
     say("/compiled: the row's tick p50 over the compiled tick's; path: what ran the tick "
-        "(the compiled tick runs the virtual machine where no compiler works)")
+        "(the compiled tick runs the virtual machine where no compiler works); "
+        "compiled-rebuild: the compiled tick with its Hessian rebuilt every tick")
     return rows
+
+
+def _built(name: str, robot: Any, trajectory: Trajectory, horizon: int,
+           dt: float) -> TrackingController:
+    """The section's controller ``name`` (``compiled-rebuild``: built with no Hessian
+    reuse, :data:`mpc.tick.reuse.REBUILD_DRIFT` below 0)."""
+    saved = reuse.REBUILD_DRIFT
+    if name == "compiled-rebuild":
+        reuse.REBUILD_DRIFT = -1.0
+    try:
+        return Controller(robot, trajectory, horizon=horizon, dt=dt, **CONTROLLERS[name])
+    finally:
+        reuse.REBUILD_DRIFT = saved
+
+
+def _builds(control: Any) -> int | None:
+    """Hessians built over every round (the compiled tick's, or the Python tick's
+    factorisations), None for a solver with no such count."""
+    compiled = getattr(control, "_compiled", None)
+    if compiled is not None:
+        return int(compiled.rebuilds)
+    solver = getattr(control, "solver", None)
+    count = getattr(solver, "factorisations", None)
+    return None if count is None else int(count)

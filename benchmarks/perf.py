@@ -24,8 +24,9 @@ are shared and noisy; absolute times are what this machine did while it ran. Sec
    alive at once, as they would not be in a robot's program. Skipped with one line when
    do-mpc is not installed.
 5. ``compiled`` (only when named): the compiled tick (``Controller(compiled=True)``) beside
-   the Python tick, its virtual-machine path and the IPOPT path, on the layouts it
-   supports, inside and beyond the limits (:mod:`benchmarks.compiled_tick`).
+   itself rebuilding its Hessian every tick, the Python tick, its virtual-machine path and
+   the IPOPT path, on the layouts it supports, inside and beyond the limits
+   (:mod:`benchmarks.compiled_tick`).
 
 Times [s] in ``perf.json``, printed in ms or us. ``tick`` is the whole ``step()``
 (``Command.tick_time``); ``solve`` the solver's own time (daqp and OSQP: their reported
@@ -811,8 +812,8 @@ def main(argv: list[str]) -> int:
         peer = peers_section(ipopt_ticks, say, rounds)
     compiled_rows = None
     if "compiled" in sections:
-        say("\n== 5. compiled tick: Controller(compiled=True) beside the Python tick, its "
-            "virtual machine and the IPOPT path ==")
+        say("\n== 5. compiled tick: Controller(compiled=True) beside itself rebuilding its "
+            "Hessian every tick, the Python tick, its virtual machine and the IPOPT path ==")
         compiled_rows = compiled_section(
             layouts, speeds, REFERENCE_SHAPE, REFERENCE_HEADING,
             REFERENCE_HORIZON, DT, ipopt_ticks, rounds, reference, _run, _row, _settle, say)

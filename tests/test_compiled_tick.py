@@ -1,9 +1,10 @@
 """The compiled tick (:mod:`mpc.tick`): the same commands, plans and statuses as the Python
-tick over recorded closed-loop runs (the Python tick with its Hessian rebuilt every tick:
-the compiled tick builds its Hessian every tick, the Python one reuses it across ticks,
-which moves a real-time-iteration step by far more than rounding), the virtual machine
-the same as the compiled library, a missing compiler falling back to the virtual machine,
-and the controllers it does not cover refused by name."""
+tick over recorded closed-loop runs, both keeping their Hessian across ticks by the same
+rule (:mod:`mpc.tick.reuse`; the Python tick's rebuild at once, not staged: a kept
+Hessian moves a real-time-iteration step by far more than rounding, so the rule must be
+the same) and both rebuilding it every tick; the reuse tracking as the exact rebuild does;
+the virtual machine the same as the compiled library, a missing compiler falling back to
+the virtual machine, and the controllers it does not cover refused by name."""
 
 from __future__ import annotations
 
@@ -14,15 +15,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tick_loop import DT, HORIZON, TICKS, Broken, hessian_every_tick, record
+from tick_loop import DT, HORIZON, TICKS, Broken, hessian_every_tick, plant_step, record
 
 import benchmarks.perf as perf
 from benchmarks.cli import main
 from mpc import Command, Controller, ControllerError, Status
+from mpc.control.lookahead import Lookahead
 from mpc.robots import preset
 from mpc.tick import UnsupportedTickError
 from mpc.tick.build import casadi_folder, write_sources
-from mpc.tick.graphs import build_graphs
+from mpc.tick.graphs import FEEDFORWARD, PREVIOUS_PLAN, SOLVED, UNPLANNED, build_graphs
 from trajectories import FigureEight
 
 
@@ -83,6 +85,52 @@ def test_compiled_tick_matches_the_python_tick(name: str) -> None:
                    for c in got) > 0.99
     else:
         assert clamped <= TICKS // 10
+
+
+def test_rebuilt_every_tick_matches_the_python_tick_rebuilt_every_tick() -> None:
+    """With :data:`~mpc.tick.reuse.REBUILD_DRIFT` below 0 the compiled tick builds its
+    Hessian every tick, and gives the Python tick's commands with its Hessian built every
+    tick (no reuse on either side)."""
+    trajectory = FigureEight(1.0, 6.0, heading="tangent")
+    poses, expected = record("omni3", trajectory, every_tick=True)
+    for compiled in (True, "virtual-machine"):
+        with hessian_every_tick():
+            controller = Controller(preset("omni3"), trajectory, horizon=HORIZON, dt=DT,
+                                    compiled=compiled)
+        got = replay(controller, poses)
+        assert_same(expected, got)
+        assert controller._compiled is not None
+        assert controller._compiled.rebuilds == TICKS
+
+
+def closed_loop(controller: Controller, trajectory: FigureEight) -> float:
+    """RMS position error [m] of ``controller`` in its own closed loop on
+    :func:`~tick_loop.plant_step`'s plant (after the first second's settling)."""
+    pose = trajectory.sample(0.0).pose + np.array([0.15, -0.05, 0.2])
+    errors = []
+    for k in range(TICKS):
+        if k * DT >= 1.0:
+            errors.append(float(np.hypot(*(pose[:2] - trajectory.sample(k * DT).pose[:2]))))
+        pose = plant_step(pose, controller.step(pose, k * DT).twist)
+    return float(np.sqrt(np.mean(np.square(errors))))
+
+
+@pytest.mark.parametrize("period", [16.0, 6.0], ids=["inside", "beyond"])
+def test_a_kept_hessian_tracks_as_the_rebuilt_one(period: float) -> None:
+    """The compiled tick keeping its Hessian (the default rule) against itself rebuilding
+    it every tick, each in its own closed loop on a plant that differs from the model: the
+    RMS position error within 2 % (a kept Hessian shapes only the step, not the fixed
+    point of the iteration), with fewer Hessians built."""
+    trajectory = FigureEight(1.0, period, heading="tangent")
+    kept = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT, compiled=True)
+    with hessian_every_tick():
+        every = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
+                           compiled=True)
+    error_kept, error_every = closed_loop(kept, trajectory), closed_loop(every, trajectory)
+    assert error_kept == pytest.approx(error_every, rel=0.02)
+    assert kept._compiled is not None and every._compiled is not None
+    assert every._compiled.rebuilds == TICKS
+    assert kept._compiled.rebuilds < TICKS * (0.7 if period > 10 else 0.97)
 
 
 def test_the_virtual_machine_runs_the_same_tick() -> None:
@@ -184,7 +232,7 @@ int main(void) {
   double pose[3] = {0.05, -0.02, 0.1}, poses[3 * (MPC_N + 1)], velocities[3 * (MPC_N + 1)];
   double last[3] = {0.0, 0.0, 0.0}, out[4096];
   int k, i, solved = 0;
-  mpc_tick* tick = mpc_tick_init(1000, 0);
+  mpc_tick* tick = mpc_tick_init(1000, 0, 1.0);
   if (!tick) return 2;
   mpc_tick_reset(tick, last);
   counting = 1;
@@ -234,7 +282,8 @@ def test_perf_shows_the_compiled_tick_beside_the_others(tmp_path: Path,
                                                         capsys: pytest.CaptureFixture[str]
                                                         ) -> None:
     """``mpc-bench perf --sections compiled``: rows of the compiled tick, the Python tick,
-    the virtual machine and the IPOPT path on the same ticks, with their ratios; a layout
+    the virtual machine, the compiled tick rebuilding its Hessian every tick and the IPOPT
+    path on the same ticks, with their ratios; a layout
     it does not cover is skipped with one line (at N = 8 here, for a quick build)."""
     monkeypatch.setattr(perf, "REFERENCE_HORIZON", HORIZON)
     assert main(["perf", "--sections", "compiled", "--layouts", "mecanum,swerve",
@@ -244,9 +293,12 @@ def test_perf_shows_the_compiled_tick_beside_the_others(tmp_path: Path,
     assert "swerve   beyond  skipped: compiled tick: robot 'swerve'" in out
     rows = [row for row in json.loads((tmp_path / "perf.json").read_text())["rows"]
             if row["section"] == "compiled"]
-    assert {row["solver"] for row in rows} == {"compiled", "python", "virtual-machine",
-                                               "ipopt"}
+    assert {row["solver"] for row in rows} == {"compiled", "compiled-rebuild", "python",
+                                               "virtual-machine", "ipopt"}
     by = {row["solver"]: row for row in rows}
+    # the rebuild row builds a Hessian every tick, the compiled tick keeps one between
+    assert by["compiled-rebuild"]["hessian_builds"] == 20
+    assert 0 < by["compiled"]["hessian_builds"] <= 20
     assert by["compiled"]["tick_path"] == "compiled"
     assert by["virtual-machine"]["tick_path"] == "virtual-machine"
     assert by["ipopt"]["ipopt_over_compiled_tick"] == pytest.approx(
@@ -271,3 +323,52 @@ def test_an_iteration_budget_gives_the_same_fallbacks() -> None:
         got = replay(controller, poses)
         assert_same(expected, got)
         assert_safe("mecanum", got)
+
+
+@pytest.mark.parametrize("flag", [1, 2, -1, -2, -3, -4, -5, -6, UNPLANNED])
+def test_every_exit_flag_gets_a_status_and_a_safe_twist(flag: int) -> None:
+    """``finish`` for each of daqp's exit flags (and a tick with no QP), with and without a
+    kept plan: solved only for a positive flag and a finite step, else the fallback in
+    :class:`~mpc.control.fallback.FallbackPolicy`'s order; the twist finite and within the
+    wheel speed limits either way (a NaN step included)."""
+    robot = preset("mecanum")
+    controller = Controller(robot, FigureEight(1.0, 16.0), horizon=HORIZON, dt=DT)
+    assert robot.scalar_wheels is not None
+    graphs = build_graphs(controller.model, robot.scalar_wheels, DT)
+    trajectory = FigureEight(1.0, 16.0)
+    window = Lookahead(trajectory, controller.model.offsets, DT).window(0.0)
+    pose = trajectory.sample(0.0).pose
+    last, plan = np.array([0.1, 0.0, 0.0]), np.tile([[0.2], [0.0], [0.1]], (1, HORIZON))
+    carry = graphs.prepare(pose, window[0].T, window[1].T, last, plan, 0.0,
+                           np.zeros(graphs.terms))[3]
+    step = np.full(graphs.variables, 0.01)
+    for kept_plan in (0.0, 1.0):
+        for values in (step, np.full(graphs.variables, np.nan)):
+            out = graphs.finish(values, float(flag), carry, last, plan, [0.0, kept_plan])
+            status, twist, speeds = int(out[0]), np.array(out[1]).ravel(), np.array(out[2])
+            solved = flag > 0 and np.all(np.isfinite(values))
+            expected = SOLVED if solved else (PREVIOUS_PLAN if kept_plan else FEEDFORWARD)
+            assert status == expected, (kept_plan, values[0])
+            assert np.all(np.isfinite(twist))
+            assert np.all(np.abs(speeds) <= robot.max_wheel_speed * (1 + 1e-9))
+            assert int(out[6][0]) == (0 if solved else 1)  # failures in a row
+
+
+def test_the_iteration_cap_bounds_every_tick() -> None:
+    """``max_iter=30`` beyond the limits (a budget: no second solve): no tick runs more than
+    30 of daqp's iterations; the ticks that run out say so and fall back, within the
+    limits; the others solve."""
+    trajectory = FigureEight(1.0, 6.0, heading="tangent")
+    for compiled in (True, "virtual-machine"):
+        controller = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
+                                max_iter=30, compiled=compiled)
+        pose = trajectory.sample(0.0).pose + np.array([0.15, -0.05, 0.2])
+        commands = []
+        for k in range(TICKS):
+            commands.append(controller.step(pose, k * DT))
+            pose = plant_step(pose, commands[-1].twist)
+        assert max(command.iterations for command in commands) <= 30
+        capped = [c for c in commands if c.solver_status == "maximum iterations reached"]
+        assert capped and all(c.status is not Status.SOLVED for c in capped)
+        assert any(c.status is Status.SOLVED for c in commands)
+        assert_safe("mecanum", commands)

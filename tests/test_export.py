@@ -1,5 +1,5 @@
 """``mpc.export_c``: the exported C library, built with CMake and gcc, gives the Python
-tick's commands and statuses (its Hessian rebuilt every tick, as the compiled tick's is)
+tick's commands and statuses (its Hessian kept by the compiled tick's rule)
 over recorded closed-loop ticks, inside and beyond the limits and through a reference
 that fails for a second."""
 

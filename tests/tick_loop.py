@@ -1,5 +1,6 @@
 """Helpers of the compiled tick's tests (imported by test modules; not a test module): the
-Python tick with its Hessian rebuilt every tick, run in a closed loop on a plant that
+Python tick with the compiled tick's Hessian-reuse rule (or its Hessian rebuilt every
+tick), run in a closed loop on a plant that
 differs from the model, and a reference that fails for a second."""
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from contextlib import contextmanager
 import numpy as np
 
 import mpc.solvers.dense as dense
+import mpc.tick.reuse as reuse
 from mpc import Command, Controller
 from mpc.robots import preset
 from trajectories import FigureEight, Trajectory, TrajectoryError
@@ -21,14 +23,27 @@ DT = 0.05
 
 
 @contextmanager
-def hessian_every_tick() -> Iterator[None]:
-    """The Python tick with its Hessian rebuilt at once every tick (no reuse)."""
-    saved = dense.REBUILD_NOW, dense.COST_ONLY_DRIFT
-    dense.REBUILD_NOW, dense.COST_ONLY_DRIFT = -1.0, -1.0
+def same_reuse_rule() -> Iterator[None]:
+    """The Python tick rebuilding its Hessian at once when it drifted beyond
+    :data:`~mpc.tick.reuse.REBUILD_DRIFT` (no staged rebuild): the compiled tick's rule."""
+    saved = dense.REBUILD_NOW, dense.REBUILD_EARLY
+    dense.REBUILD_NOW = dense.REBUILD_EARLY = reuse.REBUILD_DRIFT
     try:
         yield
     finally:
-        dense.REBUILD_NOW, dense.COST_ONLY_DRIFT = saved
+        dense.REBUILD_NOW, dense.REBUILD_EARLY = saved
+
+
+@contextmanager
+def hessian_every_tick() -> Iterator[None]:
+    """Both ticks with their Hessian rebuilt at once every tick (no reuse): the Python
+    tick's, and the compiled ticks built meanwhile."""
+    saved = dense.REBUILD_NOW, dense.COST_ONLY_DRIFT, reuse.REBUILD_DRIFT
+    dense.REBUILD_NOW, dense.COST_ONLY_DRIFT, reuse.REBUILD_DRIFT = -1.0, -1.0, -1.0
+    try:
+        yield
+    finally:
+        dense.REBUILD_NOW, dense.COST_ONLY_DRIFT, reuse.REBUILD_DRIFT = saved
 
 
 def plant_step(pose: np.ndarray, twist: np.ndarray) -> np.ndarray:
@@ -42,11 +57,12 @@ def plant_step(pose: np.ndarray, twist: np.ndarray) -> np.ndarray:
     return pose
 
 
-def record(robot_name: str, trajectory: Trajectory, **options: object
-           ) -> tuple[list[np.ndarray], list[Command]]:
-    """A closed loop of the Python tick (Hessian every tick): the poses it was given and
-    its commands."""
-    with hessian_every_tick():
+def record(robot_name: str, trajectory: Trajectory, every_tick: bool = False,
+           **options: object) -> tuple[list[np.ndarray], list[Command]]:
+    """A closed loop of the Python tick (its Hessian kept by the compiled tick's rule,
+    :func:`same_reuse_rule`; rebuilt every tick if ``every_tick``): the poses it was given
+    and its commands."""
+    with hessian_every_tick() if every_tick else same_reuse_rule():
         controller = Controller(preset(robot_name), trajectory, horizon=HORIZON, dt=DT,
                                 **options)  # type: ignore[arg-type]
         pose = trajectory.sample(0.0).pose + np.array([0.15, -0.05, 0.2])

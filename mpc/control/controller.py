@@ -160,7 +160,7 @@ class Controller:
             is supported): ``True`` compiles it to C (seconds the first time, then cached)
             and runs CasADi's virtual machine where no compiler works;
             ``"virtual-machine"`` runs the virtual machine. The same commands as the Python
-            tick with its Hessian rebuilt every tick (docs/guide/compiled-tick.md).
+            tick under the same Hessian-reuse rule (docs/guide/compiled-tick.md).
             :attr:`tick_path` says which path runs.
     """
 

@@ -5,6 +5,7 @@ machine where no compiler works.
 ``Controller(robot, trajectory, compiled=True)`` runs it (``controller.tick_path`` says
 which path); :mod:`mpc.tick.graphs` has the arithmetic, ``tick.c`` the small hand-written
 part (daqp's workspace kept between ticks, the dense Cholesky factor),
+:mod:`mpc.tick.reuse` when the Hessian kept across ticks is rebuilt,
 :mod:`mpc.tick.build` the compiler and the cache, :mod:`mpc.tick.runners` the two ways to
 run it, :mod:`mpc.tick.edge` the Python around it, :mod:`mpc.tick.support` what it
 covers.

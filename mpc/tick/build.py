@@ -49,13 +49,14 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
     (``mpc_tick_config.h``) and ``tick.c`` written into ``folder``: the C sources."""
     folder.mkdir(parents=True, exist_ok=True)
     generator = ca.CodeGenerator(f"{GRAPHS_NAME}.c", {"with_header": True})
-    functions = (graphs.prepare, graphs.whiten, graphs.unwhiten, graphs.finish)
+    functions = (graphs.prepare, graphs.hessian, graphs.whiten, graphs.whiten_rows,
+                 graphs.unwhiten, graphs.finish)
     for function in functions:
         generator.add(function)
     generator.generate(str(folder) + os.sep)
     sizes = {
         "MPC_N": graphs.horizon, "MPC_NV": graphs.variables, "MPC_M": graphs.rows,
-        "MPC_W": graphs.wheels, "MPC_CARRY": graphs.carry,
+        "MPC_W": graphs.wheels, "MPC_CARRY": graphs.carry, "MPC_TERMS": graphs.terms,
         "MPC_SZ_ARG": max(f.sz_arg() for f in functions),
         "MPC_SZ_RES": max(f.sz_res() for f in functions),
         "MPC_SZ_IW": max(max(f.sz_iw() for f in functions), 1),

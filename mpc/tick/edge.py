@@ -29,6 +29,7 @@ from mpc.model.tracking import TrackingModel
 from mpc.plausibility import check_heading
 from mpc.robots.base import Robot
 from mpc.solvers import TrackingSolver
+from mpc.tick import reuse
 from mpc.tick.build import compiled_library
 from mpc.tick.graphs import UNPLANNED, build_graphs
 from mpc.tick.runners import (
@@ -36,6 +37,7 @@ from mpc.tick.runners import (
     FAILURES,
     FLAG,
     ITERATIONS,
+    REBUILT,
     SOLVE_TIME,
     STATUS,
     TWIST,
@@ -111,6 +113,11 @@ class CompiledTick:
         budgeted = max_iter is not None
         #: daqp's iteration limit, and whether it was chosen (no second solve then).
         self.max_iter, self.budgeted = iterations, budgeted
+        #: The Hessian is rebuilt when the linearisation drifted beyond this
+        #: (:data:`mpc.tick.reuse.REBUILD_DRIFT` when the controller was built).
+        self.rebuild_drift = float(reuse.REBUILD_DRIFT)
+        #: Hessians built so far (for benchmarks: the rest of the ticks kept one).
+        self.rebuilds = 0
         runner: TickRunner | None = None
         #: Why the compiled library is not used (None when it is, or was not asked for).
         self.compile_error: str | None = None
@@ -118,7 +125,8 @@ class CompiledTick:
             try:
                 library, private = compiled_library(graphs)
                 try:
-                    runner = NativeTick(library, graphs, iterations, budgeted)
+                    runner = NativeTick(library, graphs, iterations, budgeted,
+                                        self.rebuild_drift)
                 finally:
                     if private:  # (loaded: the file is no longer needed)
                         library.unlink(missing_ok=True)
@@ -126,7 +134,8 @@ class CompiledTick:
                 self.compile_error = str(error)
                 log.info("compiled tick: no compiler works (%s); the virtual machine runs it",
                          error)
-        self._runner: TickRunner = runner or VirtualTick(graphs, iterations, budgeted)
+        self._runner: TickRunner = runner or VirtualTick(graphs, iterations, budgeted,
+                                                         self.rebuild_drift)
         self._wheels = graphs.wheels
         self._horizon = graphs.horizon
         self._trajectory: Trajectory | None = None
@@ -177,6 +186,7 @@ class CompiledTick:
         status = _STATUSES[int(out[STATUS])]
         flag = int(out[FLAG])
         failures = int(out[FAILURES])
+        self.rebuilds += int(out[REBUILT])
         self._log(failures, failure or _SOLVER_STATUS.get(flag, f"daqp exit flag {flag}"))
         speeds = TWIST + 3
         twist = out[TWIST:speeds].copy()

@@ -50,13 +50,15 @@ def export_c(controller: Exportable, folder: str | Path) -> Path:
     (out / "CMakeLists.txt").write_text(_CMAKE.replace("@CASADI_DIR@", casadi.as_posix()))
     (out / "daqp.cmake").write_text(_DAQP_CMAKE.replace("@DAQP_RELEASE@", DAQP_RELEASE))
     (out / "main.c").write_text(_MAIN.replace(
-        "mpc_tick_init(1000, 0)",
-        f"mpc_tick_init({compiled.max_iter}, {int(compiled.budgeted)})"))
+        "mpc_tick_init(1000, 0, 1.0)",
+        f"mpc_tick_init({compiled.max_iter}, {int(compiled.budgeted)}, "
+        f"{compiled.rebuild_drift!r})"))
     robot = controller.robot
     (out / "README.md").write_text(_README.format(
         robot=robot.name, kind=robot.kind, wheels=robot.n_wheels, horizon=graphs.horizon,
         dt=graphs.tick, offsets=", ".join(f"{value:g}" for value in graphs.offsets),
-        casadi=casadi.as_posix(), max_iter=compiled.max_iter, daqp=DAQP_RELEASE))
+        casadi=casadi.as_posix(), max_iter=compiled.max_iter,
+        rebuild=compiled.rebuild_drift, daqp=DAQP_RELEASE))
     return out
 
 
@@ -146,7 +148,7 @@ _MAIN = """\
 int main(void) {
   static double line[INPUTS], out[MPC_OUT_SIZE];
   const double rest[3] = {0.0, 0.0, 0.0};
-  mpc_tick* tick = mpc_tick_init(1000, 0);
+  mpc_tick* tick = mpc_tick_init(1000, 0, 1.0);
   int i;
   if (!tick) return 1;
   mpc_tick_reset(tick, rest);
@@ -187,8 +189,10 @@ headers are the casadi wheel's) with the target's compiler, e.g. 32-bit ARM:
 
 ## Interface (`mpc_tick.h`)
 
-- `mpc_tick* mpc_tick_init(int max_iter, int budgeted)`: allocates everything (the
-  controller used `max_iter` {max_iter}); `mpc_tick_free` releases it.
+- `mpc_tick* mpc_tick_init(int max_iter, int budgeted, double rebuild_drift)`: allocates
+  everything (the controller used `max_iter` {max_iter} and `rebuild_drift` {rebuild}: the
+  Hessian is kept across ticks until the linearisation moved beyond that multiple of its
+  tolerance; below 0 it is rebuilt every tick); `mpc_tick_free` releases it.
 - `void mpc_tick_reset(mpc_tick*, const double last[3])`: forget the plan; `last` is the
   body twist executing now (zeros at rest).
 - `int mpc_tick_step(mpc_tick*, const double pose[3], const double ref_poses[3 (N+1)],
@@ -204,6 +208,7 @@ conventions).
 `out`: `MPC_OUT_STATUS` (0 solved, 1 previous plan, 2 feedforward, 3 stopping: the
 fallbacks, in order), `MPC_OUT_FLAG` (daqp's exit flag; -1000: the reference had a NaN),
 `MPC_OUT_ITERATIONS`, `MPC_OUT_SOLVE_TIME` [s], `MPC_OUT_CLAMPED`, `MPC_OUT_FAILURES`,
-`MPC_OUT_TWIST` (3), `MPC_OUT_SPEEDS` (MPC_W wheel speeds to send), `MPC_OUT_POSES` (the
-plan, 3 (N+1)). Every command is within every wheel's speed and acceleration limit.
+`MPC_OUT_REBUILT` (Hessians built this tick), `MPC_OUT_TWIST` (3), `MPC_OUT_SPEEDS`
+(MPC_W wheel speeds to send), `MPC_OUT_POSES` (the plan, 3 (N+1)). Every command is
+within every wheel's speed and acceleration limit.
 """

@@ -10,11 +10,14 @@ measured one and the reference terms
 (:attr:`~mpc.model.tracking.TrackingModel.reference_terms`), the guess (the last plan
 moved on one tick by :func:`~mpc.model.grid.shift_maps`, the reference's feedforward, or
 the last command held), the rollout with its sensitivities and the cost's exact gradient
-along it (:func:`~mpc.solvers.condensed.tick_terms`), the condensed Hessian
-``H = S' P_xx S + P_uu`` with the exact state sensitivities ``S``
-(:mod:`mpc.solvers.condensed`; rebuilt every tick, no reuse), and the robot's constant
-speed and acceleration rows (:func:`~mpc.robots.drive.motor_limits.stage_limits`,
-condensed by :class:`~mpc.solvers.condensed.Condenser`) with their bounds on the step.
+along it (:func:`~mpc.solvers.condensed.tick_terms`), the robot's constant speed and
+acceleration rows (:func:`~mpc.robots.drive.motor_limits.stage_limits`, condensed by
+:class:`~mpc.solvers.condensed.Condenser`) with their bounds on the step, and how far the
+sensitivities moved from those of the kept Hessian's build (:mod:`mpc.tick.reuse`: the
+rule that decides whether ``hessian``, the factor and ``whiten_rows`` run this tick).
+
+``hessian`` (SX): the condensed Hessian ``H = S' P_xx S + P_uu`` with the exact state
+sensitivities ``S`` (:mod:`mpc.solvers.condensed`), from ``prepare``'s ``carry``.
 
 The Cholesky factor ``H = L L'`` and ``L^{-1}`` are the one step not written as a graph:
 written out as SX expressions they grow as N^3 and compile far too slowly, CasADi's MX
@@ -22,8 +25,9 @@ has no Cholesky node, and its triangular solve against the identity was slow
 (docs/guide/compiled-tick.md); ``tick.c`` has both as two short loops, the
 virtual-machine path takes LAPACK's (as :mod:`mpc.solvers.dense` does).
 
-``whiten`` and ``unwhiten`` (MX: sparse products generate as loops): the QP in whitened
-steps ``y = L' d`` that daqp gets (Hessian the identity), and the step ``d = L^{-T} y``.
+``whiten``, ``whiten_rows`` and ``unwhiten`` (MX: sparse products generate as loops): the
+QP in whitened steps ``y = L' d`` that daqp gets (Hessian the identity: the gradient every
+tick, the rows when the Hessian is rebuilt), and the step ``d = L^{-T} y``.
 
 ``finish`` (SX): (the step and daqp's exit flag, ``carry``, the last
 command, the fallback's memory) -> (status, clamped twist, wheel speeds, the plan, the
@@ -52,6 +56,7 @@ from mpc.robots.base import SPEED_SLACK, ScalarWheels
 from mpc.robots.drive.motor_limits import stage_limits
 from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
 from mpc.solvers.qp_structure import assemble_qp
+from mpc.tick.reuse import isotropic_cost, reuse_terms, terms_size
 
 #: ``prepare``'s guess modes: the reference's feedforward (no plan kept), the last plan
 #: moved on one tick, the last command held at every stage (a cold guess that failed).
@@ -71,24 +76,32 @@ class TickGraphs:
 
     Attributes:
         prepare: ``(pose 3, ref_poses 3 x N+1, ref_velocities 3 x N+1, last 3, plan 3 x N,
-            guess_mode 1) -> (hessian n x n, gradient n, lower m, upper m, carry k)``:
-            the condensed QP on the step from the guess.
-        whiten: ``(inverse n x n, gradient n) -> (f n, rows_t n x m)``: with ``H = L L'``
-            and ``inverse = L^{-1}`` (lower triangular: its n (n + 1) / 2 entries packed
-            column by column; from the caller's factor), the QP
-            in whitened steps ``y = L' d``: ``f = L^{-1} g``, ``rows_t = (A L^{-T})'``
-            (column-major: ``A L^{-T}`` row-major, as daqp reads it).
+            guess_mode 1, kept t) -> (gradient n, lower m, upper m, carry k, terms t,
+            drift 1)``: the condensed QP on the step from the guess (its Hessian from
+            ``hessian``), this tick's reuse terms and their drift from ``kept``, the
+            terms of the kept Hessian's build (:mod:`mpc.tick.reuse`).
+        hessian: ``(carry k) -> hessian n x n``: the condensed Hessian of the tick whose
+            ``carry`` it is (evaluated only when the Hessian is rebuilt).
+        whiten: ``(inverse n x n, gradient n) -> f n``: with ``H = L L'`` and
+            ``inverse = L^{-1}`` (lower triangular: its n (n + 1) / 2 entries packed
+            column by column; from the caller's factor), the gradient in whitened steps
+            ``y = L' d``: ``f = L^{-1} g``.
+        whiten_rows: ``(inverse n x n) -> rows_t n x m``: the rows in whitened steps,
+            ``rows_t = (A L^{-T})'`` (column-major: ``A L^{-T}`` row-major, as daqp reads
+            it); constant rows: only when the Hessian is rebuilt.
         unwhiten: ``(inverse n x n, y n) -> step n``: ``d = L^{-T} y``.
         finish: ``(step n, flag 1, carry k, last 3, plan 3 x N, memory 2) ->
             (status 1, twist 3, wheel_speeds w, clamped 1, poses 3 x N+1, next_plan 3 x N,
             next_memory 2)``; ``memory`` is (failures in a row, whether a plan is kept).
-        horizon, variables (n = 3 N), rows (m), wheels (w), carry (k); offsets: each
+        horizon, variables (n = 3 N), rows (m), wheels (w), carry (k), terms (t); offsets: each
         stage's start from the window's [s] (N+1), where the reference is sampled; tick:
         the control tick [s].
     """
 
     prepare: ca.Function
+    hessian: ca.Function
     whiten: ca.Function
+    whiten_rows: ca.Function
     unwhiten: ca.Function
     finish: ca.Function
     horizon: int
@@ -96,6 +109,7 @@ class TickGraphs:
     rows: int
     wheels: int
     carry: int
+    terms: int
     offsets: tuple[float, ...] = ()  # each stage's start from the window's [s] (N+1)
     tick: float = 0.0  # the control tick [s]
 
@@ -133,7 +147,13 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
 
     p_data, rollout, sensitivities, gradient, steps = tick_terms(
         model, structure.cost_terms)(p, guess)
-    hessian = _condensed_hessian(model, p_data, sensitivities, steps)
+    inputs = ca.vertcat(pose, ca.vec(ref_poses), ca.vec(ref_velocities), last)
+    if ca.depends_on(p_data, inputs):
+        raise RuntimeError("the compiled tick needs a cost Hessian no parameter moves")
+    constant_cost = ca.evalf(ca.substitute(p_data, inputs, ca.DM.zeros(inputs.shape)))
+    kept = ca.SX.sym("kept", terms_size(n))
+    terms, drift = reuse_terms(sensitivities, steps, kept, model.dt,
+                               isotropic_cost(condenser, constant_cost))
     rows = ca.DM(condenser.constraints)
     first = condenser.first_row
     at_guess = rows @ ca.vec(guess)
@@ -143,26 +163,41 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
     carry_parts = [rollout, sensitivities, steps, guess, feedforward, unwrapped]
     carry = ca.vertcat(*[ca.densify(ca.vec(part)) for part in carry_parts])
     prepare = ca.Function(
-        "mpc_tick_prepare", [pose, ref_poses, ref_velocities, last, plan, mode],
-        [ca.densify(hessian), ca.densify(gradient), ca.densify(lower), ca.densify(upper),
-         carry],
-        ["pose", "ref_poses", "ref_velocities", "last", "plan", "guess_mode"],
-        ["hessian", "gradient", "lower", "upper", "carry"], {"cse": True})
+        "mpc_tick_prepare", [pose, ref_poses, ref_velocities, last, plan, mode, kept],
+        [ca.densify(gradient), ca.densify(lower), ca.densify(upper), carry,
+         ca.densify(terms), drift],
+        ["pose", "ref_poses", "ref_velocities", "last", "plan", "guess_mode", "kept"],
+        ["gradient", "lower", "upper", "carry", "terms", "drift"], {"cse": True})
+    hessian = _hessian_graph(model, constant_cost, carry.shape[0])
 
     # L^{-1}: its lower triangle packed column by column (CasADi's lower-triangular input)
     inverse = ca.MX.sym("inverse", ca.Sparsity.lower(size))
     g, y = ca.MX.sym("gradient", size), ca.MX.sym("y", size)
     sparse_rows = ca.DM(ca.sparsify(ca.DM(condenser.constraints)))
-    whiten = ca.Function(
-        "mpc_tick_whiten", [inverse, g],
-        [ca.densify(inverse @ g), ca.densify(inverse @ sparse_rows.T)],
-        ["inverse", "gradient"], ["f", "rows_t"])
+    whiten = ca.Function("mpc_tick_whiten", [inverse, g], [ca.densify(inverse @ g)],
+                         ["inverse", "gradient"], ["f"])
+    whiten_rows = ca.Function("mpc_tick_whiten_rows", [inverse],
+                              [ca.densify(inverse @ sparse_rows.T)], ["inverse"], ["rows_t"])
     unwhiten = ca.Function("mpc_tick_unwhiten", [inverse, y],
                            [ca.densify((y.T @ inverse).T)], ["inverse", "y"], ["step"])
 
     finish = _finish(model, wheels, tick, size, carry.shape[0])
-    return TickGraphs(prepare, whiten, unwhiten, finish, n, size, m, len(wheels.limits),
-                      carry.shape[0], tuple(float(x) for x in model.offsets), float(tick))
+    return TickGraphs(prepare, hessian, whiten, whiten_rows, unwhiten, finish, n, size, m,
+                      len(wheels.limits), carry.shape[0], terms_size(n),
+                      tuple(float(x) for x in model.offsets), float(tick))
+
+
+def _hessian_graph(model: TrackingModel, cost: ca.DM, carry_size: int) -> ca.Function:
+    """``hessian``: the condensed Hessian from the sensitivities and steps in ``carry``
+    (``cost``: the constant cost Hessian's upper triangle)."""
+    n = model.horizon
+    carry = ca.SX.sym("carry", carry_size)
+    start = 3 * (n + 1)
+    sensitivities = ca.reshape(carry[start:start + 9 * n], 9, n)
+    steps = ca.reshape(carry[start + 9 * n:start + 11 * n], 2, n)
+    hessian = _condensed_hessian(model, ca.SX(cost), sensitivities, steps)
+    return ca.Function("mpc_tick_hessian", [carry], [ca.densify(hessian)], ["carry"],
+                       ["hessian"], {"cse": True})
 
 
 def _parameters(layout: object, values: dict[str, ca.SX]) -> ca.SX:

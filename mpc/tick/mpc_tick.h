@@ -25,17 +25,22 @@ typedef struct mpc_tick mpc_tick;
 #define MPC_OUT_SOLVE_TIME 3 /* daqp's time this tick [s] */
 #define MPC_OUT_CLAMPED 4    /* 1 if the clamp changed the twist */
 #define MPC_OUT_FAILURES 5   /* failed ticks in a row, this one included */
-#define MPC_OUT_TWIST 6      /* the commanded twist (3) */
+#define MPC_OUT_REBUILT 6    /* Hessians built this tick (0: the kept one was used) */
+#define MPC_OUT_TWIST 7      /* the commanded twist (3) */
 #define MPC_OUT_SPEEDS (MPC_OUT_TWIST + 3)      /* the wheel speeds to send (MPC_W) */
 #define MPC_OUT_POSES (MPC_OUT_SPEEDS + MPC_W)  /* the plan's poses (3 (MPC_N + 1)) */
 #define MPC_OUT_SIZE (MPC_OUT_POSES + 3 * (MPC_N + 1))
 
 /* A controller (allocates everything it will use; NULL if daqp cannot be set up).
  * max_iter: daqp iterations per solve at most; budgeted: 1 if max_iter was chosen (no
- * second solve from the last command after a failed cold start), else 0. */
-mpc_tick* mpc_tick_init(int max_iter, int budgeted);
+ * second solve from the last command after a failed cold start), else 0; rebuild_drift:
+ * the Hessian kept across ticks is rebuilt when the sensitivities moved beyond this
+ * multiple of their tolerance (the exported main.c passes the controller's; below 0: every
+ * tick, no reuse). */
+mpc_tick* mpc_tick_init(int max_iter, int budgeted, double rebuild_drift);
 void mpc_tick_free(mpc_tick* tick);
-/* Forget the plan, the failures and daqp's active set; last: the twist executing now. */
+/* Forget the plan, the failures, daqp's active set and the kept Hessian; last: the twist
+ * executing now. */
 void mpc_tick_reset(mpc_tick* tick, const double* last);
 /* One tick: the measured pose (x, y, theta), the reference's poses and world velocities
  * (dx, dy, dtheta per second) at the stage times t + MPC_STAGE_OFFSETS, each 3 x

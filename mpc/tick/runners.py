@@ -4,8 +4,9 @@ CasADi's virtual machine (:class:`VirtualTick`: the same graphs evaluated by Cas
 QP by the daqp Python module with the same rows, kept between ticks the same way).
 
 Both write one output array a tick: status code, daqp's exit flag, iterations, solve
-time [s], clamped (0/1), failures in a row, the twist (3), the wheel speeds (w), the
-plan's poses (3 (N+1), a stage's three numbers together).
+time [s], clamped (0/1), failures in a row, Hessians built this tick, the twist (3), the
+wheel speeds (w), the plan's poses (3 (N+1), a stage's three numbers together). Both keep
+the Hessian across ticks by the same rule (:mod:`mpc.tick.reuse`).
 """
 
 from __future__ import annotations
@@ -22,9 +23,10 @@ from scipy.linalg import lapack
 from mpc.arrays import FloatArray
 from mpc.buffered import BufferedFunction
 from mpc.tick.graphs import COLD, HOLD, SOLVED, UNPLANNED, WARM, TickGraphs
+from mpc.tick.reuse import must_rebuild
 
 #: The output array's leading fields (then the twist, the wheel speeds, the poses).
-STATUS, FLAG, ITERATIONS, SOLVE_TIME, CLAMPED, FAILURES, TWIST = range(7)
+STATUS, FLAG, ITERATIONS, SOLVE_TIME, CLAMPED, FAILURES, REBUILT, TWIST = range(8)
 
 #: daqp's constraint flag of an equality row (active and immutable).
 _EQUALITY = 5
@@ -55,17 +57,17 @@ class NativeTick:
     path = "compiled"
 
     def __init__(self, library: Path, graphs: TickGraphs, max_iter: int,
-                 budgeted: bool) -> None:
+                 budgeted: bool, rebuild_drift: float) -> None:
         lib = ctypes.CDLL(str(library))
         lib.mpc_tick_init.restype = ctypes.c_void_p
-        lib.mpc_tick_init.argtypes = [ctypes.c_int, ctypes.c_int]
+        lib.mpc_tick_init.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_double]
         lib.mpc_tick_free.argtypes = [ctypes.c_void_p]
         lib.mpc_tick_reset.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
         lib.mpc_tick_step.argtypes = [ctypes.c_void_p] + [ctypes.c_void_p] * 4
         lib.mpc_tick_step.restype = ctypes.c_int
         if lib.mpc_tick_output_size() != output_size(graphs):
             raise RuntimeError("the compiled tick's output layout differs from the graphs'")
-        handle = lib.mpc_tick_init(int(max_iter), int(budgeted))
+        handle = lib.mpc_tick_init(int(max_iter), int(budgeted), float(rebuild_drift))
         if not handle:
             raise RuntimeError("the compiled tick could not set daqp up")
         self._lib, self._handle = lib, handle
@@ -115,9 +117,14 @@ class VirtualTick:
 
     path = "virtual-machine"
 
-    def __init__(self, graphs: TickGraphs, max_iter: int, budgeted: bool) -> None:
+    def __init__(self, graphs: TickGraphs, max_iter: int, budgeted: bool,
+                 rebuild_drift: float) -> None:
         n, nv, m = graphs.horizon, graphs.variables, graphs.rows
         self._graphs, self._budgeted = graphs, budgeted
+        self._rebuild_drift = rebuild_drift
+        self._kept = self._rebuilt = False  # a Hessian is kept; this tick rebuilt it
+        self._kept_terms, self._terms = np.zeros(graphs.terms), np.zeros(graphs.terms)
+        self._drift = np.zeros(1)
         self._settings = {"iter_limit": int(max_iter)}
         self._last, self._plan = np.zeros(3), np.zeros((n, 3))
         self._memory, self._warm = np.zeros(2), False
@@ -132,10 +139,15 @@ class VirtualTick:
         self._carry = np.zeros(graphs.carry)
         self._prepare_graph = BufferedFunction(
             graphs.prepare, [self._pose, self._poses, self._velocities, self._last,
-                             self._plan, self._mode],
-            [self._hessian, self._gradient, self._lower, self._upper, self._carry])
+                             self._plan, self._mode, self._kept_terms],
+            [self._gradient, self._lower, self._upper, self._carry, self._terms,
+             self._drift])
+        self._hessian_graph = BufferedFunction(graphs.hessian, [self._carry],
+                                               [self._hessian])
         self._whiten = BufferedFunction(graphs.whiten, [self._inverse, self._gradient],
-                                        [self._f, self._rows])
+                                        [self._f])
+        self._whiten_rows = BufferedFunction(graphs.whiten_rows, [self._inverse],
+                                             [self._rows])
         self._y, self._flag, self._step = np.zeros(nv), np.zeros(1), np.zeros(nv)
         self._unwhiten = BufferedFunction(graphs.unwhiten, [self._inverse, self._y],
                                           [self._step])
@@ -156,14 +168,27 @@ class VirtualTick:
         self._plan[:] = 0.0
         self._memory[:] = 0.0
         self._warm = False
-        self._solver = None
+        self._forget()
 
-    def _prepare(self) -> None:
-        """``prepare``, the factor, ``whiten``: the whitened QP in ``_f``, ``_rows``,
-        ``_lower``, ``_upper``."""
+    def _forget(self) -> None:
+        """daqp's model and the kept Hessian dropped (``tick.c``'s ``forget``)."""
+        self._solver = None
+        self._kept = False
+
+    def _prepare(self, planned: bool) -> None:
+        """``prepare``; the Hessian, its factor and the whitened rows rebuilt if the rule
+        says so (:func:`~mpc.tick.reuse.must_rebuild`; not on an unplanned tick);
+        ``whiten``: the whitened QP in ``_f``, ``_rows``, ``_lower``, ``_upper``."""
         self._prepare_graph()
-        # (H is symmetric: its C-ordered buffer is H either way)
-        self._inverse[:] = inverse_factor(self._hessian).T[self._packed]
+        self._rebuilt = planned and must_rebuild(self._kept, float(self._drift[0]),
+                                                 self._rebuild_drift)
+        if self._rebuilt:
+            self._hessian_graph()
+            # (H is symmetric: its C-ordered buffer is H either way)
+            self._inverse[:] = inverse_factor(self._hessian).T[self._packed]
+            self._whiten_rows()
+            self._kept_terms[:] = self._terms
+            self._kept = True
         self._whiten()
 
     def _solve(self) -> tuple[int, int, float]:
@@ -182,8 +207,10 @@ class VirtualTick:
             settings.update(self._settings)
             solver.settings = settings
             self._solver = solver
-        else:
+        elif self._rebuilt:
             solver.update(f=self._f, bupper=self._upper, blower=self._lower, A=self._rows)
+        else:  # the kept Hessian: daqp keeps its rows
+            solver.update(f=self._f, bupper=self._upper, blower=self._lower)
         step, _, flag, info = solver.solve()
         self._y[:] = step
         return int(flag), int(info["iterations"]), float(info["solve_time"]) + float(
@@ -196,19 +223,22 @@ class VirtualTick:
         self._velocities[:] = ref_velocities
         cold = not self._warm
         self._mode[0] = COLD if cold else WARM
-        self._prepare()
+        planned = (math.isfinite(float(self._poses.sum()))
+                   and math.isfinite(float(self._velocities.sum())))
+        self._prepare(planned)
+        rebuilt = int(self._rebuilt)
         iterations, seconds = 0, 0.0
-        if not (math.isfinite(float(self._poses.sum()))
-                and math.isfinite(float(self._velocities.sum()))):
+        if not planned:
             flag = int(UNPLANNED)
             self._y[:] = math.nan
         else:
             flag, iterations, seconds = self._solve()
             if not (flag > 0 and math.isfinite(float(self._y.sum()))) and cold \
                     and not self._budgeted:
-                self._solver = None  # solve again from the last command held
+                self._forget()  # solve again from the last command held
                 self._mode[0] = HOLD
-                self._prepare()
+                self._prepare(planned)
+                rebuilt += int(self._rebuilt)
                 flag, more, extra = self._solve()
                 iterations, seconds = iterations + more, seconds + extra
         self._flag[0] = flag
@@ -216,14 +246,14 @@ class VirtualTick:
         self._finish()
         self._warm = self._status[0] == SOLVED
         if not self._warm:
-            self._solver = None
+            self._forget()
         self._last[:] = self._twist
         self._plan[:] = self._next_plan
         self._memory[:] = self._next_memory
         out = self._out
         out[STATUS], out[FLAG], out[CLAMPED] = self._status[0], flag, self._clamped[0]
         out[ITERATIONS], out[SOLVE_TIME] = iterations, seconds
-        out[FAILURES] = self._memory[0]
+        out[FAILURES], out[REBUILT] = self._memory[0], rebuilt
         speeds = TWIST + 3
         out[TWIST:speeds] = self._twist
         out[speeds:speeds + self._speeds.size] = self._speeds

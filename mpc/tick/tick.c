@@ -1,10 +1,14 @@
 /* The compiled tick's hand-written part: daqp's workspace kept between ticks and a dense
- * Cholesky factor, around the generated graphs (mpc_tick_prepare, mpc_tick_whiten,
- * mpc_tick_finish; mpc/tick/graphs.py).
+ * Cholesky factor, around the generated graphs (mpc_tick_prepare, mpc_tick_hessian,
+ * mpc_tick_whiten, mpc_tick_whiten_rows, mpc_tick_unwhiten, mpc_tick_finish;
+ * mpc/tick/graphs.py).
  *
+ * The Hessian, its factor, L^{-1} and the whitened rows are kept across ticks and rebuilt
+ * when prepare's drift exceeds the rebuild threshold or nothing is kept (the rule of
+ * mpc/tick/reuse.py); a tick that keeps them hands daqp only a new gradient and bounds.
  * daqp is set up once (Hessian the identity: the graphs hand it whitened rows), and each
- * tick gets new rows, gradient and bounds (update_ldp) and its last active set back
- * (activate_constraints): a warm start, with no allocation after mpc_tick_init. A failed
+ * tick gets its updates (update_ldp) and its last active set back (activate_constraints):
+ * a warm start, with no allocation after mpc_tick_init. A failed
  * tick drops the active set (the Python path's solver.reset()); a tick that failed from
  * the cold guess is solved once more from the last command held, unless a budget was
  * given (the Python controller's rule). Everything the caller needs comes out in one
@@ -32,6 +36,10 @@ struct mpc_tick {
   int warm;         /* the last tick solved: its plan is the next guess */
   int qp_cold;      /* daqp starts from an empty active set */
   int max_iter, budgeted;
+  double rebuild_drift; /* rebuild above this drift (below 0: every tick) */
+  int kept;             /* a Hessian (factor, inverse, whitened rows) is kept */
+  int rebuilt;          /* this tick rebuilt it (daqp gets the new rows) */
+  double kept_terms[MPC_TERMS], terms[MPC_TERMS], drift;
   /* prepare's and whiten's outputs (daqp reads f, rows, bounds in place) */
   double hessian[MPC_NV * MPC_NV], gradient[MPC_NV], factor[MPC_NV * MPC_NV];
   double inverse[MPC_NV * (MPC_NV + 1) / 2]; /* L^{-1}, its lower triangle packed */
@@ -62,13 +70,20 @@ static void qp_cold(mpc_tick* t) {
   t->qp_cold = 1;
 }
 
-mpc_tick* mpc_tick_init(int max_iter, int budgeted) {
+/* The active set and the kept Hessian dropped (the Python tick's solver.reset()). */
+static void forget(mpc_tick* t) {
+  qp_cold(t);
+  t->kept = 0;
+}
+
+mpc_tick* mpc_tick_init(int max_iter, int budgeted, double rebuild_drift) {
   mpc_tick* t = (mpc_tick*)calloc(1, sizeof(mpc_tick));
   int i;
   c_float setup_time = 0;
   if (!t) return NULL;
   t->max_iter = max_iter;
   t->budgeted = budgeted;
+  t->rebuild_drift = rebuild_drift;
   for (i = 0; i < MPC_NV; i++) t->eye[i * MPC_NV + i] = 1.0;
   /* A benign problem to set daqp up with (unit rows, bounds -1..1): every buffer it
    * allocates is allocated now, once. */
@@ -93,7 +108,7 @@ mpc_tick* mpc_tick_init(int max_iter, int budgeted) {
     return NULL;
   }
   t->work.settings->iter_limit = max_iter;
-  qp_cold(t);
+  forget(t);
   return t;
 }
 
@@ -104,14 +119,14 @@ void mpc_tick_free(mpc_tick* t) {
   free(t);
 }
 
-/* Forget the plan, the failures and the active set; ``last`` is the twist the robot is
+/* Forget the plan, the failures, the active set and the kept Hessian; ``last`` is the twist the robot is
  * executing [m/s, m/s, rad/s]. */
 void mpc_tick_reset(mpc_tick* t, const double* last) {
   memcpy(t->last, last, sizeof(t->last));
   memset(t->plan, 0, sizeof(t->plan));
   t->memory[0] = t->memory[1] = 0.0;
   t->warm = 0;
-  qp_cold(t);
+  forget(t);
 }
 
 /* L with H = L L' (lower, column-major: a column's entries together) from H's lower
@@ -168,8 +183,10 @@ static void cholesky(const double* h, double* l) {
   for (i = 0; i < MPC_NV * MPC_NV; i++) l[i] = NAN;
 }
 
+/* prepare; then, if the rule says so (planned: the reference could be sampled), the
+ * Hessian, its factor, L^{-1} and the whitened rows rebuilt; the gradient whitened. */
 static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
-                    const double* ref_velocities, double mode) {
+                    const double* ref_velocities, double mode, int planned) {
   t->mode = mode;
   t->arg[0] = pose;
   t->arg[1] = ref_poses;
@@ -177,24 +194,38 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
   t->arg[3] = t->last;
   t->arg[4] = t->plan;
   t->arg[5] = &t->mode;
-  t->out[0] = t->hessian;
-  t->out[1] = t->gradient;
-  t->out[2] = t->lower;
-  t->out[3] = t->upper;
-  t->out[4] = t->carry;
+  t->arg[6] = t->kept_terms;
+  t->out[0] = t->gradient;
+  t->out[1] = t->lower;
+  t->out[2] = t->upper;
+  t->out[3] = t->carry;
+  t->out[4] = t->terms;
+  t->out[5] = &t->drift;
   mpc_tick_prepare(t->arg, t->out, t->iw, t->w, 0);
-  cholesky(t->hessian, t->factor);
-  lower_inverse(t->factor, t->inverse);
+  /* the rule (mpc/tick/reuse.py, must_rebuild): nothing kept, or moved too far */
+  t->rebuilt = planned && (!t->kept || t->drift > t->rebuild_drift);
+  if (t->rebuilt) {
+    t->arg[0] = t->carry;
+    t->out[0] = t->hessian;
+    mpc_tick_hessian(t->arg, t->out, t->iw, t->w, 0);
+    cholesky(t->hessian, t->factor);
+    lower_inverse(t->factor, t->inverse);
+    t->arg[0] = t->inverse;
+    t->out[0] = t->rows;
+    mpc_tick_whiten_rows(t->arg, t->out, t->iw, t->w, 0);
+    memcpy(t->kept_terms, t->terms, sizeof(t->kept_terms));
+    t->kept = 1;
+  }
   t->arg[0] = t->inverse;
   t->arg[1] = t->gradient;
   t->out[0] = t->f;
-  t->out[1] = t->rows;
   mpc_tick_whiten(t->arg, t->out, t->iw, t->w, 0);
 }
 
 /* daqp on the rows prepare wrote: its exit flag (the step in t->y). */
 static int solve(mpc_tick* t, double* iterations, double* seconds) {
-  int i, flag, mask = UPDATE_M + UPDATE_v + UPDATE_d;
+  int i, flag, mask = UPDATE_v + UPDATE_d;
+  if (t->rebuilt) mask += UPDATE_M;     /* new whitened rows */
   if (t->qp_cold) mask += UPDATE_sense; /* sense from t->sense: all inactive */
   reset_daqp_workspace(&t->work);
   flag = update_ldp(mask, &t->work);
@@ -228,17 +259,20 @@ static int finite_vector(const double* x, int n) {
 int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
                   const double* ref_velocities, double* out) {
   double iterations = 0.0, seconds = 0.0, flag;
-  int cold = !t->warm, i;
-  prepare(t, pose, ref_poses, ref_velocities, cold ? MPC_COLD : MPC_WARM);
-  if (!finite_vector(ref_poses, 3 * (MPC_N + 1)) ||
-      !finite_vector(ref_velocities, 3 * (MPC_N + 1))) {
+  int cold = !t->warm, i, rebuilt;
+  int planned = finite_vector(ref_poses, 3 * (MPC_N + 1)) &&
+                finite_vector(ref_velocities, 3 * (MPC_N + 1));
+  prepare(t, pose, ref_poses, ref_velocities, cold ? MPC_COLD : MPC_WARM, planned);
+  rebuilt = t->rebuilt;
+  if (!planned) {
     flag = MPC_UNPLANNED; /* no QP: the fallback without the feedforward */
     for (i = 0; i < MPC_NV; i++) t->y[i] = NAN;
   } else {
     flag = solve(t, &iterations, &seconds);
     if (!(flag > 0 && finite_vector(t->y, MPC_NV)) && cold && !t->budgeted) {
-      qp_cold(t); /* solve again from the last command held */
-      prepare(t, pose, ref_poses, ref_velocities, MPC_HOLD);
+      forget(t); /* solve again from the last command held (a Hessian of its own) */
+      prepare(t, pose, ref_poses, ref_velocities, MPC_HOLD, planned);
+      rebuilt += t->rebuilt;
       flag = solve(t, &iterations, &seconds);
     }
   }
@@ -261,7 +295,7 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   t->out[6] = t->memory_next;
   mpc_tick_finish(t->arg, t->out, t->iw, t->w, 0);
   t->warm = t->status == 0.0;
-  if (!t->warm) qp_cold(t);
+  if (!t->warm) forget(t);
   memcpy(t->last, t->twist, sizeof(t->last));
   memcpy(t->plan, t->plan_next, sizeof(t->plan));
   memcpy(t->memory, t->memory_next, sizeof(t->memory));
@@ -271,6 +305,7 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   out[MPC_OUT_SOLVE_TIME] = seconds;
   out[MPC_OUT_CLAMPED] = t->clamped;
   out[MPC_OUT_FAILURES] = t->memory[0];
+  out[MPC_OUT_REBUILT] = rebuilt;
   memcpy(out + MPC_OUT_TWIST, t->twist, sizeof(t->twist));
   memcpy(out + MPC_OUT_SPEEDS, t->speeds, sizeof(t->speeds));
   memcpy(out + MPC_OUT_POSES, t->poses, sizeof(t->poses));

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray, IntArray, readonly
 from mpc.errors import RobotError
@@ -294,7 +295,7 @@ def _build(robot: DrivenRobot) -> ForceMap:
 
 
 def split_forces(blocks: FloatArray, mass_matrix: FloatArray,
-                 active: FloatArray | None = None) -> FloatArray:
+                 active: ArrayLike | None = None) -> FloatArray:
     """Each wheel's contact force per body acceleration (n, 2, 3) [N per m/s^2]: the
     minimum-norm efforts ``pinv(W^T) M`` (module docstring) pushed through each wheel's
     ground directions, ``W_i[:, :2]^T tau_i``. ``blocks``: the wheels' velocity maps

@@ -48,7 +48,6 @@ rates at given angles are :meth:`CasterRobot.joint_rates`.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -80,7 +79,8 @@ from mpc.robots.wheels.caster.checks import (
     per_caster,
 )
 from mpc.robots.wheels.caster.kinematics import joint_twist
-from mpc.validation import checked_arguments, integer_at_least
+from mpc.robots.wheels.contact_disk import disk_casadi_limits, disk_speed_rows
+from mpc.validation import checked_arguments
 
 
 @dataclass(frozen=True, eq=False)
@@ -249,20 +249,12 @@ class CasterRobot(Robot):
     def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
         """Angle-free stand-in (the solvers use :meth:`stage_limits`): the axis speed disk
         ``|v(P)| <= r max_wheel_speed`` as an inscribed polygon."""
-        sides = integer_at_least("polygon_sides", polygon_sides, 4, RobotError)
-        angles = 2.0 * math.pi * np.arange(sides // 2) / (2 * (sides // 2))
-        normals = np.stack([np.cos(angles), np.sin(angles)], axis=1)  # (M/2, 2)
-        rows = np.einsum("md,ndj->nmj", normals, self.wheel_blocks)
-        wheel = np.repeat(np.arange(self.n_wheels), len(angles))
-        return SpeedRows(rows.reshape(-1, 3), wheel, math.cos(math.pi / (2 * (sides // 2))))
+        return disk_speed_rows(self.wheel_blocks, polygon_sides)
 
     def casadi_limits(self, twist: ca.SX, bounds: FloatArray) -> tuple[ca.SX, FloatArray,
                                                                          FloatArray]:
         """Angle-free stand-in: the axis speed disk (squared)."""
-        velocity = ca.DM(self.flat_wheel_blocks) @ twist
-        bounds = np.asarray(bounds, dtype=float)
-        return velocity[0::2] ** 2 + velocity[1::2] ** 2, np.full(bounds.shape, -np.inf), \
-            bounds**2
+        return disk_casadi_limits(self.flat_wheel_blocks, twist, bounds)
 
     def stage_limits(self, change_times: FloatArray,
                      polygon_sides: int | None) -> StageLimits:

@@ -33,10 +33,11 @@ from mpc.plausibility import SIZE, STEER_RATE, WHEEL_RADIUS, WHEEL_SPEED, check_
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
 from mpc.robots.description.registry import register
 from mpc.robots.limits import StageLimits
+from mpc.robots.wheels.contact_disk import disk_casadi_limits, disk_speed_rows
 from mpc.robots.wheels.slider import limits as slider_limits
 from mpc.robots.wheels.slider import rows as slider_rows
 from mpc.robots.wheels.slider.kinematics import SliderUnit
-from mpc.validation import MAX_COORDINATE, checked_arguments, integer_at_least, real_array, shown
+from mpc.validation import MAX_COORDINATE, checked_arguments, real_array, shown
 
 
 def _per_unit(name: str, value: object, count: int, unit: str, shape: tuple[int, ...] = ()
@@ -240,20 +241,12 @@ class SliderRobot(Robot):
     def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
         """Joint-free stand-in (the solvers use :meth:`stage_limits`): each contact's speed
         disk at mid-stroke, ``|v(C)| <= r max_wheel_speed``, as an inscribed polygon."""
-        sides = integer_at_least("polygon_sides", polygon_sides, 4, RobotError)
-        angles = 2.0 * math.pi * np.arange(sides // 2) / (2 * (sides // 2))
-        normals = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-        rows = np.einsum("md,ndj->nmj", normals, self.wheel_blocks)
-        wheel = np.repeat(np.arange(self.n_wheels), len(angles))
-        return SpeedRows(rows.reshape(-1, 3), wheel, math.cos(math.pi / (2 * (sides // 2))))
+        return disk_speed_rows(self.wheel_blocks, polygon_sides)
 
     def casadi_limits(self, twist: ca.SX, bounds: FloatArray) -> tuple[ca.SX, FloatArray,
                                                                          FloatArray]:
         """Joint-free stand-in: each contact's speed disk at mid-stroke (squared)."""
-        velocity = ca.DM(self.flat_wheel_blocks) @ twist
-        bounds = np.asarray(bounds, dtype=float)
-        return velocity[0::2] ** 2 + velocity[1::2] ** 2, np.full(bounds.shape, -np.inf), \
-            bounds**2
+        return disk_casadi_limits(self.flat_wheel_blocks, twist, bounds)
 
     def stage_limits(self, change_times: FloatArray,
                      polygon_sides: int | None) -> StageLimits:
