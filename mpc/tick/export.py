@@ -1,7 +1,8 @@
 """``mpc.export_c(controller, folder)``: one controller's tick as a self-contained C library
 (the generated graphs, ``tick.c``, one header, a ``CMakeLists.txt``, a README of the
 interface and an example ``main.c``), daqp linked from the casadi wheel that generated it
-(its ``include/daqp`` and ``libdaqpstat.a``; none of daqp's code is copied).
+(its ``include/daqp`` and ``libdaqpstat.a``) or, for another target, built from daqp's
+released source (``-DMPC_DAQP_SOURCE``, ``daqp.cmake``); none of daqp's code is copied.
 
 The reference is the caller's: each tick takes the reference's poses and world velocities
 at the stage times (``t + MPC_STAGE_OFFSETS``), as the controller samples them.
@@ -47,6 +48,7 @@ def export_c(controller: Exportable, folder: str | Path) -> Path:
     write_sources(graphs, out)
     casadi = casadi_folder()
     (out / "CMakeLists.txt").write_text(_CMAKE.replace("@CASADI_DIR@", casadi.as_posix()))
+    (out / "daqp.cmake").write_text(_DAQP_CMAKE.replace("@DAQP_RELEASE@", DAQP_RELEASE))
     (out / "main.c").write_text(_MAIN.replace(
         "mpc_tick_init(1000, 0, 1.0)",
         f"mpc_tick_init({compiled.max_iter}, {int(compiled.budgeted)}, "
@@ -56,7 +58,7 @@ def export_c(controller: Exportable, folder: str | Path) -> Path:
         robot=robot.name, kind=robot.kind, wheels=robot.n_wheels, horizon=graphs.horizon,
         dt=graphs.tick, offsets=", ".join(f"{value:g}" for value in graphs.offsets),
         casadi=casadi.as_posix(), max_iter=compiled.max_iter,
-        rebuild=compiled.rebuild_drift))
+        rebuild=compiled.rebuild_drift, daqp=DAQP_RELEASE))
     return out
 
 
@@ -69,13 +71,67 @@ if(NOT CMAKE_BUILD_TYPE)
 endif()
 # The casadi wheel's folder: daqp's headers (include/daqp) and static library.
 set(CASADI_DIR "@CASADI_DIR@" CACHE PATH "folder with include/daqp and libdaqpstat.a")
+# daqp built from its released source for the target (cross builds) instead of the
+# wheel's x86-64 libdaqpstat.a: an unpacked sdist, or its csrc folder (see README.md).
+set(MPC_DAQP_SOURCE "" CACHE PATH "daqp's source (sdist) to build for the target")
 add_library(mpc_tick STATIC tick.c mpc_tick_graphs.c)
-target_include_directories(mpc_tick PUBLIC ${CMAKE_CURRENT_SOURCE_DIR} ${CASADI_DIR}/include)
+target_include_directories(mpc_tick PUBLIC ${CMAKE_CURRENT_SOURCE_DIR})
 set_source_files_properties(mpc_tick_graphs.c PROPERTIES COMPILE_OPTIONS "-O2")
 set_source_files_properties(tick.c PROPERTIES COMPILE_OPTIONS "-O3")
-target_link_libraries(mpc_tick PUBLIC ${CASADI_DIR}/libdaqpstat.a m)
+if(MPC_DAQP_SOURCE)
+  include(${CMAKE_CURRENT_SOURCE_DIR}/daqp.cmake)
+  target_link_libraries(mpc_tick PUBLIC mpc_daqp m)
+elseif(CMAKE_CROSSCOMPILING)
+  message(FATAL_ERROR "cross-compiling needs daqp built for the target: "
+          "-DMPC_DAQP_SOURCE=<unpacked daqp sdist> (the wheel's libdaqpstat.a is x86-64)")
+else()
+  target_include_directories(mpc_tick PUBLIC ${CASADI_DIR}/include)
+  target_link_libraries(mpc_tick PUBLIC ${CASADI_DIR}/libdaqpstat.a m)
+endif()
 add_executable(mpc_tick_example main.c)
 target_link_libraries(mpc_tick_example PRIVATE mpc_tick)
+"""
+
+# daqp's released source for a cross build (CMakeLists.txt's MPC_DAQP_SOURCE): tick.c uses
+# daqp's internals (update_ldp, the UPDATE_* masks), so the release must be the one whose
+# headers are the casadi wheel's include/daqp (casadi 3.8.2's: tests/test_export_cross.py).
+DAQP_RELEASE = "0.5.1"
+
+_DAQP_CMAKE = """\
+# daqp built from its released source for the target (CMakeLists.txt, MPC_DAQP_SOURCE):
+#   pip download --no-binary :all: --no-deps daqp==@DAQP_RELEASE@
+#   tar xzf daqp-@DAQP_RELEASE@.tar.gz
+if(EXISTS "${MPC_DAQP_SOURCE}/csrc/src/api.c")
+  set(DAQP_C "${MPC_DAQP_SOURCE}/csrc")
+else()
+  set(DAQP_C "${MPC_DAQP_SOURCE}")
+endif()
+if(NOT EXISTS "${DAQP_C}/src/api.c" OR NOT EXISTS "${DAQP_C}/include/api.h")
+  message(FATAL_ERROR "MPC_DAQP_SOURCE=${MPC_DAQP_SOURCE}: expected daqp's source "
+          "(csrc/src/api.c and csrc/include/api.h of daqp-@DAQP_RELEASE@.tar.gz)")
+endif()
+# tick.c is written against the generating wheel's daqp: its headers, where present here.
+foreach(header api.h types.h constants.h utils.h)
+  if(EXISTS "${CASADI_DIR}/include/daqp/${header}")
+    file(READ "${CASADI_DIR}/include/daqp/${header}" expected)
+    file(READ "${DAQP_C}/include/${header}" found)
+    if(NOT expected STREQUAL found)
+      message(FATAL_ERROR "${DAQP_C}/include/${header} differs from the casadi wheel's "
+              "${CASADI_DIR}/include/daqp/${header}: use daqp @DAQP_RELEASE@'s source")
+    endif()
+  endif()
+endforeach()
+file(GLOB DAQP_SOURCES "${DAQP_C}/src/*.c")
+add_library(mpc_daqp STATIC ${DAQP_SOURCES})
+# PROFILING: daqp times its solves (MPC_OUT_SOLVE_TIME), as in the casadi wheel's build.
+target_compile_definitions(mpc_daqp PUBLIC PROFILING)
+target_compile_options(mpc_daqp PRIVATE -O3)
+target_include_directories(mpc_daqp PRIVATE "${DAQP_C}/include")
+# tick.c includes <daqp/api.h>: the headers under a daqp/ folder of the build tree.
+file(COPY "${DAQP_C}/include/" DESTINATION "${CMAKE_CURRENT_BINARY_DIR}/daqp-include/daqp"
+     FILES_MATCHING PATTERN "*.h")
+target_include_directories(mpc_daqp PUBLIC "${CMAKE_CURRENT_BINARY_DIR}/daqp-include")
+target_link_libraries(mpc_daqp PUBLIC m)
 """
 
 _MAIN = """\
@@ -122,6 +178,14 @@ Build (CMake >= 3.13, a C compiler; daqp from the casadi wheel at `{casadi}`, or
 
     cmake -S . -B build && cmake --build build
     ./build/mpc_tick_example < ticks.txt
+
+For another target, build daqp from its released source (`daqp.cmake`; daqp {daqp}, whose
+headers are the casadi wheel's) with the target's compiler, e.g. 32-bit ARM:
+
+    pip download --no-binary :all: --no-deps daqp=={daqp} && tar xzf daqp-{daqp}.tar.gz
+    cmake -S . -B arm -DMPC_DAQP_SOURCE=$PWD/daqp-{daqp} -DCMAKE_SYSTEM_NAME=Linux \\
+      -DCMAKE_C_COMPILER=arm-linux-gnueabihf-gcc -DCMAKE_EXE_LINKER_FLAGS=-static
+    cmake --build arm && qemu-arm ./arm/mpc_tick_example < ticks.txt
 
 ## Interface (`mpc_tick.h`)
 
