@@ -108,6 +108,46 @@ def test_flooring_it_slips_and_breaks_the_limits() -> None:
     del controller
 
 
+def test_a_held_current_never_needs_more_than_the_bus() -> None:
+    """A wheel loop asking for far more than a sagged bus while its wheel already spins
+    near the bus's free speed: the voltage applied stays within the bus (a held current's
+    voltage, back-EMF plus the limit's drop, would pass it), so the current is what the
+    bus gives by hand, ``(V_bus - w / kv) / R``, below the limit."""
+    robot = motor_preset("swerve")
+    forces = force_map(robot)
+    plant = MotorPlant(robot, DT, np.zeros(3), MotorPlantConfig(), np.random.default_rng(0))
+    bus = 6.0
+    spin = np.full(4, 0.9 * bus * forces.kv)  # [rad/s] wheels at 90 % of the bus's speed
+    angles = np.zeros(4)
+    twist, speeds, sub = plant._physics.step((np.zeros(3), spin), angles, np.full(4, 40.0),
+                                              bus)
+    assert np.all(np.abs(sub.voltage) <= bus * (1 + 1e-9))
+    by_hand = (bus - speeds / forces.kv) / forces.resistance
+    np.testing.assert_allclose(sub.current, by_hand, rtol=1e-6)
+    assert sub.voltage_violation and np.all(np.isfinite(twist))
+
+
+def test_the_bus_stays_up_under_commands_beyond_it() -> None:
+    """The kinematic MPC on a figure-eight beyond the free speed asks for more than the bus
+    on many ticks; the bus sags but never below what the current limits allow
+    (``E - R n I_max``), and braking lifts it no further than that above the battery
+    (before: it went negative and diverged)."""
+    from benchmarks.motors import controller, free_speed_reference
+
+    robot = motor_preset("swerve")
+    dyn = robot.dynamics
+    assert dyn is not None
+    reference = free_speed_reference("figure8", robot, 1.2, 2.0)
+    result = simulate(controller("mpc-kinematic", robot, reference, DT, 10), 1.6,
+                      plant="motor", robot=robot)
+    assert result.plant_events is not None
+    bus = result.plant_events["bus_voltage"]
+    drop = dyn.battery_resistance * 4 * dyn.current_limit  # [V]
+    assert result.metrics()["voltage_violations"] > 0
+    assert np.all(bus >= dyn.battery_voltage - drop - 1e-6)
+    assert np.all(bus <= dyn.battery_voltage + drop + 1e-6)
+
+
 @pytest.mark.parametrize("name", ["omni4", "swerve"])
 def test_motor_aware_mpc_beats_kinematic_mpc_on_the_motor_plant(name: str) -> None:
     """A short closed loop at the traction limit: the motor-aware MPC has no voltage or

@@ -117,6 +117,7 @@ class SubStepModel:
         fixed = np.zeros(rows.shape[0])  # efforts of sliding channels
         sliding = np.zeros(rows.shape[0], dtype=bool)
         limits = forces.friction_limits
+        bus_bound = np.zeros(n, dtype=bool)  # held current needed more than the bus
         demand_asked = asked = np.zeros(n)  # what the loops asked for on the first pass
         traction = 0.0  # the largest contact force / (mu N) before any contact slid
         for attempt in range(2 * n + forces.n_contacts + 2):
@@ -131,7 +132,8 @@ class SubStepModel:
             if attempt == 0:  # what the loops ask for, before any saturation
                 demand_asked = demand
                 asked = (np.clip(demand, -bus, bus) - speeds / forces.kv) / forces.resistance
-            changed = self._saturate_motors(mode, sign, demand, current, bus)
+            changed = self._saturate_motors(mode, sign, demand, current, voltage, bus,
+                                            bus_bound)
             if not changed and limits is not None:
                 efforts = np.where(sliding, fixed, stick * (select @ speeds - rows @ twist))
                 fixed, traction, changed = _slide_contacts(
@@ -189,15 +191,24 @@ class SubStepModel:
         return solution[:3], solution[3:]
 
     def _saturate_motors(self, mode: IntArray, sign: FloatArray, demand: FloatArray,
-                         current: FloatArray, bus: float) -> bool:
-        """Clip the loops that ask for more than the bus, hold the currents past the limit
-        (``mode`` and ``sign`` in place); whether any changed."""
+                         current: FloatArray, voltage: FloatArray, bus: float,
+                         bus_bound: BoolArray) -> bool:
+        """Clip the loops that ask for more than the bus, hold the currents past the limit,
+        and clip to the bus again a held current that needs more than it (a controller
+        cannot apply more than its bus; ``bus_bound`` marks those, whose current may then
+        pass the limit) (``mode``, ``sign`` and ``bus_bound`` in place); whether any
+        changed."""
         changed = False
         clip = (mode == 0) & (np.abs(demand) > bus * (1.0 + 1e-12))
         if np.any(clip):
             mode[clip], sign[clip] = 1, np.sign(demand[clip])
             changed = True
-        held = (mode < 2) & (np.abs(current) > self.current_limit * (1.0 + 1e-12))
+        over = (mode == 2) & (np.abs(voltage) > bus * (1.0 + 1e-9))
+        if np.any(over):
+            mode[over], sign[over] = 1, np.sign(voltage[over])
+            bus_bound |= over
+            return True
+        held = (mode < 2) & ~bus_bound & (np.abs(current) > self.current_limit * (1.0 + 1e-12))
         if np.any(held):
             mode[held], sign[held] = 2, np.sign(current[held])
             changed = True
