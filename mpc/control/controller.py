@@ -361,7 +361,6 @@ class Controller:
         measured = check_steer_angles(self.robot, steer_angles)
         if measured is not None:
             self._steer = measured
-        tick = self._tick
         t_plan = t_now + self._delay.lead
         if profile is not None:
             profile.mark("check and predict")
@@ -373,19 +372,7 @@ class Controller:
             if self._first_tick:
                 self._check_heading(float(measured_pose[2]))
             result = self._solve(x0)
-        if result.success:
-            status, target, plan = Status.SOLVED, result.twists[0], result.poses
-            self._fallback.succeeded(result.twists)
-            self._warm.store(result.poses, result.twists)
-            self._timing.solved(result.progress)
-        else:
-            self._warm.reset()
-            self.solver.reset()
-            self._timing.solved(None)
-            status, target = self._fallback.failed(tick.twists_ref[0], result.status)
-            plan = tick.poses_ref.copy()
-            if not math.isfinite(float(plan.sum())):
-                plan[:] = x0
+        status, target, plan = self._outcome(result, x0)
         twist, clamped = clamp_command(self.robot, target, self._last, self.dt, self._steer)
         twist, speeds, steer_rates, steer_prediction, self._steer = wheel_commands(
             self.robot, twist, target, self._steer, measured,
@@ -449,6 +436,25 @@ class Controller:
         if profile is not None:
             profile.mark("solve (rest)")
         return result
+
+    def _outcome(self, result: SolveResult, x0: FloatArray
+                 ) -> tuple[Status, FloatArray, FloatArray]:
+        """The tick's status, target twist and plan from the solve: the plan's first twist,
+        or the fallback policy's with the reference as the plan (``x0`` where that is not
+        finite); the warm start, solver and timing told either way."""
+        if result.success:
+            self._fallback.succeeded(result.twists)
+            self._warm.store(result.poses, result.twists)
+            self._timing.solved(result.progress)
+            return Status.SOLVED, result.twists[0], result.poses
+        self._warm.reset()
+        self.solver.reset()
+        self._timing.solved(None)
+        status, target = self._fallback.failed(self._tick.twists_ref[0], result.status)
+        plan = self._tick.poses_ref.copy()
+        if not math.isfinite(float(plan.sum())):
+            plan[:] = x0
+        return status, target, plan
 
     def _unplanned(self, status: str) -> SolveResult:
         """A failed solve that never ran (``status`` says why); the reference in the tick is

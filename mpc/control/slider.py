@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from mpc.arrays import FloatArray
-from mpc.control.command import Command, Status
+from mpc.control.command import Command
 from mpc.control.controller import Controller, register_controller
 from mpc.control.measurements import check_pose, check_time
 from mpc.errors import ControllerError
@@ -148,7 +148,6 @@ class SliderController(Controller):
         self._positions = np.clip(positions, robot.strokes[:, 0], robot.strokes[:, 1])
         tick = self._tick
         t_plan = t_now + self._delay.lead
-        solved = False
         try:
             reference_time = self._timing.fill(t_now, t_plan, float(x0[2]))
         except TrajectoryError as error:
@@ -157,21 +156,8 @@ class SliderController(Controller):
             if self._first_tick:
                 self._check_heading(float(measured_pose[2]))
             result = self._solve(x0)
-            solved = True
-        if result.success:
-            status, target, plan = Status.SOLVED, result.twists[0], result.poses
-            self._fallback.succeeded(result.twists)
-            self._warm.store(result.poses, result.twists)
-            self._timing.solved(result.progress)
-        else:
-            self._warm.reset()
-            self.solver.reset()
-            self._timing.solved(None)
-            status, target = self._fallback.failed(tick.twists_ref[0], result.status)
-            plan = tick.poses_ref.copy()
-            if not np.isfinite(plan).all():
-                plan[:] = x0
-        if not solved or not result.success:  # the schedule along the command held
+        status, target, plan = self._outcome(result, x0)
+        if not result.success:  # the schedule along the command held
             held = np.tile(np.nan_to_num(target), (self.horizon, 1))
             self._schedule(tick, held, held)
         joints = joint_parameters(self._angles, self._positions, self._ends)
