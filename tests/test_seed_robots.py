@@ -1,4 +1,4 @@
-"""The founding documents' robots (``../shared`` seed-robots facts) as presets: our wheel
+"""The founding documents' robots (docs/guide/adapters.md) as presets: our wheel
 commands, converted to each source's order, signs and units, against the source's own
 equations, written out here from the documents (not from our kinematics)."""
 

@@ -1,7 +1,7 @@
 """The tick's graphs generated to C with ``tick.c`` around them, compiled with gcc (or
 ``$CC``) against the casadi wheel's own daqp, and kept in the library cache.
 
-Recipe (``/work/shared/docs/compiled-tick-facts.md``): daqp's headers from
+Recipe (docs/guide/compiled-tick.md): daqp's headers from
 ``casadi/include/daqp``, its static library ``libdaqpstat.a`` linked in with its symbols
 kept private (``--exclude-libs,ALL``: the casadi wheel and the daqp Python module carry
 different daqp versions) and ``-z defs`` (a missing daqp is a link error, not a load error

@@ -11,7 +11,7 @@ with ``scale`` ``1 / (2 pi)`` for revolutions per second, ``wheel_radius`` for r
 [m/s] and 1 for rad/s. It is a wiring and units mapping, never kinematics: the model keeps
 the project's conventions (docs/guide/conventions.md).
 
-The founding documents' conventions (``../shared`` facts; tested against each document's
+The founding documents' conventions (each listed below; tested against each document's
 own equations in ``tests/test_seed_robots.py``):
 
 - ``jetauto``: Hiwonder JetAuto's ROS 2 driver. Motors 1, 2, 3, 4 are FL, RL, FR, RR; it
