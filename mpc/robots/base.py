@@ -52,7 +52,8 @@ from mpc.robots.speed_checks import SpeedLimitChecks
 from mpc.robots.steer_states import SteerStateJoints
 from mpc.validation import MAX_WHEELS, MIN_RATE, shown
 
-__all__ = ["Robot", "SpeedRows", "WheelCommands", "as_twists", "check_holonomic"]
+__all__ = ["Robot", "SpeedRows", "WheelCommands", "as_twists", "check_holonomic",
+           "point_velocity_maps"]
 
 RobotT = TypeVar("RobotT", bound="Robot")
 
@@ -92,6 +93,18 @@ class WheelCommands(NamedTuple):
     speeds: FloatArray
     steer_angles: FloatArray | None
 
+
+
+def point_velocity_maps(positions: ArrayLike) -> FloatArray:
+    """Velocity of body-fixed points per body twist, ``[[1, 0, -y], [0, 1, x]]``, shape
+    (n, 2, 3), from their positions (x, y) [m], shape (n, 2)."""
+    points = np.asarray(positions, dtype=float)
+    maps = np.zeros((points.shape[0], 2, 3))
+    maps[:, 0, 0] = 1.0
+    maps[:, 1, 1] = 1.0
+    maps[:, 0, 2] = -points[:, 1]
+    maps[:, 1, 2] = points[:, 0]
+    return maps
 
 @dataclass(frozen=True, eq=False)
 class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):

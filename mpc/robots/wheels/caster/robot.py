@@ -67,7 +67,13 @@ from mpc.plausibility import (
     WHEEL_SPEED,
     check_plausible,
 )
-from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
+from mpc.robots.base import (
+    Robot,
+    SpeedRows,
+    WheelCommands,
+    as_twists,
+    point_velocity_maps,
+)
 from mpc.robots.description.mobility import WheelSpec
 from mpc.robots.description.registry import register, register_wheel_set, steer_rate
 from mpc.robots.limits import StageLimits
@@ -134,13 +140,7 @@ class CasterRobot(Robot):
     # ------------------------------------------------------------ description
     def axis_maps(self) -> FloatArray:
         """Axis velocity per twist, ``[[1, 0, -py], [0, 1, px]]``, shape (n, 2, 3)."""
-        positions = np.asarray(self.caster_positions, dtype=float)
-        maps = np.zeros((positions.shape[0], 2, 3))
-        maps[:, 0, 0] = 1.0
-        maps[:, 1, 1] = 1.0
-        maps[:, 0, 2] = -positions[:, 1]
-        maps[:, 1, 2] = positions[:, 0]
-        return maps
+        return point_velocity_maps(self.caster_positions)
 
     @property
     def wheel_positions(self) -> FloatArray:

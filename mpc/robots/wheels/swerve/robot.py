@@ -45,7 +45,14 @@ from mpc.plausibility import (
     WHEEL_SPEED,
     check_plausible,
 )
-from mpc.robots.base import PlanarModules, Robot, SpeedRows, WheelCommands, as_twists
+from mpc.robots.base import (
+    PlanarModules,
+    Robot,
+    SpeedRows,
+    WheelCommands,
+    as_twists,
+    point_velocity_maps,
+)
 from mpc.robots.description.mobility import WheelSpec
 from mpc.robots.description.registry import (
     register,
@@ -142,13 +149,7 @@ class SwerveRobot(Robot):
 
     def ground_maps(self) -> FloatArray:
         """Module ground velocity per twist, ``[[1, 0, -y_i], [0, 1, x_i]]``, shape (n, 2, 3)."""
-        positions = np.asarray(self.module_positions, dtype=float)
-        ground = np.zeros((positions.shape[0], 2, 3))
-        ground[:, 0, 0] = 1.0
-        ground[:, 1, 1] = 1.0
-        ground[:, 0, 2] = -positions[:, 1]
-        ground[:, 1, 2] = positions[:, 0]
-        return ground
+        return point_velocity_maps(self.module_positions)
 
     @property
     def wheel_positions(self) -> FloatArray:
