@@ -98,13 +98,17 @@ WHEEL_KINDS: dict[str, WheelKind] = {
     "spherical": WheelKind(frozenset({"x", "y"})),
     "axle_offset": WheelKind(frozenset({"x", "y", "lever"}), frozenset({"heading"}),
                              sliding="steered"),
-    # a steered wheel on a radial slider: the slider takes up the axle's motion, so a unit
-    # whose slider is free adds no sliding constraint (at an end it is a steered wheel)
-    "slider": WheelKind(frozenset({"x", "y"}), frozenset({"heading"})),
 }
 #: Per wheel type: (required keys, optional keys) besides ``type``.
 WHEEL_KEYS: dict[str, tuple[frozenset[str], frozenset[str]]] = {
     name: (kind.required, kind.optional) for name, kind in WHEEL_KINDS.items()}
+
+
+def register_wheel_kind(name: str, kind: WheelKind) -> None:
+    """Add a wheel type the classical five do not cover to the analysis (its module calls
+    this on import, as the slider does)."""
+    WHEEL_KINDS[name] = kind
+    WHEEL_KEYS[name] = (kind.required, kind.optional)
 
 
 class Mobility(NamedTuple):

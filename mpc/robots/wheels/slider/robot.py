@@ -31,6 +31,7 @@ from mpc.arrays import FloatArray, listed, readonly
 from mpc.errors import MpcError, RobotError
 from mpc.plausibility import SIZE, STEER_RATE, WHEEL_RADIUS, WHEEL_SPEED, check_plausible
 from mpc.robots.base import Robot, SpeedRows, WheelCommands, as_twists
+from mpc.robots.description.mobility import WheelKind, register_wheel_kind
 from mpc.robots.description.registry import register
 from mpc.robots.limits import StageLimits
 from mpc.robots.wheels.contact_disk import disk_casadi_limits, disk_speed_rows
@@ -326,3 +327,6 @@ def slider(
 
 
 register("slider", slider)
+# In the mobility analysis: the slider takes up the axle's motion, so a unit whose slider
+# is free adds no sliding constraint (at an end of its stroke it is a steered wheel).
+register_wheel_kind("slider", WheelKind(frozenset({"x", "y"}), frozenset({"heading"})))
