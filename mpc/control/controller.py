@@ -206,6 +206,7 @@ class Controller:
         self._first_tick = True  # a start from rest: the heading is checked once
         self.mode = check_mode(mode, time_scaling)
         self.stage_dt = check_stage_dt(stage_dt, self.dt, self.mode)
+        self.polygon_sides = polygon_sides  # (checked by the solver; read by mpc.tick)
         rate = check_progress_rate(max_progress_rate)
         self.weights = make_weights(weights)
         self.model = TrackingModel(robot, self.horizon, self.stage_dt, self.weights,
@@ -246,7 +247,7 @@ class Controller:
 
             check_compiled(compiled)
             self._compiled = CompiledTick(self, compiled, max_iter, time_limit)
-            self._compiled.reset(self._last)
+            self._compiled.reset(self._last, self._steer)
 
     @property
     def tick_path(self) -> str:
@@ -334,7 +335,7 @@ class Controller:
         self._timing.reset()
         self.solver.reset()
         if self._compiled is not None:
-            self._compiled.reset(last)
+            self._compiled.reset(last, self._steer)
 
     @checked_arguments(ControllerError)
     def step(self, pose: ArrayLike, t: float, steer_angles: ArrayLike | None = None) -> Command:
@@ -350,6 +351,8 @@ class Controller:
         if self._compiled is not None:
             command = self._compiled.step(pose, t, steer_angles)
             self._last = command.twist
+            if command.steer_angles is not None:  # swerve: the angles commanded
+                self._steer = command.steer_angles
             return command
         start = time.perf_counter()
         profile = self._profile
