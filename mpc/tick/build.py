@@ -61,6 +61,10 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
         "MPC_SZ_RES": max(f.sz_res() for f in functions),
         "MPC_SZ_IW": max(max(f.sz_iw() for f in functions), 1),
         "MPC_SZ_W": max(max(f.sz_w() for f in functions), 1),
+        # swerve (mpc/tick/steered.py): rows that move every tick (their nonzeros), the
+        # rows' state (the faces' directions), the steer angles; 0 for other robots
+        "MPC_MOVING_ROWS": graphs.moving_rows, "MPC_ROW_STATE": len(graphs.row_state),
+        "MPC_STEER": graphs.steer,
     }
     offsets = ", ".join(f"{value!r}" for value in graphs.offsets)
     config = ["/* Sizes of the generated tick (mpc/tick/build.py). */",
@@ -68,7 +72,9 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
               *(f"#define {name} {value}" for name, value in sizes.items()),
               "/* the control tick [s]; each stage's start from the window's [s] */",
               f"#define MPC_DT {graphs.tick!r}",
-              f"#define MPC_STAGE_OFFSETS {{{offsets}}}", "#endif", ""]
+              f"#define MPC_STAGE_OFFSETS {{{offsets}}}",
+              *([f"#define MPC_ROW_STATE_START {{{', '.join(map(repr, graphs.row_state))}}}"]
+                if graphs.row_state else []), "#endif", ""]
     (folder / "mpc_tick_config.h").write_text("\n".join(config))
     shutil.copyfile(TICK_SOURCE, folder / "tick.c")
     shutil.copyfile(TICK_HEADER, folder / "mpc_tick.h")

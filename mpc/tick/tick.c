@@ -51,6 +51,13 @@ struct mpc_tick {
   double status, twist[3], speeds[MPC_W], clamped, poses[3 * (MPC_N + 1)];
   double plan_next[3 * MPC_N], memory_next[2];
   double mode;
+#if MPC_MOVING_ROWS
+  /* swerve: the rows prepare gives every tick (nonzeros), the faces' directions */
+  double row_values[MPC_MOVING_ROWS], state[MPC_ROW_STATE], state_next[MPC_ROW_STATE];
+#endif
+#if MPC_STEER
+  double steer[MPC_STEER], steer_next[MPC_STEER]; /* the modules' angles [rad] */
+#endif
   DAQPProblem qp;
   DAQPWorkspace work;
   DAQPResult res;
@@ -108,8 +115,23 @@ mpc_tick* mpc_tick_init(int max_iter, int budgeted, double rebuild_drift) {
     return NULL;
   }
   t->work.settings->iter_limit = max_iter;
+#if MPC_MOVING_ROWS
+  {
+    static const double start[MPC_ROW_STATE] = MPC_ROW_STATE_START;
+    memcpy(t->state, start, sizeof(t->state));
+  }
+#endif
   forget(t);
   return t;
+}
+
+void mpc_tick_set_steer_angles(mpc_tick* t, const double* angles) {
+#if MPC_STEER
+  memcpy(t->steer, angles, sizeof(t->steer));
+#else
+  (void)t;
+  (void)angles;
+#endif
 }
 
 void mpc_tick_free(mpc_tick* t) {
@@ -201,7 +223,17 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
   t->out[3] = t->carry;
   t->out[4] = t->terms;
   t->out[5] = &t->drift;
+#if MPC_MOVING_ROWS
+  t->arg[7] = t->steer;
+  t->arg[8] = t->state;
+  t->out[6] = t->row_values;
+  t->out[7] = t->state_next;
+#endif
   mpc_tick_prepare(t->arg, t->out, t->iw, t->w, 0);
+#if MPC_MOVING_ROWS
+  /* the faces' directions turned to this guess (not on a tick with no reference) */
+  if (planned) memcpy(t->state, t->state_next, sizeof(t->state));
+#endif
   /* the rule (mpc/tick/reuse.py, must_rebuild): nothing kept, or moved too far */
   t->rebuilt = planned && (!t->kept || t->drift > t->rebuild_drift);
   if (t->rebuilt) {
@@ -210,11 +242,16 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
     mpc_tick_hessian(t->arg, t->out, t->iw, t->w, 0);
     cholesky(t->hessian, t->factor);
     lower_inverse(t->factor, t->inverse);
-    t->arg[0] = t->inverse;
-    t->out[0] = t->rows;
-    mpc_tick_whiten_rows(t->arg, t->out, t->iw, t->w, 0);
     memcpy(t->kept_terms, t->terms, sizeof(t->kept_terms));
     t->kept = 1;
+  }
+  if (t->rebuilt || (MPC_MOVING_ROWS && planned)) { /* moving rows: every tick */
+    t->arg[0] = t->inverse;
+#if MPC_MOVING_ROWS
+    t->arg[1] = t->row_values;
+#endif
+    t->out[0] = t->rows;
+    mpc_tick_whiten_rows(t->arg, t->out, t->iw, t->w, 0);
   }
   t->arg[0] = t->inverse;
   t->arg[1] = t->gradient;
@@ -225,7 +262,7 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
 /* daqp on the rows prepare wrote: its exit flag (the step in t->y). */
 static int solve(mpc_tick* t, double* iterations, double* seconds) {
   int i, flag, mask = UPDATE_v + UPDATE_d;
-  if (t->rebuilt) mask += UPDATE_M;     /* new whitened rows */
+  if (t->rebuilt || MPC_MOVING_ROWS) mask += UPDATE_M; /* new whitened rows */
   if (t->qp_cold) mask += UPDATE_sense; /* sense from t->sense: all inactive */
   reset_daqp_workspace(&t->work);
   flag = update_ldp(mask, &t->work);
@@ -293,12 +330,20 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   t->out[4] = t->poses;
   t->out[5] = t->plan_next;
   t->out[6] = t->memory_next;
+#if MPC_STEER
+  t->arg[6] = t->steer;
+  t->out[7] = t->steer_next;
+#endif
   mpc_tick_finish(t->arg, t->out, t->iw, t->w, 0);
   t->warm = t->status == 0.0;
   if (!t->warm) forget(t);
   memcpy(t->last, t->twist, sizeof(t->last));
   memcpy(t->plan, t->plan_next, sizeof(t->plan));
   memcpy(t->memory, t->memory_next, sizeof(t->memory));
+#if MPC_STEER
+  memcpy(t->steer, t->steer_next, sizeof(t->steer));
+  memcpy(out + MPC_OUT_STEER, t->steer, sizeof(t->steer));
+#endif
   out[MPC_OUT_STATUS] = t->status;
   out[MPC_OUT_FLAG] = flag;
   out[MPC_OUT_ITERATIONS] = iterations;
