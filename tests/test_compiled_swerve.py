@@ -18,6 +18,7 @@ for a few ticks. Hence :data:`LIBRARY_TOLERANCE` for the library against the oth
 
 from __future__ import annotations
 
+import ctypes
 import math
 import shutil
 import subprocess
@@ -32,6 +33,7 @@ from tick_loop import DT, HORIZON, TICKS, Broken, plant_step, same_reuse_rule
 
 import mpc
 import mpc.robots.wheels.swerve.limits as swerve_limits
+import mpc.tick.build
 from mpc import Command, Controller, ControllerError, Status
 from mpc.control.clamp import clamp_command
 from mpc.control.lookahead import Lookahead
@@ -290,3 +292,35 @@ def test_the_exported_swerve_library_gives_the_compiled_ticks_commands(tmp_path:
         np.testing.assert_allclose(row[1:], values, rtol=0, atol=1e-9, err_msg=str(tick))
         np.testing.assert_allclose(row[4:8], reference.wheel_speeds, rtol=0,
                                    atol=LIBRARY_TOLERANCE)
+
+
+def test_the_row_whitening_in_c_is_the_graphs() -> None:
+    """``tick.c``'s ``mpc_tick_whiten_moving`` (swerve's rows whitened every tick) against
+    the generated ``mpc_tick_whiten_rows`` in the same library, on seeded random factors and
+    rows: the same numbers (each entry summed in the same order)."""
+    robot = preset("swerve")
+    controller = Controller(robot, FigureEight(1.0, 16.0), horizon=HORIZON, dt=DT,
+                            compiled=True)
+    assert controller._compiled is not None
+    graphs = controller._compiled.graphs
+    library, private = mpc.tick.build.compiled_library(graphs)
+    lib = ctypes.CDLL(str(library))
+    if private:
+        library.unlink()
+    function = graphs.whiten_rows
+    sizes = [ctypes.c_longlong() for _ in range(4)]
+    lib.mpc_tick_whiten_rows_work(*[ctypes.byref(size) for size in sizes])
+    rng = np.random.default_rng(7)
+    inverse, values = rng.normal(size=function.nnz_in(0)), rng.normal(size=function.nnz_in(1))
+    expected, got = np.zeros(function.nnz_out(0)), np.full(function.nnz_out(0), np.nan)
+    arguments = (ctypes.c_void_p * max(sizes[0].value, 2))(inverse.ctypes.data,
+                                                           values.ctypes.data)
+    results = (ctypes.c_void_p * max(sizes[1].value, 1))(expected.ctypes.data)
+    iw = np.zeros(max(sizes[2].value, 1), dtype=np.int64)
+    w = np.zeros(max(sizes[3].value, 1))
+    lib.mpc_tick_whiten_rows.argtypes = [ctypes.c_void_p] * 4 + [ctypes.c_int]
+    assert lib.mpc_tick_whiten_rows(arguments, results, iw.ctypes.data, w.ctypes.data, 0) == 0
+    lib.mpc_tick_whiten_moving.argtypes = [ctypes.c_void_p] * 3
+    lib.mpc_tick_whiten_moving(inverse.ctypes.data, values.ctypes.data, got.ctypes.data)
+    np.testing.assert_array_equal(got, expected)
+    assert np.abs(expected).max() > 0

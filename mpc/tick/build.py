@@ -67,6 +67,11 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
         "MPC_STEER": graphs.steer,
     }
     offsets = ", ".join(f"{value!r}" for value in graphs.offsets)
+    moving = []  # swerve: the moving rows' sparsity (column by column), for tick.c's whitening
+    if graphs.moving_rows:
+        pattern = graphs.whiten_rows.sparsity_in(1)
+        moving = [f"#define MPC_ROWS_COLIND {{{', '.join(map(str, pattern.colind()))}}}",
+                  f"#define MPC_ROWS_ROW {{{', '.join(map(str, pattern.row()))}}}"]
     config = ["/* Sizes of the generated tick (mpc/tick/build.py). */",
               "#ifndef MPC_TICK_CONFIG_H", "#define MPC_TICK_CONFIG_H",
               *(f"#define {name} {value}" for name, value in sizes.items()),
@@ -74,7 +79,7 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
               f"#define MPC_DT {graphs.tick!r}",
               f"#define MPC_STAGE_OFFSETS {{{offsets}}}",
               *([f"#define MPC_ROW_STATE_START {{{', '.join(map(repr, graphs.row_state))}}}"]
-                if graphs.row_state else []), "#endif", ""]
+                if graphs.row_state else []), *moving, "#endif", ""]
     (folder / "mpc_tick_config.h").write_text("\n".join(config))
     shutil.copyfile(TICK_SOURCE, folder / "tick.c")
     shutil.copyfile(TICK_HEADER, folder / "mpc_tick.h")

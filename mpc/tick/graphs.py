@@ -171,7 +171,7 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
     kept = ca.SX.sym("kept", terms_size(n))
     terms, drift = reuse_terms(sensitivities, steps, kept, model.dt,
                                isotropic_cost(condenser, constant_cost))
-    rows = ca.DM(condenser.constraints)
+    rows: ca.DM | ca.SX = ca.DM(condenser.constraints)
     moving: list[ca.SX] = []
     if steering is not None:  # the faces turned to the guess (mpc.tick.steered)
         rows, next_state = steering.rows(condenser.constraints, row_state, guess)

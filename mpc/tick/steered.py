@@ -103,7 +103,8 @@ class Steering:
         self.horizon = len(change_times)
         self._bases = np.asarray(self.limits.memory["kept_bases"])  # (n, 2, 3 FACES)
         self._floor = np.asarray(self.limits.memory["floor"])  # (n,)
-        self._pinv = np.asarray(robot._flat_pinv)  # (3, 2n): the forward kinematics
+        # (3, 2n): the forward kinematics, as the robot's (Robot._flat_pinv: the same call)
+        self._pinv = np.linalg.pinv(robot.wheel_blocks.reshape(-1, 3))
         self._reach = modules.steer_rate * self.dt * (1.0 - 1e-9)  # as _clamp_planar's
         accel = modules.accel
         snap = modules.snap

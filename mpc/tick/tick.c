@@ -194,6 +194,33 @@ static void lower_inverse(const double* l, double* x) {
   }
 }
 
+#if MPC_MOVING_ROWS
+static const int rows_colind[MPC_NV + 1] = MPC_ROWS_COLIND;
+static const int rows_row[MPC_MOVING_ROWS] = MPC_ROWS_ROW;
+
+/* Swerve's rows in whitened steps, A L^{-T} row-major as daqp reads them, from A's
+ * nonzeros (``values``, column by column: prepare's ``rows``) and L^{-1} (packed column by
+ * column): mpc_tick_whiten_rows' arithmetic, each entry summed in the same order, as
+ * axpys along L^{-1}'s columns. The rows move every tick, and the generated sparse product
+ * took about 0.5 ms a call at N = 20 (docs/guide/compiled-tick.md, "Swerve"); this loop is
+ * tested against it (tests/test_compiled_swerve.py). */
+void mpc_tick_whiten_moving(const double* inverse, const double* values, double* rows);
+void mpc_tick_whiten_moving(const double* inverse, const double* values, double* rows) {
+  int c, k, i, start = 0;
+  memset(rows, 0, sizeof(double) * MPC_NV * MPC_M);
+  for (c = 0; c < MPC_NV; c++) {
+    const double* column = inverse + start; /* L^{-1}[c.., c] */
+    const int length = MPC_NV - c;
+    for (k = rows_colind[c]; k < rows_colind[c + 1]; k++) {
+      double* out = rows + rows_row[k] * MPC_NV + c;
+      const double a = values[k];
+      for (i = 0; i < length; i++) out[i] += a * column[i];
+    }
+    start += length;
+  }
+}
+#endif
+
 /* The factor, regularised as the Python path regularises a Hessian that is not positive
  * definite (1e-9 of its trace on the diagonal); NaN if that fails too (the QP fails). */
 static void cholesky(const double* h, double* l) {
@@ -246,12 +273,13 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
     t->kept = 1;
   }
   if (t->rebuilt || (MPC_MOVING_ROWS && planned)) { /* moving rows: every tick */
-    t->arg[0] = t->inverse;
 #if MPC_MOVING_ROWS
-    t->arg[1] = t->row_values;
-#endif
+    mpc_tick_whiten_moving(t->inverse, t->row_values, t->rows);
+#else
+    t->arg[0] = t->inverse;
     t->out[0] = t->rows;
     mpc_tick_whiten_rows(t->arg, t->out, t->iw, t->w, 0);
+#endif
   }
   t->arg[0] = t->inverse;
   t->arg[1] = t->gradient;
