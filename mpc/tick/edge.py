@@ -195,9 +195,9 @@ class CompiledTick:
         self._log(failures, failure or _SOLVER_STATUS.get(flag, f"daqp exit flag {flag}"))
         speeds = TWIST + 3
         twist = out[TWIST:speeds].copy()
-        start = speeds + self._wheels  # the plan's poses, then (swerve) the steer angles
-        plan = out[start:start + 3 * (self._horizon + 1)].reshape(self._horizon + 1, 3).copy()
-        steer = out[start + plan.size:].copy() if self.graphs.steer else None
+        at = speeds + self._wheels  # the plan's poses, then (swerve) the steer angles
+        plan = out[at:at + 3 * (self._horizon + 1)].reshape(self._horizon + 1, 3).copy()
+        steer = out[at + plan.size:].copy() if self.graphs.steer else None
         return Command(
             wheel_speeds=out[speeds:speeds + self._wheels].copy(), twist=twist,
             steer_angles=steer, predicted_poses=plan, status=status,
