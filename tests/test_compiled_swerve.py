@@ -134,6 +134,7 @@ def test_compiled_swerve_matches_the_python_tick(name: str) -> None:
     assert_same(got_virtual, got, LIBRARY_TOLERANCE)
     assert_safe(got)
     assert_safe(got_virtual)
+    assert all(0.0 < command.tick_time < 1.0 for command in got + got_virtual)  # [s]
     if "beyond" in name:  # the plans ride the limits, the clamp steps in
         assert sum(command.clamped for command in expected) > TICKS // 4
 
@@ -297,7 +298,8 @@ def test_the_exported_swerve_library_gives_the_compiled_ticks_commands(tmp_path:
 def test_the_row_whitening_in_c_is_the_graphs() -> None:
     """``tick.c``'s ``mpc_tick_whiten_moving`` (swerve's rows whitened every tick) against
     the generated ``mpc_tick_whiten_rows`` in the same library, on seeded random factors and
-    rows: the same numbers (each entry summed in the same order)."""
+    rows: the same numbers (each entry summed in the same order), every row at once and, the
+    factor kept, the moving rows only (the others left as they were)."""
     robot = preset("swerve")
     controller = Controller(robot, FigureEight(1.0, 16.0), horizon=HORIZON, dt=DT,
                             compiled=True)
@@ -320,7 +322,15 @@ def test_the_row_whitening_in_c_is_the_graphs() -> None:
     w = np.zeros(max(sizes[3].value, 1))
     lib.mpc_tick_whiten_rows.argtypes = [ctypes.c_void_p] * 4 + [ctypes.c_int]
     assert lib.mpc_tick_whiten_rows(arguments, results, iw.ctypes.data, w.ctypes.data, 0) == 0
-    lib.mpc_tick_whiten_moving.argtypes = [ctypes.c_void_p] * 3
-    lib.mpc_tick_whiten_moving(inverse.ctypes.data, values.ctypes.data, got.ctypes.data)
+    lib.mpc_tick_whiten_moving.argtypes = [ctypes.c_void_p] * 3 + [ctypes.c_int]
+    lib.mpc_tick_whiten_moving(inverse.ctypes.data, values.ctypes.data, got.ctypes.data, 1)
     np.testing.assert_array_equal(got, expected)
     assert np.abs(expected).max() > 0
+    # new values of the moving rows' entries (the others are constants), the factor kept
+    pattern = function.sparsity_in(1)
+    moves = np.array(graphs.rows_move)[np.array(pattern.row())]
+    values[moves] = rng.normal(size=int(moves.sum()))
+    assert lib.mpc_tick_whiten_rows(arguments, results, iw.ctypes.data, w.ctypes.data, 0) == 0
+    lib.mpc_tick_whiten_moving(inverse.ctypes.data, values.ctypes.data, got.ctypes.data, 0)
+    np.testing.assert_array_equal(got, expected)
+    assert 0 < sum(graphs.rows_move) < len(graphs.rows_move)

@@ -71,7 +71,8 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
     if graphs.moving_rows:
         pattern = graphs.whiten_rows.sparsity_in(1)
         moving = [f"#define MPC_ROWS_COLIND {{{', '.join(map(str, pattern.colind()))}}}",
-                  f"#define MPC_ROWS_ROW {{{', '.join(map(str, pattern.row()))}}}"]
+                  f"#define MPC_ROWS_ROW {{{', '.join(map(str, pattern.row()))}}}",
+                  f"#define MPC_ROWS_MOVE {{{', '.join(str(int(x)) for x in graphs.rows_move)}}}"]
     config = ["/* Sizes of the generated tick (mpc/tick/build.py). */",
               "#ifndef MPC_TICK_CONFIG_H", "#define MPC_TICK_CONFIG_H",
               *(f"#define {name} {value}" for name, value in sizes.items()),

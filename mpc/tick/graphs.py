@@ -121,6 +121,9 @@ class TickGraphs:
     moving_rows: int = 0
     row_state: tuple[float, ...] = ()
     steer: int = 0
+    #: Swerve: which of the ``rows`` move (the speed faces; the acceleration polygon's do
+    #: not: whitened again only with a new Hessian).
+    rows_move: tuple[bool, ...] = ()
 
 
 def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
@@ -219,7 +222,8 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
                       tuple(float(x) for x in model.offsets), float(tick),
                       rows.nnz() if moving else 0,
                       () if steering is None else steering.state,
-                      0 if steering is None else steering.wheels)
+                      0 if steering is None else steering.wheels,
+                      () if steering is None else steering.rows_move(m))
 
 
 def _hessian_graph(model: TrackingModel, cost: ca.DM, carry_size: int) -> ca.Function:

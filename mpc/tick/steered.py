@@ -119,6 +119,11 @@ class Steering:
 
     # -- prepare: the rows ------------------------------------------------------------
 
+    def rows_move(self, size: int) -> tuple[bool, ...]:
+        """Which of the ``size`` condensed rows move (each stage's speed faces, first)."""
+        m, faces = self.limits.rows, self.wheels * FACES
+        return tuple(row < self.horizon * m and row % m < faces for row in range(size))
+
     def rows(self, template: FloatArray, directions: ca.SX, guess: ca.SX
              ) -> tuple[ca.SX, ca.SX]:
         """The condensed limit rows with each module's faces turned to its velocity in

@@ -197,22 +197,30 @@ static void lower_inverse(const double* l, double* x) {
 #if MPC_MOVING_ROWS
 static const int rows_colind[MPC_NV + 1] = MPC_ROWS_COLIND;
 static const int rows_row[MPC_MOVING_ROWS] = MPC_ROWS_ROW;
+static const unsigned char rows_move[MPC_M] = MPC_ROWS_MOVE;
 
 /* Swerve's rows in whitened steps, A L^{-T} row-major as daqp reads them, from A's
  * nonzeros (``values``, column by column: prepare's ``rows``) and L^{-1} (packed column by
  * column): mpc_tick_whiten_rows' arithmetic, each entry summed in the same order, as
- * axpys along L^{-1}'s columns. The rows move every tick, and the generated sparse product
- * took about 0.5 ms a call at N = 20 (docs/guide/compiled-tick.md, "Swerve"); this loop is
- * tested against it (tests/test_compiled_swerve.py). */
-void mpc_tick_whiten_moving(const double* inverse, const double* values, double* rows);
-void mpc_tick_whiten_moving(const double* inverse, const double* values, double* rows) {
+ * axpys along L^{-1}'s columns; every row (``every``: a new L^{-1}) or only the rows that
+ * move (the speed faces; ``rows`` holds the others, whitened by this L^{-1}). The rows move
+ * every tick, and the generated sparse product took about 0.5 ms a call at N = 20
+ * (docs/guide/compiled-tick.md, "Swerve"); this loop is tested against it
+ * (tests/test_compiled_swerve.py). */
+void mpc_tick_whiten_moving(const double* inverse, const double* values, double* rows,
+                            int every);
+void mpc_tick_whiten_moving(const double* inverse, const double* values, double* rows,
+                            int every) {
   int c, k, i, start = 0;
-  memset(rows, 0, sizeof(double) * MPC_NV * MPC_M);
+  for (i = 0; i < MPC_M; i++)
+    if (every || rows_move[i]) memset(rows + i * MPC_NV, 0, sizeof(double) * MPC_NV);
   for (c = 0; c < MPC_NV; c++) {
     const double* column = inverse + start; /* L^{-1}[c.., c] */
     const int length = MPC_NV - c;
     for (k = rows_colind[c]; k < rows_colind[c + 1]; k++) {
-      double* out = rows + rows_row[k] * MPC_NV + c;
+      double* out;
+      if (!every && !rows_move[rows_row[k]]) continue;
+      out = rows + rows_row[k] * MPC_NV + c;
       const double a = values[k];
       for (i = 0; i < length; i++) out[i] += a * column[i];
     }
@@ -274,7 +282,7 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
   }
   if (t->rebuilt || (MPC_MOVING_ROWS && planned)) { /* moving rows: every tick */
 #if MPC_MOVING_ROWS
-    mpc_tick_whiten_moving(t->inverse, t->row_values, t->rows);
+    mpc_tick_whiten_moving(t->inverse, t->row_values, t->rows, t->rebuilt);
 #else
     t->arg[0] = t->inverse;
     t->out[0] = t->rows;
