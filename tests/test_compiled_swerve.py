@@ -266,7 +266,8 @@ def test_the_exported_swerve_library_gives_the_compiled_ticks_commands(tmp_path:
     """``mpc.export_c`` of a swerve controller, built with CMake: its example program, fed
     the recorded ticks beyond the limits, gives the compiled tick's statuses, twists, wheel
     speeds and steer angles to 1e-9 (the same C and the same daqp), the Python tick's to
-    :data:`LIBRARY_TOLERANCE`."""
+    :data:`LIBRARY_TOLERANCE`; built with AddressSanitizer and UndefinedBehaviorSanitizer
+    (any report fatal), it runs the same ticks clean and gives the same commands."""
     trajectory = FigureEight(1.0, 6.0, heading="tangent")
     poses, expected = record(trajectory)
     compiled = Controller(preset("swerve"), trajectory, horizon=HORIZON, dt=DT, compiled=True)
@@ -293,6 +294,21 @@ def test_the_exported_swerve_library_gives_the_compiled_ticks_commands(tmp_path:
         np.testing.assert_allclose(row[1:], values, rtol=0, atol=1e-9, err_msg=str(tick))
         np.testing.assert_allclose(row[4:8], reference.wheel_speeds, rtol=0,
                                    atol=LIBRARY_TOLERANCE)
+    casadi = Path(mpc.tick.build.casadi_folder())
+    sanitized = tmp_path / "sanitized"
+    built = subprocess.run(
+        ["gcc", "-g", "-O0", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
+         *(str(source / name) for name in ("main.c", "tick.c", "mpc_tick_graphs.c")),
+         f"-I{source}", f"-I{casadi / 'include'}", f"-L{casadi}", "-l:libdaqpstat.a", "-lm",
+         "-o", str(sanitized)], capture_output=True, text=True)
+    if built.returncode != 0:
+        pytest.skip(f"no sanitizer runtime here: {built.stderr.strip()[-200:]}")
+    done = subprocess.run([str(sanitized)], input="\n".join(lines) + "\n",
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "runtime error" not in done.stderr
+    again = np.array([line.split() for line in done.stdout.splitlines()], dtype=float)
+    np.testing.assert_allclose(again, rows, rtol=0, atol=1e-9)
 
 
 def test_the_row_whitening_in_c_is_the_graphs() -> None:

@@ -38,7 +38,9 @@ limits (:func:`~mpc.control.clamp.clamp_command`'s scalar-wheel steps), all as
 expressions.
 
 Scope of this slice: constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with
-no failed wheel and no motor model, time mode (:mod:`mpc.tick.support`).
+no failed wheel and no motor model, and swerve robots without axle offset, steering range,
+failed module or motor model (their rows, clamp and commands from
+:mod:`mpc.tick.steered`), time mode (:mod:`mpc.tick.support`).
 """
 
 from __future__ import annotations
