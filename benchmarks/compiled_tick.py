@@ -2,10 +2,10 @@
 :mod:`mpc.tick`) beside the same with its Hessian rebuilt every tick (no reuse,
 :data:`mpc.tick.reuse.REBUILD_DRIFT` below 0), the Python tick (daqp), the compiled tick's
 virtual-machine path and the project's IPOPT path, on the scenarios it supports
-(constant-Jacobian layouts, time mode), inside and beyond the limits: the same ticks on the same
-ideal plant, every controller built once and run ``rounds`` times in turns (the order
-rotated each round) so that their ratios are taken under the same load; tick times pooled
-over the rounds, errors from the first round.
+(constant-Jacobian layouts and swerve, time mode), inside and beyond the limits: the same
+ticks on the same ideal plant, every controller built once and run ``rounds`` times in
+turns (the order rotated each round) so that their ratios are taken under the same load;
+tick times pooled over the rounds, errors from the first round.
 """
 
 from __future__ import annotations

@@ -189,7 +189,7 @@ def test_reset_and_a_new_trajectory_start_over() -> None:
 
 
 @pytest.mark.parametrize("options, named", [
-    ({"robot": "swerve"}, "swerve"),
+    ({"robot": "mpo700"}, "mpo700"),
     ({"mode": "path"}, "mode='path'"),
     ({"solver": "osqp"}, "solver='osqp'"),
     ({"delay_ticks": 1}, "delay_ticks=1"),
@@ -253,16 +253,18 @@ int main(void) {
 """
 
 
-def test_the_compiled_step_allocates_nothing(tmp_path: Path) -> None:
+@pytest.mark.parametrize("robot_name", ["mecanum", "swerve"])
+def test_the_compiled_step_allocates_nothing(tmp_path: Path, robot_name: str) -> None:
     """The generated sources and tick.c built with malloc, calloc and realloc wrapped (daqp's
     static library included): 200 steps after mpc_tick_init allocate nothing."""
     compiler = shutil.which("gcc")
     if compiler is None:
         pytest.skip("no gcc")
-    robot = preset("mecanum")
+    robot = preset(robot_name)
     controller = Controller(robot, FigureEight(1.0, 16.0), horizon=HORIZON, dt=DT)
-    assert robot.scalar_wheels is not None
-    sources = write_sources(build_graphs(controller.model, robot.scalar_wheels, DT), tmp_path)
+    wheels = robot.scalar_wheels or robot.planar_modules
+    assert wheels is not None
+    sources = write_sources(build_graphs(controller.model, wheels, DT), tmp_path)
     (tmp_path / "harness.c").write_text(HARNESS)
     casadi = casadi_folder()
     wraps = [f"-Wl,--wrap={name}" for name in ("malloc", "calloc", "realloc")]
@@ -284,13 +286,14 @@ def test_perf_shows_the_compiled_tick_beside_the_others(tmp_path: Path,
     """``mpc-bench perf --sections compiled``: rows of the compiled tick, the Python tick,
     the virtual machine, the compiled tick rebuilding its Hessian every tick and the IPOPT
     path on the same ticks, with their ratios; a layout
-    it does not cover is skipped with one line (at N = 8 here, for a quick build)."""
+    it does not cover (axle-offset swerve) is skipped with one line (at N = 8 here, for a
+    quick build)."""
     monkeypatch.setattr(perf, "REFERENCE_HORIZON", HORIZON)
-    assert main(["perf", "--sections", "compiled", "--layouts", "mecanum,swerve",
+    assert main(["perf", "--sections", "compiled", "--layouts", "mecanum,mpo700",
                  "--speeds", "beyond", "--ipopt-ticks", "20", "--peer-rounds", "1",
                  "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "swerve   beyond  skipped: compiled tick: robot 'swerve'" in out
+    assert "mpo700   beyond  skipped: compiled tick: robot 'mpo700' (swerve with axle" in out
     rows = [row for row in json.loads((tmp_path / "perf.json").read_text())["rows"]
             if row["section"] == "compiled"]
     assert {row["solver"] for row in rows} == {"compiled", "compiled-rebuild", "python",

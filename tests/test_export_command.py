@@ -100,9 +100,9 @@ def test_export_refuses_to_overwrite_and_names_what_it_covers(
     assert "--force" in capsys.readouterr().err
     assert main([*arguments, "--force"]) == 0
     capsys.readouterr()
-    assert main(["export", "swerve", "--out", str(tmp_path / "swerve"),
+    assert main(["export", "mpo700", "--out", str(tmp_path / "mpo700"),
                  "--horizon", str(HORIZON)]) == 2
     error = capsys.readouterr().err
-    assert "robot 'swerve'" in error and "supports constant-Jacobian" in error
+    assert "robot 'mpo700'" in error and "axle offset" in error and "supports " in error
     assert main(["export", "nonesuch", "--out", str(tmp_path / "x")]) == 2
     assert "unknown robot preset 'nonesuch'" in capsys.readouterr().err

@@ -156,9 +156,10 @@ class Controller:
             is used modulo whole turns, so wrapping a multi-turn one
             (``math.remainder(theta, 2 * math.pi)``) changes no command.
         compiled: run the tick as one program (:mod:`mpc.tick`, opt-in; constant-Jacobian
-            robots, time mode, ``solver="daqp"`` for now, else a ControllerError naming what
-            is supported): ``True`` compiles it to C (seconds the first time, then cached)
-            and runs CasADi's virtual machine where no compiler works;
+            robots and swerve without axle offset or steering range, time mode,
+            ``solver="daqp"`` for now, else a ControllerError naming what is supported):
+            ``True`` compiles it to C (seconds the first time, then cached) and runs
+            CasADi's virtual machine where no compiler works;
             ``"virtual-machine"`` runs the virtual machine. The same commands as the Python
             tick under the same Hessian-reuse rule (docs/guide/compiled-tick.md).
             :attr:`tick_path` says which path runs.
@@ -206,6 +207,7 @@ class Controller:
         self._first_tick = True  # a start from rest: the heading is checked once
         self.mode = check_mode(mode, time_scaling)
         self.stage_dt = check_stage_dt(stage_dt, self.dt, self.mode)
+        self.polygon_sides = polygon_sides  # (checked by the solver; read by mpc.tick)
         rate = check_progress_rate(max_progress_rate)
         self.weights = make_weights(weights)
         self.model = TrackingModel(robot, self.horizon, self.stage_dt, self.weights,
@@ -246,7 +248,7 @@ class Controller:
 
             check_compiled(compiled)
             self._compiled = CompiledTick(self, compiled, max_iter, time_limit)
-            self._compiled.reset(self._last)
+            self._compiled.reset(self._last, self._steer)
 
     @property
     def tick_path(self) -> str:
@@ -334,7 +336,7 @@ class Controller:
         self._timing.reset()
         self.solver.reset()
         if self._compiled is not None:
-            self._compiled.reset(last)
+            self._compiled.reset(last, self._steer)
 
     @checked_arguments(ControllerError)
     def step(self, pose: ArrayLike, t: float, steer_angles: ArrayLike | None = None) -> Command:
@@ -350,6 +352,8 @@ class Controller:
         if self._compiled is not None:
             command = self._compiled.step(pose, t, steer_angles)
             self._last = command.twist
+            if command.steer_angles is not None:  # swerve: the angles commanded
+                self._steer = command.steer_angles
             return command
         start = time.perf_counter()
         profile = self._profile

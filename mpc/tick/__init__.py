@@ -8,7 +8,7 @@ part (daqp's workspace kept between ticks, the dense Cholesky factor),
 :mod:`mpc.tick.reuse` when the Hessian kept across ticks is rebuilt,
 :mod:`mpc.tick.build` the compiler and the cache, :mod:`mpc.tick.runners` the two ways to
 run it, :mod:`mpc.tick.edge` the Python around it, :mod:`mpc.tick.support` what it
-covers.
+covers, :mod:`mpc.tick.steered` swerve's rows, clamp and module commands.
 """
 
 from __future__ import annotations

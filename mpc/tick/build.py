@@ -61,14 +61,26 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
         "MPC_SZ_RES": max(f.sz_res() for f in functions),
         "MPC_SZ_IW": max(max(f.sz_iw() for f in functions), 1),
         "MPC_SZ_W": max(max(f.sz_w() for f in functions), 1),
+        # swerve (mpc/tick/steered.py): rows that move every tick (their nonzeros), the
+        # rows' state (the faces' directions), the steer angles; 0 for other robots
+        "MPC_MOVING_ROWS": graphs.moving_rows, "MPC_ROW_STATE": len(graphs.row_state),
+        "MPC_STEER": graphs.steer,
     }
     offsets = ", ".join(f"{value!r}" for value in graphs.offsets)
+    moving = []  # swerve: the moving rows' sparsity (column by column), for tick.c's whitening
+    if graphs.moving_rows:
+        pattern = graphs.whiten_rows.sparsity_in(1)
+        moving = [f"#define MPC_ROWS_COLIND {{{', '.join(map(str, pattern.colind()))}}}",
+                  f"#define MPC_ROWS_ROW {{{', '.join(map(str, pattern.row()))}}}",
+                  f"#define MPC_ROWS_MOVE {{{', '.join(str(int(x)) for x in graphs.rows_move)}}}"]
     config = ["/* Sizes of the generated tick (mpc/tick/build.py). */",
               "#ifndef MPC_TICK_CONFIG_H", "#define MPC_TICK_CONFIG_H",
               *(f"#define {name} {value}" for name, value in sizes.items()),
               "/* the control tick [s]; each stage's start from the window's [s] */",
               f"#define MPC_DT {graphs.tick!r}",
-              f"#define MPC_STAGE_OFFSETS {{{offsets}}}", "#endif", ""]
+              f"#define MPC_STAGE_OFFSETS {{{offsets}}}",
+              *([f"#define MPC_ROW_STATE_START {{{', '.join(map(repr, graphs.row_state))}}}"]
+                if graphs.row_state else []), *moving, "#endif", ""]
     (folder / "mpc_tick_config.h").write_text("\n".join(config))
     shutil.copyfile(TICK_SOURCE, folder / "tick.c")
     shutil.copyfile(TICK_HEADER, folder / "mpc_tick.h")

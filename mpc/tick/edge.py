@@ -60,6 +60,7 @@ class Owner(Protocol):
     delay_ticks: int
     command_ramp: bool
     allow_unusual: bool
+    polygon_sides: int | None
 
     @property
     def solver(self) -> TrackingSolver: ...
@@ -104,7 +105,8 @@ class CompiledTick:
         check_compiled(compiled)
         robot = controller.robot
         wheels = check_supported(robot, controller.solver.name, controller.mode,
-                                 controller.delay_ticks, controller.command_ramp, time_limit)
+                                 controller.delay_ticks, controller.command_ramp, time_limit,
+                                 controller.polygon_sides)
         self._controller = controller
         graphs = build_graphs(controller.model, wheels, controller.dt)
         #: The tick's graphs (:func:`~mpc.tick.graphs.build_graphs`).
@@ -148,10 +150,13 @@ class CompiledTick:
         """``"compiled"`` or ``"virtual-machine"``: what runs the tick."""
         return self._runner.path
 
-    def reset(self, last: FloatArray) -> None:
+    def reset(self, last: FloatArray, steer_angles: FloatArray | None = None) -> None:
         """Forget the plan, failures and active set; ``last`` (3,) the twist executing
-        (the controller's, checked and scaled into the limits by its ``reset``)."""
+        (the controller's, checked and scaled into the limits by its ``reset``); swerve:
+        ``steer_angles`` (n,) [rad], the modules' angles now (kept if None)."""
         self._runner.reset(np.asarray(last, dtype=float))
+        if steer_angles is not None and self.graphs.steer:
+            self._runner.set_steer(np.asarray(steer_angles, dtype=float))
         self._first_tick = not np.asarray(last).any()
         self._failures = 0
 
@@ -190,10 +195,12 @@ class CompiledTick:
         self._log(failures, failure or _SOLVER_STATUS.get(flag, f"daqp exit flag {flag}"))
         speeds = TWIST + 3
         twist = out[TWIST:speeds].copy()
-        plan = out[speeds + self._wheels:].reshape(self._horizon + 1, 3).copy()
+        at = speeds + self._wheels  # the plan's poses, then (swerve) the steer angles
+        plan = out[at:at + 3 * (self._horizon + 1)].reshape(self._horizon + 1, 3).copy()
+        steer = out[at + plan.size:].copy() if self.graphs.steer else None
         return Command(
             wheel_speeds=out[speeds:speeds + self._wheels].copy(), twist=twist,
-            steer_angles=None, predicted_poses=plan, status=status,
+            steer_angles=steer, predicted_poses=plan, status=status,
             solver_status=(failure if flag == UNPLANNED and failure
                            else _SOLVER_STATUS.get(flag, f"daqp exit flag {flag}")),
             solve_time=float(out[SOLVE_TIME]), tick_time=time.perf_counter() - start,

@@ -138,7 +138,9 @@ _MAIN = """\
 /* Example: the exported controller (its max_iter and budget) fed recorded ticks. Each
  * line of stdin is one tick: the measured pose (3 numbers), then the reference's poses
  * and world velocities at the stage times (3 (MPC_N + 1) numbers each, a stage's three
- * together). Each line of stdout: the status, the twist (3) and the wheel speeds. */
+ * together). Each line of stdout: the status, the twist (3), the wheel speeds and (swerve)
+ * the steer angles. Swerve modules start straight ahead; each step starts from the angles
+ * the last commanded (mpc_tick_set_steer_angles sets measured ones). */
 #include <stdio.h>
 
 #include "mpc_tick.h"
@@ -161,6 +163,7 @@ int main(void) {
     mpc_tick_step(tick, line, line + 3, line + 3 + 3 * (MPC_N + 1), out);
     printf("%d", (int)out[MPC_OUT_STATUS]);
     for (i = 0; i < 3 + MPC_W; i++) printf(" %.17g", out[MPC_OUT_TWIST + i]);
+    for (i = 0; i < MPC_STEER; i++) printf(" %.17g", out[MPC_OUT_STEER + i]);
     printf("\\n");
   }
 }
@@ -209,6 +212,12 @@ conventions).
 fallbacks, in order), `MPC_OUT_FLAG` (daqp's exit flag; -1000: the reference had a NaN),
 `MPC_OUT_ITERATIONS`, `MPC_OUT_SOLVE_TIME` [s], `MPC_OUT_CLAMPED`, `MPC_OUT_FAILURES`,
 `MPC_OUT_REBUILT` (Hessians built this tick), `MPC_OUT_TWIST` (3), `MPC_OUT_SPEEDS`
-(MPC_W wheel speeds to send), `MPC_OUT_POSES` (the plan, 3 (N+1)). Every command is
-within every wheel's speed and acceleration limit.
+(MPC_W wheel speeds to send), `MPC_OUT_POSES` (the plan, 3 (N+1)), and for a swerve robot
+`MPC_OUT_STEER` (MPC_STEER steer angles [rad] in (-pi, pi] to send with the signed wheel
+speeds). Every command is within every wheel's speed and acceleration limit (and a swerve
+module's steering rate).
+
+Swerve (`MPC_STEER` > 0): each step starts from the steer angles the last one commanded
+(straight ahead after `mpc_tick_init`); `void mpc_tick_set_steer_angles(mpc_tick*, const
+double angles[MPC_STEER])` sets them before a step (measured angles, or after a reset).
 """

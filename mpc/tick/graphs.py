@@ -38,7 +38,9 @@ limits (:func:`~mpc.control.clamp.clamp_command`'s scalar-wheel steps), all as
 expressions.
 
 Scope of this slice: constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with
-no failed wheel and no motor model, time mode (:mod:`mpc.tick.support`).
+no failed wheel and no motor model, and swerve robots without axle offset, steering range,
+failed module or motor model (their rows, clamp and commands from
+:mod:`mpc.tick.steered`), time mode (:mod:`mpc.tick.support`).
 """
 
 from __future__ import annotations
@@ -52,11 +54,12 @@ import numpy as np
 from mpc.control.fallback import FallbackPolicy
 from mpc.model.grid import shift_maps
 from mpc.model.tracking import TrackingModel
-from mpc.robots.base import SPEED_SLACK, ScalarWheels
+from mpc.robots.base import SPEED_SLACK, PlanarModules, ScalarWheels
 from mpc.robots.drive.motor_limits import stage_limits
 from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
 from mpc.solvers.qp_structure import assemble_qp
 from mpc.tick.reuse import isotropic_cost, reuse_terms, terms_size
+from mpc.tick.steered import Steering
 
 #: ``prepare``'s guess modes: the reference's feedforward (no plan kept), the last plan
 #: moved on one tick, the last command held at every stage (a cold guess that failed).
@@ -112,13 +115,29 @@ class TickGraphs:
     terms: int
     offsets: tuple[float, ...] = ()  # each stage's start from the window's [s] (N+1)
     tick: float = 0.0  # the control tick [s]
+    #: Swerve (:mod:`mpc.tick.steered`): the rows move every tick. ``prepare`` then also
+    #: takes the steer angles (``steer``) and the rows' state (``state``, its start
+    #: ``row_state``) and gives the rows' nonzeros (``rows``, ``moving_rows`` of them) and
+    #: the next state; ``whiten_rows`` takes ``(inverse, rows)`` and runs every tick;
+    #: ``finish`` takes the steer angles last and gives the next ones last.
+    moving_rows: int = 0
+    row_state: tuple[float, ...] = ()
+    steer: int = 0
+    #: Swerve: which of the ``rows`` move (the speed faces; the acceleration polygon's do
+    #: not: whitened again only with a new Hessian).
+    rows_move: tuple[bool, ...] = ()
 
 
-def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> TickGraphs:
-    """The tick's graphs for ``model`` (time mode, a robot with :class:`ScalarWheels`: checked
-    by :func:`mpc.tick.support.check_supported`), control tick ``tick`` [s]."""
+def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
+                 tick: float) -> TickGraphs:
+    """The tick's graphs for ``model`` (time mode, a robot with :class:`ScalarWheels` or a
+    swerve robot with :class:`PlanarModules`: checked by
+    :func:`mpc.tick.support.check_supported`), control tick ``tick`` [s]."""
     n = model.horizon
-    limits = stage_limits(model.robot, model.change_times, None)
+    steering = (Steering(model.robot, wheels, model.change_times, tick)  # type: ignore[arg-type]
+                if isinstance(wheels, PlanarModules) else None)
+    limits = (steering.limits if steering is not None
+              else stage_limits(model.robot, model.change_times, None))
     structure = assemble_qp(model, limits)
     condenser = Condenser(model, structure)
     size, m = condenser.size, condenser.constraints.shape[0]
@@ -130,6 +149,8 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
     last = ca.SX.sym("last", 3)
     plan = ca.SX.sym("plan", 3, n)
     mode = ca.SX.sym("guess_mode")
+    steer = ca.SX.sym("steer_angles", 0 if steering is None else steering.wheels)
+    row_state = ca.SX.sym("state", 0 if steering is None else len(steering.state))
 
     # The reference heading moved by whole turns to within pi of the measured heading
     # (ReferenceWindow._unwrap), then its feedforward and directions.
@@ -138,7 +159,8 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
     feedforward, directions = model.reference_terms(unwrapped, ref_velocities)
     p = _parameters(parameters, {"x0": pose, "poses_ref": unwrapped,
                                  "twists_ref": feedforward, "directions": directions,
-                                 "last_twist": last})
+                                 "last_twist": last,
+                                 **({} if steering is None else {"steer_angles": steer})})
 
     _, twists_map = shift_maps(np.asarray(model.offsets, dtype=float), tick)
     shifted = plan @ ca.DM(twists_map).T  # (WarmStart.fill: twists_map @ plan, stage-major)
@@ -147,14 +169,18 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
 
     p_data, rollout, sensitivities, gradient, steps = tick_terms(
         model, structure.cost_terms)(p, guess)
-    inputs = ca.vertcat(pose, ca.vec(ref_poses), ca.vec(ref_velocities), last)
+    inputs = ca.vertcat(pose, ca.vec(ref_poses), ca.vec(ref_velocities), last, steer)
     if ca.depends_on(p_data, inputs):
         raise RuntimeError("the compiled tick needs a cost Hessian no parameter moves")
     constant_cost = ca.evalf(ca.substitute(p_data, inputs, ca.DM.zeros(inputs.shape)))
     kept = ca.SX.sym("kept", terms_size(n))
     terms, drift = reuse_terms(sensitivities, steps, kept, model.dt,
                                isotropic_cost(condenser, constant_cost))
-    rows = ca.DM(condenser.constraints)
+    rows: ca.DM | ca.SX = ca.DM(condenser.constraints)
+    moving: list[ca.SX] = []
+    if steering is not None:  # the faces turned to the guess (mpc.tick.steered)
+        rows, next_state = steering.rows(condenser.constraints, row_state, guess)
+        moving = [rows, next_state]
     first = condenser.first_row
     at_guess = rows @ ca.vec(guess)
     shift = ca.vertcat(ca.DM(limits.before[0]) @ last, ca.SX.zeros(m - limits.rows, 1))
@@ -162,12 +188,16 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
     upper = ca.DM(structure.upper[first:]) - at_guess - shift
     carry_parts = [rollout, sensitivities, steps, guess, feedforward, unwrapped]
     carry = ca.vertcat(*[ca.densify(ca.vec(part)) for part in carry_parts])
+    extra_in, extra_names = ([steer, row_state], ["steer", "state"]) if moving else ([], [])
     prepare = ca.Function(
-        "mpc_tick_prepare", [pose, ref_poses, ref_velocities, last, plan, mode, kept],
+        "mpc_tick_prepare",
+        [pose, ref_poses, ref_velocities, last, plan, mode, kept, *extra_in],
         [ca.densify(gradient), ca.densify(lower), ca.densify(upper), carry,
-         ca.densify(terms), drift],
-        ["pose", "ref_poses", "ref_velocities", "last", "plan", "guess_mode", "kept"],
-        ["gradient", "lower", "upper", "carry", "terms", "drift"], {"cse": True})
+         ca.densify(terms), drift, *moving],
+        ["pose", "ref_poses", "ref_velocities", "last", "plan", "guess_mode", "kept",
+         *extra_names],
+        ["gradient", "lower", "upper", "carry", "terms", "drift",
+         *(["rows", "next_state"] if moving else [])], {"cse": True})
     hessian = _hessian_graph(model, constant_cost, carry.shape[0])
 
     # L^{-1}: its lower triangle packed column by column (CasADi's lower-triangular input)
@@ -176,15 +206,26 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
     sparse_rows = ca.DM(ca.sparsify(ca.DM(condenser.constraints)))
     whiten = ca.Function("mpc_tick_whiten", [inverse, g], [ca.densify(inverse @ g)],
                          ["inverse", "gradient"], ["f"])
-    whiten_rows = ca.Function("mpc_tick_whiten_rows", [inverse],
-                              [ca.densify(inverse @ sparse_rows.T)], ["inverse"], ["rows_t"])
+    if moving:  # the rows prepare gives, their sparsity fixed
+        row_values = ca.MX.sym("rows", rows.sparsity())
+        whiten_rows = ca.Function("mpc_tick_whiten_rows", [inverse, row_values],
+                                  [ca.densify(inverse @ row_values.T)], ["inverse", "rows"],
+                                  ["rows_t"])
+    else:
+        whiten_rows = ca.Function("mpc_tick_whiten_rows", [inverse],
+                                  [ca.densify(inverse @ sparse_rows.T)], ["inverse"],
+                                  ["rows_t"])
     unwhiten = ca.Function("mpc_tick_unwhiten", [inverse, y],
                            [ca.densify((y.T @ inverse).T)], ["inverse", "y"], ["step"])
 
-    finish = _finish(model, wheels, tick, size, carry.shape[0])
+    finish = _finish(model, wheels, tick, size, carry.shape[0], steering)
     return TickGraphs(prepare, hessian, whiten, whiten_rows, unwhiten, finish, n, size, m,
                       len(wheels.limits), carry.shape[0], terms_size(n),
-                      tuple(float(x) for x in model.offsets), float(tick))
+                      tuple(float(x) for x in model.offsets), float(tick),
+                      rows.nnz() if moving else 0,
+                      () if steering is None else steering.state,
+                      0 if steering is None else steering.wheels,
+                      () if steering is None else steering.rows_move(m))
 
 
 def _hessian_graph(model: TrackingModel, cost: ca.DM, carry_size: int) -> ca.Function:
@@ -282,9 +323,11 @@ def _hessian_block() -> ca.Function:
                        [value], {"never_inline": True, "cse": True})
 
 
-def _finish(model: TrackingModel, wheels: ScalarWheels, tick: float, size: int,
-            carry_size: int) -> ca.Function:
-    """The graph after daqp and the unwhitening (module docstring)."""
+def _finish(model: TrackingModel, wheels: ScalarWheels | PlanarModules, tick: float,
+            size: int, carry_size: int, steering: Steering | None = None) -> ca.Function:
+    """The graph after daqp and the unwhitening (module docstring); ``steering``: swerve's
+    clamp and module commands (:mod:`mpc.tick.steered`), the steer angles an input and an
+    output."""
     n = model.horizon
     robot = model.robot
     step = ca.SX.sym("step", size)
@@ -293,6 +336,7 @@ def _finish(model: TrackingModel, wheels: ScalarWheels, tick: float, size: int,
     last = ca.SX.sym("last", 3)
     kept = ca.SX.sym("plan", 3, n)
     memory = ca.SX.sym("memory", 2)
+    steer = ca.SX.sym("steer_angles", 0 if steering is None else steering.wheels)
     parts, start = [], 0
     for rows, cols in ((3, n + 1), (9, n), (2, n), (3, n), (3, n), (3, n + 1)):
         parts.append(ca.reshape(carry[start:start + rows * cols], rows, cols))
@@ -314,26 +358,34 @@ def _finish(model: TrackingModel, wheels: ScalarWheels, tick: float, size: int,
     reference = feedforward[:, 0]
     use_plan = ca.logic_and(have_plan > 0, failures < horizon)
     use_feedforward = ca.logic_and(failures < 2 * horizon, _finite(ca.sum1(reference)))
+    desaturated = (steering.desaturated(reference) if steering is not None
+                   else _desaturated(wheels, reference))  # type: ignore[arg-type]
     target = ca.if_else(success, twists[:, 0], ca.if_else(
-        use_plan, from_plan, ca.if_else(use_feedforward, _desaturated(wheels, reference),
-                                        ca.SX.zeros(3))))
+        use_plan, from_plan, ca.if_else(use_feedforward, desaturated, ca.SX.zeros(3))))
     status = ca.if_else(success, SOLVED, ca.if_else(
         use_plan, PREVIOUS_PLAN, ca.if_else(use_feedforward, FEEDFORWARD, STOPPING)))
-    twist, changed = _clamped(wheels, target, last, tick)
+    twist, changed = (steering.clamped(target, last, steer) if steering is not None
+                      else _clamped(wheels, target, last, tick))  # type: ignore[arg-type]
     clamped = ca.logic_and(changed, ca.logic_or(ca.logic_or(twist[0] != target[0],
                                                             twist[1] != target[1]),
                                                 twist[2] != target[2]))
-    speeds = ca.DM(np.asarray(wheels.rows)) @ twist
+    steer_out: list[ca.SX] = []
+    if steering is not None:  # the modules' speeds and angles; the twist they drive
+        speeds, angles, twist = steering.commands(twist, target, steer)
+        steer_out = [angles]
+    else:
+        speeds = ca.DM(np.asarray(wheels.rows)) @ twist
     plan_out = ca.if_else(success, poses, ref_poses)
     plan_out = ca.if_else(_finite(ca.sum1(ca.sum2(plan_out))), plan_out,
                           ca.repmat(rollout[:, 0], 1, n + 1))
     stored = ca.if_else(success, twists, kept)
     memory_out = ca.vertcat(failures, ca.logic_or(success, have_plan > 0))
     return ca.Function(
-        "mpc_tick_finish", [step, flag, carry, last, kept, memory],
-        [status, twist, speeds, clamped, plan_out, stored, memory_out],
-        ["step", "flag", "carry", "last", "plan", "memory"],
-        ["status", "twist", "wheel_speeds", "clamped", "poses", "next_plan", "next_memory"],
+        "mpc_tick_finish", [step, flag, carry, last, kept, memory, *([steer] if steer_out else [])],
+        [status, twist, speeds, clamped, plan_out, stored, memory_out, *steer_out],
+        ["step", "flag", "carry", "last", "plan", "memory", *(["steer"] if steer_out else [])],
+        ["status", "twist", "wheel_speeds", "clamped", "poses", "next_plan", "next_memory",
+         *(["steer_angles"] if steer_out else [])],
         {"cse": True})
 
 

@@ -29,7 +29,8 @@ typedef struct mpc_tick mpc_tick;
 #define MPC_OUT_TWIST 7      /* the commanded twist (3) */
 #define MPC_OUT_SPEEDS (MPC_OUT_TWIST + 3)      /* the wheel speeds to send (MPC_W) */
 #define MPC_OUT_POSES (MPC_OUT_SPEEDS + MPC_W)  /* the plan's poses (3 (MPC_N + 1)) */
-#define MPC_OUT_SIZE (MPC_OUT_POSES + 3 * (MPC_N + 1))
+#define MPC_OUT_STEER (MPC_OUT_POSES + 3 * (MPC_N + 1)) /* swerve: steer angles (MPC_STEER) */
+#define MPC_OUT_SIZE (MPC_OUT_STEER + MPC_STEER)
 
 /* A controller (allocates everything it will use; NULL if daqp cannot be set up).
  * max_iter: daqp iterations per solve at most; budgeted: 1 if max_iter was chosen (no
@@ -49,6 +50,9 @@ void mpc_tick_reset(mpc_tick* tick, const double* last);
 int mpc_tick_step(mpc_tick* tick, const double* pose, const double* ref_poses,
                   const double* ref_velocities, double* out);
 int mpc_tick_output_size(void);
+/* Swerve (MPC_STEER > 0): the modules' steer angles now [rad] (MPC_STEER), e.g. measured;
+ * each step starts from the angles the last one commanded unless set here. */
+void mpc_tick_set_steer_angles(mpc_tick* tick, const double* angles);
 
 #ifdef __cplusplus
 }

@@ -5,8 +5,10 @@ QP by the daqp Python module with the same rows, kept between ticks the same way
 
 Both write one output array a tick: status code, daqp's exit flag, iterations, solve
 time [s], clamped (0/1), failures in a row, Hessians built this tick, the twist (3), the
-wheel speeds (w), the plan's poses (3 (N+1), a stage's three numbers together). Both keep
-the Hessian across ticks by the same rule (:mod:`mpc.tick.reuse`).
+wheel speeds (w), the plan's poses (3 (N+1), a stage's three numbers together), and for
+swerve the steer angles (n). Both keep the Hessian across ticks by the same rule
+(:mod:`mpc.tick.reuse`); swerve's rows move every tick (whitened every tick, daqp given
+them every tick) and its steer angles are state (the last commanded, or set).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ _EQUALITY = 5
 
 def output_size(graphs: TickGraphs) -> int:
     """Numbers in a tick's output array."""
-    return TWIST + 3 + graphs.wheels + 3 * (graphs.horizon + 1)
+    return TWIST + 3 + graphs.wheels + 3 * (graphs.horizon + 1) + graphs.steer
 
 
 class TickRunner(Protocol):
@@ -44,6 +46,10 @@ class TickRunner(Protocol):
 
     def reset(self, last: FloatArray) -> None:
         """Forget the plan, failures and active set; ``last`` (3,) the twist executing."""
+
+    def set_steer(self, angles: FloatArray) -> None:
+        """The modules' steer angles now [rad] (swerve: the state the next tick starts
+        from; each tick leaves its commanded angles there)."""
 
     def step(self, pose: FloatArray, ref_poses: FloatArray,
              ref_velocities: FloatArray) -> FloatArray:
@@ -65,6 +71,8 @@ class NativeTick:
         lib.mpc_tick_reset.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
         lib.mpc_tick_step.argtypes = [ctypes.c_void_p] + [ctypes.c_void_p] * 4
         lib.mpc_tick_step.restype = ctypes.c_int
+        if graphs.steer:
+            lib.mpc_tick_set_steer_angles.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
         if lib.mpc_tick_output_size() != output_size(graphs):
             raise RuntimeError("the compiled tick's output layout differs from the graphs'")
         handle = lib.mpc_tick_init(int(max_iter), int(budgeted), float(rebuild_drift))
@@ -85,6 +93,10 @@ class NativeTick:
     def reset(self, last: FloatArray) -> None:
         twist = np.ascontiguousarray(last, dtype=float)
         self._lib.mpc_tick_reset(self._handle, twist.ctypes.data)
+
+    def set_steer(self, angles: FloatArray) -> None:
+        values = np.ascontiguousarray(angles, dtype=float)
+        self._lib.mpc_tick_set_steer_angles(self._handle, values.ctypes.data)
 
     def step(self, pose: FloatArray, ref_poses: FloatArray,
              ref_velocities: FloatArray) -> FloatArray:
@@ -131,6 +143,13 @@ class VirtualTick:
         self._pose, self._poses, self._velocities = (np.zeros(3), np.zeros((n + 1, 3)),
                                                      np.zeros((n + 1, 3)))
         self._mode = np.zeros(1)
+        self._moving = graphs.moving_rows > 0  # swerve: rows every tick, with a state
+        self._steer, self._next_steer = np.zeros(graphs.steer), np.zeros(graphs.steer)
+        self._state = np.array(graphs.row_state, dtype=float)
+        self._next_state = np.zeros(len(graphs.row_state))
+        self._row_values = np.zeros(graphs.moving_rows)
+        extra_in = [self._steer, self._state] if self._moving else []
+        extra_out = [self._row_values, self._next_state] if self._moving else []
         self._hessian, self._gradient = np.zeros((nv, nv)), np.zeros(nv)
         self._inverse = np.zeros(nv * (nv + 1) // 2)  # L^{-1}'s lower triangle, packed
         self._packed = np.triu_indices(nv)  # of X' in C order: X's lower, column by column
@@ -139,15 +158,16 @@ class VirtualTick:
         self._carry = np.zeros(graphs.carry)
         self._prepare_graph = BufferedFunction(
             graphs.prepare, [self._pose, self._poses, self._velocities, self._last,
-                             self._plan, self._mode, self._kept_terms],
+                             self._plan, self._mode, self._kept_terms, *extra_in],
             [self._gradient, self._lower, self._upper, self._carry, self._terms,
-             self._drift])
+             self._drift, *extra_out])
         self._hessian_graph = BufferedFunction(graphs.hessian, [self._carry],
                                                [self._hessian])
         self._whiten = BufferedFunction(graphs.whiten, [self._inverse, self._gradient],
                                         [self._f])
-        self._whiten_rows = BufferedFunction(graphs.whiten_rows, [self._inverse],
-                                             [self._rows])
+        self._whiten_rows = BufferedFunction(
+            graphs.whiten_rows, [self._inverse, *([self._row_values] if self._moving else [])],
+            [self._rows])
         self._y, self._flag, self._step = np.zeros(nv), np.zeros(1), np.zeros(nv)
         self._unwhiten = BufferedFunction(graphs.unwhiten, [self._inverse, self._y],
                                           [self._step])
@@ -157,9 +177,10 @@ class VirtualTick:
         self._next_memory = np.zeros(2)
         self._finish = BufferedFunction(
             graphs.finish, [self._step, self._flag, self._carry, self._last, self._plan,
-                            self._memory],
+                            self._memory, *([self._steer] if graphs.steer else [])],
             [self._status, self._twist, self._speeds, self._clamped, self._plan_poses,
-             self._next_plan, self._next_memory])
+             self._next_plan, self._next_memory,
+             *([self._next_steer] if graphs.steer else [])])
         self._solver: daqp.Model | None = None
         self._out = np.zeros(output_size(graphs))
 
@@ -169,6 +190,9 @@ class VirtualTick:
         self._memory[:] = 0.0
         self._warm = False
         self._forget()
+
+    def set_steer(self, angles: FloatArray) -> None:
+        self._steer[:] = angles
 
     def _forget(self) -> None:
         """daqp's model and the kept Hessian dropped (``tick.c``'s ``forget``)."""
@@ -180,15 +204,18 @@ class VirtualTick:
         says so (:func:`~mpc.tick.reuse.must_rebuild`; not on an unplanned tick);
         ``whiten``: the whitened QP in ``_f``, ``_rows``, ``_lower``, ``_upper``."""
         self._prepare_graph()
+        if planned:  # (swerve: the faces' directions turned; no solve, no turn)
+            self._state[:] = self._next_state
         self._rebuilt = planned and must_rebuild(self._kept, float(self._drift[0]),
                                                  self._rebuild_drift)
         if self._rebuilt:
             self._hessian_graph()
             # (H is symmetric: its C-ordered buffer is H either way)
             self._inverse[:] = inverse_factor(self._hessian).T[self._packed]
-            self._whiten_rows()
             self._kept_terms[:] = self._terms
             self._kept = True
+        if self._rebuilt or (self._moving and planned):  # moving rows: every tick
+            self._whiten_rows()
         self._whiten()
 
     def _solve(self) -> tuple[int, int, float]:
@@ -207,7 +234,7 @@ class VirtualTick:
             settings.update(self._settings)
             solver.settings = settings
             self._solver = solver
-        elif self._rebuilt:
+        elif self._rebuilt or self._moving:
             solver.update(f=self._f, bupper=self._upper, blower=self._lower, A=self._rows)
         else:  # the kept Hessian: daqp keeps its rows
             solver.update(f=self._f, bupper=self._upper, blower=self._lower)
@@ -250,6 +277,7 @@ class VirtualTick:
         self._last[:] = self._twist
         self._plan[:] = self._next_plan
         self._memory[:] = self._next_memory
+        self._steer[:] = self._next_steer
         out = self._out
         out[STATUS], out[FLAG], out[CLAMPED] = self._status[0], flag, self._clamped[0]
         out[ITERATIONS], out[SOLVE_TIME] = iterations, seconds
@@ -257,5 +285,7 @@ class VirtualTick:
         speeds = TWIST + 3
         out[TWIST:speeds] = self._twist
         out[speeds:speeds + self._speeds.size] = self._speeds
-        out[speeds + self._speeds.size:] = self._plan_poses.ravel()
+        poses = speeds + self._speeds.size
+        out[poses:poses + self._plan_poses.size] = self._plan_poses.ravel()
+        out[poses + self._plan_poses.size:] = self._steer
         return out

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 from mpc.errors import ControllerError
-from mpc.robots.base import Robot, ScalarWheels
+from mpc.robots.base import PlanarModules, Robot, ScalarWheels
 from mpc.robots.wheels.constant_jacobian import ConstantJacobianRobot
+from mpc.robots.wheels.swerve.robot import SwerveRobot
 
 #: What the compiled tick supports, for the error that refuses the rest.
 SUPPORTED = ("constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with no failed "
-             "wheel and no motor model, solver='daqp', mode='time', delay_ticks=0, "
+             "wheel and no motor model, and swerve robots with no axle offset, steering range, "
+             "failed module or motor model; solver='daqp', mode='time', delay_ticks=0, "
              "command_ramp=False, time_limit=0")
 
 
@@ -17,12 +19,18 @@ class UnsupportedTickError(ControllerError):
 
 
 def check_supported(robot: Robot, solver: str, mode: str, delay_ticks: int,
-                    command_ramp: bool, time_limit: float) -> ScalarWheels:
-    """The robot's wheels as the tick's graphs take them, or UnsupportedTickError naming
-    what is supported."""
+                    command_ramp: bool, time_limit: float,
+                    polygon_sides: int | None = None) -> ScalarWheels | PlanarModules:
+    """The robot's wheels as the tick's graphs take them (:class:`ScalarWheels`, or a swerve
+    robot's :class:`PlanarModules`), or UnsupportedTickError naming what is supported."""
     problems = []
-    if not isinstance(robot, ConstantJacobianRobot) or robot.scalar_wheels is None:
-        problems.append(f"robot {robot.name!r} ({robot.kind})")
+    wheels: ScalarWheels | PlanarModules | None = None
+    if isinstance(robot, ConstantJacobianRobot):
+        wheels = robot.scalar_wheels
+    elif isinstance(robot, SwerveRobot):
+        wheels = robot.planar_modules
+    if wheels is None:
+        problems.append(f"robot {robot.name!r} ({robot.kind}{_why(robot)})")
     if solver != "daqp":
         problems.append(f"solver={solver!r}")
     if mode != "time":
@@ -31,10 +39,24 @@ def check_supported(robot: Robot, solver: str, mode: str, delay_ticks: int,
         problems.append(f"delay_ticks={delay_ticks}")
     if command_ramp:
         problems.append("command_ramp=True")
+    if polygon_sides is not None and isinstance(robot, SwerveRobot):
+        problems.append(f"polygon_sides={polygon_sides}")
     if time_limit > 0.0:
         problems.append(f"time_limit={time_limit:g}")
     if problems:
         raise UnsupportedTickError(
             f"compiled tick: {', '.join(problems)} not supported yet; it supports {SUPPORTED}")
-    assert robot.scalar_wheels is not None
-    return robot.scalar_wheels
+    assert wheels is not None
+    return wheels
+
+
+def _why(robot: Robot) -> str:
+    """What of a swerve robot the compiled tick does not cover, for the refusal."""
+    if not isinstance(robot, SwerveRobot):
+        return ""
+    parts = [name for name, present in (
+        (f"axle offset {robot.axle_offset:g} m", robot.axle_offset),
+        ("a steering range", robot.steer_range is not None),
+        ("a motor model", robot.dynamics is not None),
+        ("a failed module", robot.rest_projector is not None)) if present]
+    return f" with {' and '.join(parts)}" if parts else ""

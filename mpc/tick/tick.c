@@ -51,6 +51,13 @@ struct mpc_tick {
   double status, twist[3], speeds[MPC_W], clamped, poses[3 * (MPC_N + 1)];
   double plan_next[3 * MPC_N], memory_next[2];
   double mode;
+#if MPC_MOVING_ROWS
+  /* swerve: the rows prepare gives every tick (nonzeros), the faces' directions */
+  double row_values[MPC_MOVING_ROWS], state[MPC_ROW_STATE], state_next[MPC_ROW_STATE];
+#endif
+#if MPC_STEER
+  double steer[MPC_STEER], steer_next[MPC_STEER]; /* the modules' angles [rad] */
+#endif
   DAQPProblem qp;
   DAQPWorkspace work;
   DAQPResult res;
@@ -108,8 +115,23 @@ mpc_tick* mpc_tick_init(int max_iter, int budgeted, double rebuild_drift) {
     return NULL;
   }
   t->work.settings->iter_limit = max_iter;
+#if MPC_MOVING_ROWS
+  {
+    static const double start[MPC_ROW_STATE] = MPC_ROW_STATE_START;
+    memcpy(t->state, start, sizeof(t->state));
+  }
+#endif
   forget(t);
   return t;
+}
+
+void mpc_tick_set_steer_angles(mpc_tick* t, const double* angles) {
+#if MPC_STEER
+  memcpy(t->steer, angles, sizeof(t->steer));
+#else
+  (void)t;
+  (void)angles;
+#endif
 }
 
 void mpc_tick_free(mpc_tick* t) {
@@ -172,6 +194,41 @@ static void lower_inverse(const double* l, double* x) {
   }
 }
 
+#if MPC_MOVING_ROWS
+static const int rows_colind[MPC_NV + 1] = MPC_ROWS_COLIND;
+static const int rows_row[MPC_MOVING_ROWS] = MPC_ROWS_ROW;
+static const unsigned char rows_move[MPC_M] = MPC_ROWS_MOVE;
+
+/* Swerve's rows in whitened steps, A L^{-T} row-major as daqp reads them, from A's
+ * nonzeros (``values``, column by column: prepare's ``rows``) and L^{-1} (packed column by
+ * column): mpc_tick_whiten_rows' arithmetic, each entry summed in the same order, as
+ * axpys along L^{-1}'s columns; every row (``every``: a new L^{-1}) or only the rows that
+ * move (the speed faces; ``rows`` holds the others, whitened by this L^{-1}). The rows move
+ * every tick, and the generated sparse product took about 0.5 ms a call at N = 20
+ * (docs/guide/compiled-tick.md, "Swerve"); this loop is tested against it
+ * (tests/test_compiled_swerve.py). */
+void mpc_tick_whiten_moving(const double* inverse, const double* values, double* rows,
+                            int every);
+void mpc_tick_whiten_moving(const double* inverse, const double* values, double* rows,
+                            int every) {
+  int c, k, i, start = 0;
+  for (i = 0; i < MPC_M; i++)
+    if (every || rows_move[i]) memset(rows + i * MPC_NV, 0, sizeof(double) * MPC_NV);
+  for (c = 0; c < MPC_NV; c++) {
+    const double* column = inverse + start; /* L^{-1}[c.., c] */
+    const int length = MPC_NV - c;
+    for (k = rows_colind[c]; k < rows_colind[c + 1]; k++) {
+      double* out;
+      if (!every && !rows_move[rows_row[k]]) continue;
+      out = rows + rows_row[k] * MPC_NV + c;
+      const double a = values[k];
+      for (i = 0; i < length; i++) out[i] += a * column[i];
+    }
+    start += length;
+  }
+}
+#endif
+
 /* The factor, regularised as the Python path regularises a Hessian that is not positive
  * definite (1e-9 of its trace on the diagonal); NaN if that fails too (the QP fails). */
 static void cholesky(const double* h, double* l) {
@@ -201,7 +258,17 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
   t->out[3] = t->carry;
   t->out[4] = t->terms;
   t->out[5] = &t->drift;
+#if MPC_MOVING_ROWS
+  t->arg[7] = t->steer;
+  t->arg[8] = t->state;
+  t->out[6] = t->row_values;
+  t->out[7] = t->state_next;
+#endif
   mpc_tick_prepare(t->arg, t->out, t->iw, t->w, 0);
+#if MPC_MOVING_ROWS
+  /* the faces' directions turned to this guess (not on a tick with no reference) */
+  if (planned) memcpy(t->state, t->state_next, sizeof(t->state));
+#endif
   /* the rule (mpc/tick/reuse.py, must_rebuild): nothing kept, or moved too far */
   t->rebuilt = planned && (!t->kept || t->drift > t->rebuild_drift);
   if (t->rebuilt) {
@@ -210,11 +277,17 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
     mpc_tick_hessian(t->arg, t->out, t->iw, t->w, 0);
     cholesky(t->hessian, t->factor);
     lower_inverse(t->factor, t->inverse);
+    memcpy(t->kept_terms, t->terms, sizeof(t->kept_terms));
+    t->kept = 1;
+  }
+  if (t->rebuilt || (MPC_MOVING_ROWS && planned)) { /* moving rows: every tick */
+#if MPC_MOVING_ROWS
+    mpc_tick_whiten_moving(t->inverse, t->row_values, t->rows, t->rebuilt);
+#else
     t->arg[0] = t->inverse;
     t->out[0] = t->rows;
     mpc_tick_whiten_rows(t->arg, t->out, t->iw, t->w, 0);
-    memcpy(t->kept_terms, t->terms, sizeof(t->kept_terms));
-    t->kept = 1;
+#endif
   }
   t->arg[0] = t->inverse;
   t->arg[1] = t->gradient;
@@ -225,7 +298,7 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
 /* daqp on the rows prepare wrote: its exit flag (the step in t->y). */
 static int solve(mpc_tick* t, double* iterations, double* seconds) {
   int i, flag, mask = UPDATE_v + UPDATE_d;
-  if (t->rebuilt) mask += UPDATE_M;     /* new whitened rows */
+  if (t->rebuilt || MPC_MOVING_ROWS) mask += UPDATE_M; /* new whitened rows */
   if (t->qp_cold) mask += UPDATE_sense; /* sense from t->sense: all inactive */
   reset_daqp_workspace(&t->work);
   flag = update_ldp(mask, &t->work);
@@ -293,12 +366,20 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   t->out[4] = t->poses;
   t->out[5] = t->plan_next;
   t->out[6] = t->memory_next;
+#if MPC_STEER
+  t->arg[6] = t->steer;
+  t->out[7] = t->steer_next;
+#endif
   mpc_tick_finish(t->arg, t->out, t->iw, t->w, 0);
   t->warm = t->status == 0.0;
   if (!t->warm) forget(t);
   memcpy(t->last, t->twist, sizeof(t->last));
   memcpy(t->plan, t->plan_next, sizeof(t->plan));
   memcpy(t->memory, t->memory_next, sizeof(t->memory));
+#if MPC_STEER
+  memcpy(t->steer, t->steer_next, sizeof(t->steer));
+  memcpy(out + MPC_OUT_STEER, t->steer, sizeof(t->steer));
+#endif
   out[MPC_OUT_STATUS] = t->status;
   out[MPC_OUT_FLAG] = flag;
   out[MPC_OUT_ITERATIONS] = iterations;

@@ -379,7 +379,8 @@ GUARD_FACES = tuple(j for j, angle in enumerate(FACE_ANGLES) if abs(angle) > mat
 ACCEL_SIDES = 16
 
 
-def linearised_stage_limits(robot: SwerveModules, change_times: FloatArray) -> StageLimits:
+def linearised_stage_limits(robot: SwerveModules, change_times: FloatArray,
+                            guard_faces: tuple[int, ...] | None = None) -> StageLimits:
     """Each module's speed disk as faces of a polygon circumscribed about it
     (:data:`FACE_ANGLES`), turned to the direction of the module's velocity in the plan the
     solver starts from (:func:`update_linearised`): two-sided rows ``|n_j . v| <= R``;
@@ -396,12 +397,14 @@ def linearised_stage_limits(robot: SwerveModules, change_times: FloatArray) -> S
     The faces point along the body x axis until the first tick turns them. Every face is a
     supporting line of the disk, so the disk satisfies the faces of any refill
     (``StageLimits.inside``): a plan within the disks with no face active is the answer
-    whichever way they point.
+    whichever way they point. ``guard_faces``: the faces that are guards (None:
+    :data:`GUARD_FACES`; ``()``: every face a kept row, as the compiled tick solves them).
     """
     n = robot.n_wheels
     horizon = len(change_times)
-    kept_faces = _kept_faces()
-    kept, guards = n * len(kept_faces), n * len(GUARD_FACES)
+    guard_faces = GUARD_FACES if guard_faces is None else tuple(guard_faces)
+    kept_faces = _kept_faces(guard_faces)
+    kept, guards = n * len(kept_faces), n * len(guard_faces)
     accel = robot.max_wheel_accel
     polygon = None if accel is None else outermost(qp_speed_rows(robot, ACCEL_SIDES), accel)
     m = kept + guards + (0 if polygon is None else len(polygon.rows))
@@ -413,7 +416,7 @@ def linearised_stage_limits(robot: SwerveModules, change_times: FloatArray) -> S
                       * np.asarray(change_times, dtype=float)[:, None])
         now[:, kept:m - guards] = polygon.rows
         before[:, kept:m - guards] = -polygon.rows
-    bounds.append(np.repeat(bound, len(GUARD_FACES), axis=1))
+    bounds.append(np.repeat(bound, len(guard_faces), axis=1))
     upper = np.concatenate(bounds, axis=1)
     limits = StageLimits(now=now, before=before, lower=-upper, upper=upper, constant=False,
                          change_times=np.array(change_times, dtype=float), moving=kept,
@@ -422,7 +425,7 @@ def linearised_stage_limits(robot: SwerveModules, change_times: FloatArray) -> S
     directions[..., 0] = 1.0
     limits.memory["directions"] = directions  # each module's planned unit direction
     for name, faces, rows in (("kept", kept_faces, limits.now[:, :kept]),
-                              ("guards", GUARD_FACES, limits.now[:, m - guards:])):
+                              ("guards", guard_faces, limits.now[:, m - guards:])):
         limits.memory[f"{name}_bases"] = _face_bases(robot, faces)
         view = rows.reshape(horizon, n, 1, 3 * len(faces))
         if view.size and not np.shares_memory(view, limits.now):  # refills write the rows
@@ -433,9 +436,11 @@ def linearised_stage_limits(robot: SwerveModules, change_times: FloatArray) -> S
     return limits
 
 
-def _kept_faces() -> tuple[int, ...]:
-    """The faces solved with always (not :data:`GUARD_FACES`), in angle order."""
-    return tuple(j for j in range(FACES) if j not in GUARD_FACES)
+def _kept_faces(guard_faces: tuple[int, ...] | None = None) -> tuple[int, ...]:
+    """The faces solved with always (not ``guard_faces``, None: :data:`GUARD_FACES`), in
+    angle order."""
+    guards = GUARD_FACES if guard_faces is None else guard_faces
+    return tuple(j for j in range(FACES) if j not in guards)
 
 
 def _within_disks(robot: SwerveModules, twists: FloatArray, ratio: float) -> bool:
