@@ -62,6 +62,9 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
         "MPC_SZ_IW": max(max(f.sz_iw() for f in functions), 1),
         "MPC_SZ_W": max(max(f.sz_w() for f in functions), 1),
     }
+    config = getattr(graphs, "config", None)  # path mode's sizes (mpc.tick.path)
+    if config is not None:
+        sizes.update(config())
     offsets = ", ".join(f"{value!r}" for value in graphs.offsets)
     config = ["/* Sizes of the generated tick (mpc/tick/build.py). */",
               "#ifndef MPC_TICK_CONFIG_H", "#define MPC_TICK_CONFIG_H",

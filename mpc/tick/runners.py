@@ -23,6 +23,7 @@ from scipy.linalg import lapack
 from mpc.arrays import FloatArray
 from mpc.buffered import BufferedFunction
 from mpc.tick.graphs import COLD, HOLD, SOLVED, UNPLANNED, WARM, TickGraphs
+from mpc.tick.path import AGAIN
 from mpc.tick.reuse import must_rebuild
 
 #: The output array's leading fields (then the twist, the wheel speeds, the poses).
@@ -34,7 +35,12 @@ _EQUALITY = 5
 
 def output_size(graphs: TickGraphs) -> int:
     """Numbers in a tick's output array."""
-    return TWIST + 3 + graphs.wheels + 3 * (graphs.horizon + 1)
+    return TWIST + 3 + graphs.wheels + 3 * (graphs.horizon + 1) + _progress(graphs)
+
+
+def _progress(graphs: TickGraphs) -> int:
+    """Progress values a plan has: N+1 in path mode (:mod:`mpc.tick.path`), else 0."""
+    return int(getattr(graphs, "progress", 0))
 
 
 class TickRunner(Protocol):
@@ -47,8 +53,13 @@ class TickRunner(Protocol):
 
     def step(self, pose: FloatArray, ref_poses: FloatArray,
              ref_velocities: FloatArray) -> FloatArray:
-        """One tick (pose (3,), the window's poses and world velocities (N+1, 3)): the
-        output array (the runner's own, rewritten next tick)."""
+        """One tick (pose (3,), the window's poses and world velocities (N+1, 3); path
+        mode: the parameter vector and the progress bounds (N+1, 2)): the output array
+        (the runner's own, rewritten next tick)."""
+
+    def again(self) -> None:
+        """Path mode's warm-up: the next step solves the last one again (``tick.c``'s
+        ``mpc_tick_again``)."""
 
 
 class NativeTick:
@@ -65,6 +76,7 @@ class NativeTick:
         lib.mpc_tick_reset.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
         lib.mpc_tick_step.argtypes = [ctypes.c_void_p] + [ctypes.c_void_p] * 4
         lib.mpc_tick_step.restype = ctypes.c_int
+        lib.mpc_tick_again.argtypes = [ctypes.c_void_p]
         if lib.mpc_tick_output_size() != output_size(graphs):
             raise RuntimeError("the compiled tick's output layout differs from the graphs'")
         handle = lib.mpc_tick_init(int(max_iter), int(budgeted), float(rebuild_drift))
@@ -85,6 +97,9 @@ class NativeTick:
     def reset(self, last: FloatArray) -> None:
         twist = np.ascontiguousarray(last, dtype=float)
         self._lib.mpc_tick_reset(self._handle, twist.ctypes.data)
+
+    def again(self) -> None:
+        self._lib.mpc_tick_again(self._handle)
 
     def step(self, pose: FloatArray, ref_poses: FloatArray,
              ref_velocities: FloatArray) -> FloatArray:
@@ -128,8 +143,13 @@ class VirtualTick:
         self._settings = {"iter_limit": int(max_iter)}
         self._last, self._plan = np.zeros(3), np.zeros((n, 3))
         self._memory, self._warm = np.zeros(2), False
-        self._pose, self._poses, self._velocities = (np.zeros(3), np.zeros((n + 1, 3)),
-                                                     np.zeros((n + 1, 3)))
+        # (the window's poses and velocities, (N+1, 3); path mode: the parameter vector
+        # and the progress bounds, (N+1, 2))
+        self._pose, self._poses, self._velocities = (
+            np.zeros(3), np.zeros(graphs.prepare.size_in(1)[::-1]),
+            np.zeros(graphs.prepare.size_in(2)[::-1]))
+        self._again, self._before = False, np.zeros(5)  # path mode's warm-up (again)
+        self._progress = np.zeros(_progress(graphs))
         self._mode = np.zeros(1)
         self._hessian, self._gradient = np.zeros((nv, nv)), np.zeros(nv)
         self._inverse = np.zeros(nv * (nv + 1) // 2)  # L^{-1}'s lower triangle, packed
@@ -159,7 +179,8 @@ class VirtualTick:
             graphs.finish, [self._step, self._flag, self._carry, self._last, self._plan,
                             self._memory],
             [self._status, self._twist, self._speeds, self._clamped, self._plan_poses,
-             self._next_plan, self._next_memory])
+             self._next_plan, self._next_memory, *([self._progress] if self._progress.size
+                                                   else [])])
         self._solver: daqp.Model | None = None
         self._out = np.zeros(output_size(graphs))
 
@@ -167,8 +188,13 @@ class VirtualTick:
         self._last[:] = last
         self._plan[:] = 0.0
         self._memory[:] = 0.0
-        self._warm = False
+        self._warm = self._again = False
         self._forget()
+
+    def again(self) -> None:
+        self._last[:], self._memory[:] = self._before[:3], self._before[3:]
+        self._forget()
+        self._again = True
 
     def _forget(self) -> None:
         """daqp's model and the kept Hessian dropped (``tick.c``'s ``forget``)."""
@@ -221,8 +247,10 @@ class VirtualTick:
         self._pose[:] = pose
         self._poses[:] = ref_poses
         self._velocities[:] = ref_velocities
-        cold = not self._warm
-        self._mode[0] = COLD if cold else WARM
+        cold = not self._warm and not self._again
+        self._mode[0] = AGAIN if self._again else COLD if cold else WARM
+        self._again = False
+        self._before[:3], self._before[3:] = self._last, self._memory
         planned = (math.isfinite(float(self._poses.sum()))
                    and math.isfinite(float(self._velocities.sum())))
         self._prepare(planned)
@@ -257,5 +285,7 @@ class VirtualTick:
         speeds = TWIST + 3
         out[TWIST:speeds] = self._twist
         out[speeds:speeds + self._speeds.size] = self._speeds
-        out[speeds + self._speeds.size:] = self._plan_poses.ravel()
+        poses = speeds + self._speeds.size
+        out[poses:poses + self._plan_poses.size] = self._plan_poses.ravel()
+        out[poses + self._plan_poses.size:] = self._progress
         return out

@@ -8,7 +8,7 @@ from mpc.robots.wheels.constant_jacobian import ConstantJacobianRobot
 
 #: What the compiled tick supports, for the error that refuses the rest.
 SUPPORTED = ("constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with no failed "
-             "wheel and no motor model, solver='daqp', mode='time', delay_ticks=0, "
+             "wheel and no motor model, solver='daqp', mode='time' or 'path', delay_ticks=0, "
              "command_ramp=False, time_limit=0")
 
 
@@ -25,7 +25,7 @@ def check_supported(robot: Robot, solver: str, mode: str, delay_ticks: int,
         problems.append(f"robot {robot.name!r} ({robot.kind})")
     if solver != "daqp":
         problems.append(f"solver={solver!r}")
-    if mode != "time":
+    if mode not in ("time", "path"):
         problems.append(f"mode={mode!r}")
     if delay_ticks:
         problems.append(f"delay_ticks={delay_ticks}")
