@@ -190,7 +190,6 @@ def test_reset_and_a_new_trajectory_start_over() -> None:
 
 @pytest.mark.parametrize("options, named", [
     ({"robot": "swerve"}, "swerve"),
-    ({"mode": "path"}, "mode='path'"),
     ({"solver": "osqp"}, "solver='osqp'"),
     ({"delay_ticks": 1}, "delay_ticks=1"),
     ({"time_limit": 0.01}, "time_limit=0.01"),

@@ -16,7 +16,7 @@ from mpc.arrays import FloatArray
 from mpc.control.timing import PathProgress, ReferenceWindow
 from mpc.model.layout import PathInput, TickInput
 from mpc.model.tracking import TrackingModel
-from trajectories import Trajectory
+from trajectories import Trajectory, TrajectoryError
 
 
 class PathReference:
@@ -50,11 +50,13 @@ class PathReference:
         """The reference at the progress guess for time ``t`` [s] and the measured
         ``heading`` [rad] into :attr:`parameters` and :attr:`bounds`; returns the progress
         now (the reference time tracked) [s]. Raises TrajectoryError where the trajectory
-        cannot be sampled (the parameters are then NaN: the graphs fall back)."""
+        cannot be sampled (the reference poses and feedforward are then NaN, as the Python
+        tick's: the graphs fall back without the feedforward)."""
         try:
             start = self._timing.fill(t, t, heading)
-        except Exception:
-            self.parameters[:] = math.nan
+        except TrajectoryError:
+            self._tick.poses_ref[:] = math.nan
+            self._tick.twists_ref[:] = math.nan
             raise
         self._bounds()
         return start
