@@ -13,11 +13,13 @@ What differs from time mode:
   is sampled at the edge. ``prepare`` takes the parameter vector they fill (the model's
   own layout, :mod:`mpc.model.layout`) and the progress bounds, and writes the measured
   pose and the last command into it.
-- The cost's Hessian moves with the path every tick (its contour directions and path
-  rates are parameters), so ``prepare`` carries its values to ``hessian``, and its drift
-  is infinite: the Hessian, its factor and the whitened rows are rebuilt every tick (the
-  plain thing; the Python tick's cost-drift tolerance is a shortcut of its own,
-  :mod:`mpc.solvers.hessian_reuse`).
+- The cost's Hessian moves with the path (its contour directions and path rates are
+  parameters), so ``prepare`` carries its values to ``hessian`` and counts their change
+  in the drift: the Hessian is kept across ticks by the Python tick's measure, the cost
+  values' change over :data:`~mpc.solvers.hessian_reuse.COST_TOLERANCE` beside time
+  mode's (:func:`_drift`), rebuilt whole when either exceeds
+  :data:`~mpc.tick.reuse.REBUILD_DRIFT` (the Python tick's partial rebuild with the last
+  build's sensitivities, ``COST_ONLY_DRIFT``, is not done).
 - ``hessian`` adds the progress blocks to time mode's (:func:`_progress_blocks`);
   ``finish`` is time mode's with the planned progress as one more output.
 - A tick with no plan to start from solves again while the progress settles (the Python
@@ -28,7 +30,6 @@ What differs from time mode:
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import casadi as ca
@@ -39,6 +40,7 @@ from mpc.model.tracking import TrackingModel
 from mpc.robots.base import ScalarWheels
 from mpc.robots.drive.motor_limits import stage_limits
 from mpc.solvers.condensed import Condenser, tick_terms
+from mpc.solvers.hessian_reuse import COST_TOLERANCE
 from mpc.solvers.qp_structure import assemble_qp
 from mpc.tick.graphs import (
     HOLD,
@@ -48,6 +50,7 @@ from mpc.tick.graphs import (
     _condensed_hessian,
     _finish,
 )
+from mpc.tick.reuse import reuse_terms, terms_size
 
 #: ``prepare``'s guess mode of a tick solved again (path mode's warm-up): the last
 #: round's plan as it is, not moved on a tick (``WarmStart.fill(shift=False)``).
@@ -61,10 +64,11 @@ class PathGraphs(TickGraphs):
     """Path mode's graphs (:class:`~mpc.tick.graphs.TickGraphs`' fields; the differences):
 
     - ``prepare``: ``(pose 3, reference P, bounds 2 x N+1, last 3, plan 3 x N, guess_mode 1,
-      kept 1) -> (gradient n, lower m, upper m, carry k, terms 1, drift 1)``: ``reference``
+      kept t) -> (gradient n, lower m, upper m, carry k, terms t, drift 1)``: ``reference``
       the model's parameter vector as :class:`~mpc.control.timing.PathProgress` filled it
       (its ``x0`` and ``last_twist`` are replaced by ``pose`` and ``last``), ``bounds`` the
-      progress's lower and upper bounds [s] (stage by stage), ``drift`` infinite.
+      progress's lower and upper bounds [s] (stage by stage); ``terms`` time mode's and
+      the cost Hessian's values (:func:`_drift`).
     - ``finish``: time mode's outputs, then ``progress`` (N+1) [s]: the planned progress
       (the guess's where the tick did not solve).
 
@@ -104,7 +108,8 @@ def build_path_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -
     last = ca.SX.sym("last", 3)
     plan = ca.SX.sym("plan", 3, n)
     mode = ca.SX.sym("guess_mode")
-    kept = ca.SX.sym("kept")
+    nnz = structure.cost_terms.sparsity_out(0).nnz()
+    kept = ca.SX.sym("kept", terms_size(n) + nnz)
 
     fields = {"x0": pose, "last_twist": last}
     p = ca.vertcat(*[fields.get(name, reference[field.slice])
@@ -120,6 +125,7 @@ def build_path_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -
 
     p_data, rollout, sensitivities, gradient, steps = tick_terms(
         model, structure.cost_terms)(p, guess, progress_guess)
+    terms, drift = _drift(model, structure.hessian.data, p_data, sensitivities, steps, kept)
     rows = ca.DM(condenser.constraints)
     first = condenser.first_row
     at_guess = rows @ ca.vertcat(ca.vec(guess), progress_guess)
@@ -136,8 +142,7 @@ def build_path_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -
                        p_data.nz[:], progress_guess)
     prepare = ca.Function(
         "mpc_tick_prepare", [pose, reference, bounds, last, plan, mode, kept],
-        [ca.densify(gradient), ca.densify(lower), ca.densify(upper), carry,
-         ca.SX.zeros(1), ca.SX(math.inf)],
+        [ca.densify(gradient), ca.densify(lower), ca.densify(upper), carry, terms, drift],
         ["pose", "reference", "bounds", "last", "plan", "guess_mode", "kept"],
         ["gradient", "lower", "upper", "carry", "terms", "drift"], {"cse": True})
     sparsity = structure.cost_terms.sparsity_out(0)
@@ -156,9 +161,50 @@ def build_path_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -
     finish = _path_finish(_finish(model, wheels, tick, size, carry.shape[0]), n,
                           carry.shape[0])
     return PathGraphs(prepare, hessian, whiten, whiten_rows, unwhiten, finish, n, size, m,
-                      len(wheels.limits), carry.shape[0], 1,
+                      len(wheels.limits), carry.shape[0], int(kept.shape[0]),
                       tuple(float(x) for x in model.offsets), float(tick), n + 1,
                       parameters.size)
+
+
+def _drift(model: TrackingModel, initial: np.ndarray, p_data: ca.SX, sensitivities: ca.SX,
+           steps: ca.SX, kept: ca.SX) -> tuple[ca.SX, ca.SX]:
+    """This tick's reuse terms (time mode's, :func:`~mpc.tick.reuse.reuse_terms`, then the
+    cost Hessian's values) and their drift from ``kept``: the larger of the cost's (the
+    largest change of a value over :data:`~mpc.solvers.hessian_reuse.COST_TOLERANCE` times
+    the largest value at set-up, ``initial``) and the sensitivities' (a rotation of the
+    whole plan not counted where this tick's cost weighs positions alike in every
+    direction): the Python tick's measure (:class:`~mpc.solvers.hessian_reuse.HessianReuse`)."""
+    size = terms_size(model.horizon)
+    moving, drift = reuse_terms(sensitivities, steps, kept[:size], model.dt, False)
+    _, turned = reuse_terms(sensitivities, steps, kept[:size], model.dt, True)
+    values = p_data.nz[:]
+    tolerance = COST_TOLERANCE * float(np.abs(initial).max() or 1.0)
+    cost = ca.mmax(ca.fabs(values - kept[size:])) / tolerance
+    upper = ca.SX(p_data)
+    full = upper + upper.T - ca.diag(ca.diag(upper))
+    moved = ca.if_else(_isotropic(model, full), turned, drift)
+    return ca.vertcat(moving, values), ca.fmax(cost, moved)
+
+
+def _isotropic(model: TrackingModel, full: ca.SX) -> ca.SX:
+    """1 where the cost Hessian ``full`` weighs every stage's position alike in all
+    directions with no position-progress coupling (:meth:`Condenser.isotropic
+    <mpc.solvers.condensed.Condenser.isotropic>`'s test, with its tolerances)."""
+    variables = model.layouts.variables
+    poses, progress = variables["poses"], variables["progress"]
+    rows = slice(poses.start, poses.start + poses.size)
+    coupled = ca.mmax(ca.fabs(full[rows, progress.start:progress.start + progress.size]))
+    tests = [coupled == 0]
+    for k in range(model.horizon + 1):
+        at = poses.start + 3 * k
+        xx, yy = full[at, at], full[at + 1, at + 1]
+        tests += [ca.fabs(full[at, at + 1]) <= 1e-8,
+                  ca.fabs(xx - yy) <= 1e-8 + 1e-5 * ca.fabs(yy),
+                  ca.fabs(full[at, at + 2]) <= 1e-8, ca.fabs(full[at + 1, at + 2]) <= 1e-8]
+    result = tests[0]
+    for test in tests[1:]:
+        result = ca.logic_and(result, test)
+    return result
 
 
 def _path_hessian(model: TrackingModel, sparsity: ca.Sparsity, carry_size: int,

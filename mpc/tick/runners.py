@@ -5,7 +5,8 @@ QP by the daqp Python module with the same rows, kept between ticks the same way
 
 Both write one output array a tick: status code, daqp's exit flag, iterations, solve
 time [s], clamped (0/1), failures in a row, Hessians built this tick, the twist (3), the
-wheel speeds (w), the plan's poses (3 (N+1), a stage's three numbers together). Both keep
+wheel speeds (w), the plan's poses (3 (N+1), a stage's three numbers together), in path
+mode the planned progress (N+1) [s]. Both keep
 the Hessian across ticks by the same rule (:mod:`mpc.tick.reuse`).
 """
 
