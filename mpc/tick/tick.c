@@ -245,8 +245,10 @@ static int cold_sense(mpc_tick* t) {
 static int solve(mpc_tick* t, double* iterations, double* seconds) {
   int i, flag, mask = UPDATE_v + UPDATE_d, equalities = 0;
   if (t->rebuilt) mask += UPDATE_M;     /* new whitened rows */
-  if (t->qp_cold) mask += UPDATE_sense; /* sense from t->sense: all inactive */
-  if (t->qp_cold) equalities = cold_sense(t);
+  if (t->qp_cold) { /* sense from t->sense: all inactive but the equalities */
+    mask += UPDATE_sense;
+    equalities = cold_sense(t);
+  }
   reset_daqp_workspace(&t->work);
   flag = update_ldp(mask, &t->work);
   if (flag >= 0 && (!t->qp_cold || equalities) && activate_constraints(&t->work) < 0) {
@@ -255,7 +257,8 @@ static int solve(mpc_tick* t, double* iterations, double* seconds) {
     equalities = cold_sense(t);
     reset_daqp_workspace(&t->work);
     flag = update_ldp(mask | UPDATE_sense, &t->work);
-    if (flag >= 0 && equalities && activate_constraints(&t->work) < 0) flag = -1;
+    if (flag >= 0 && equalities && activate_constraints(&t->work) < 0)
+      flag = -1; /* the equalities alone do not fit: the tick fails (daqp's infeasible) */
   }
   t->qp_cold = 0;
   if (flag < 0) {
