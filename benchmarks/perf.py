@@ -25,8 +25,8 @@ are shared and noisy; absolute times are what this machine did while it ran. Sec
    do-mpc is not installed.
 5. ``compiled`` (only when named): the compiled tick (``Controller(compiled=True)``) beside
    itself rebuilding its Hessian every tick, the Python tick, its virtual-machine path and
-   the IPOPT path, on the layouts it supports, inside and beyond the limits
-   (:mod:`benchmarks.compiled_tick`).
+   the IPOPT path, on the layouts it supports, inside and beyond the limits, in time mode
+   (and path mode where ``--modes`` names it) (:mod:`benchmarks.compiled_tick`).
 
 Times [s] in ``perf.json``, printed in ms or us. ``tick`` is the whole ``step()``
 (``Command.tick_time``); ``solve`` the solver's own time (daqp and OSQP: their reported
@@ -816,7 +816,8 @@ def main(argv: list[str]) -> int:
             "Hessian every tick, the Python tick, its virtual machine and the IPOPT path ==")
         compiled_rows = compiled_section(
             layouts, speeds, REFERENCE_SHAPE, REFERENCE_HEADING,
-            REFERENCE_HORIZON, DT, ipopt_ticks, rounds, reference, _run, _row, _settle, say)
+            REFERENCE_HORIZON, DT, ipopt_ticks, rounds, reference, _run, _row, _settle, say,
+            tuple(modes) if args.modes else ("time",))  # path mode where --modes names it
     first = next((row for row in horizon_rows or []
                   if row["solver"] == FAST and row["horizon"] == REFERENCE_HORIZON), None)
     if first is not None:  # the same run again: how much the machine moved meanwhile

@@ -190,7 +190,7 @@ def test_reset_and_a_new_trajectory_start_over() -> None:
 
 @pytest.mark.parametrize("options, named", [
     ({"robot": "mpo700"}, "mpo700"),
-    ({"mode": "path"}, "mode='path'"),
+    ({"robot": "swerve", "mode": "path"}, "mode='path' on a swerve robot"),
     ({"solver": "osqp"}, "solver='osqp'"),
     ({"delay_ticks": 1}, "delay_ticks=1"),
     ({"time_limit": 0.01}, "time_limit=0.01"),

@@ -25,7 +25,7 @@ from mpc.model import (
     twist_logarithm,
 )
 from mpc.robots import preset
-from trajectories import Circle, FigureEight, SpinHeading, Trajectory
+from trajectories import Circle, FigureEight, SpinHeading, Trajectory, TrajectoryError
 
 DT = 0.05
 HORIZON = 10
@@ -248,3 +248,27 @@ def test_a_failed_solve_keeps_the_guess_and_warms_up_again() -> None:
     assert timing.fill(2 * DT, 2 * DT, heading=0.0) == pytest.approx(2 * DT)
     assert tick.path is not None
     assert timing.refine(tick.path.progress_guess + 1e-2, 0.0)  # warming up again
+
+
+def test_a_warm_up_round_the_reference_cannot_be_sampled_for_ends_the_warm_up() -> None:
+    """A round whose planned progress reaches where the trajectory fails: no round more
+    (the last solve stands), nothing written, no TrajectoryError out of the tick."""
+
+    class Failing(Circle):
+        """Samples only on the clock's grid (k DT): the first fill's times."""
+
+        def sample(self, t: object) -> object:  # type: ignore[override]
+            ticks = np.asarray(t, dtype=float) / DT
+            if np.any(np.abs(ticks - np.round(ticks)) > 1e-9):
+                raise TrajectoryError("no reference between the ticks")
+            return super().sample(t)  # type: ignore[arg-type]
+
+    timing, tick = path_timing(Failing(1.0, 12.0, heading="tangent"))
+    timing.fill(0.0, 0.0, heading=0.0)
+    assert tick.path is not None
+    guess = tick.path.progress_guess.copy()
+    poses = tick.poses_ref.copy()
+    planned = guess - 0.01  # (behind the clock, within the trust region; s_0 stays)
+    assert not timing.refine(planned, 0.0)
+    np.testing.assert_array_equal(tick.path.progress_guess, guess)
+    np.testing.assert_array_equal(tick.poses_ref, poses)

@@ -156,10 +156,11 @@ class Controller:
             is used modulo whole turns, so wrapping a multi-turn one
             (``math.remainder(theta, 2 * math.pi)``) changes no command.
         compiled: run the tick as one program (:mod:`mpc.tick`, opt-in; constant-Jacobian
-            robots and swerve without axle offset or steering range, time mode,
-            ``solver="daqp"`` for now, else a ControllerError naming what is supported):
-            ``True`` compiles it to C (seconds the first time, then cached) and runs
-            CasADi's virtual machine where no compiler works;
+            robots and swerve without axle offset or steering range; time mode, and path
+            mode on constant-Jacobian robots; ``solver="daqp"`` for now, else a
+            ControllerError naming what is supported): ``True`` compiles it to C (seconds
+            the first time, then cached) and runs CasADi's virtual machine where no
+            compiler works;
             ``"virtual-machine"`` runs the virtual machine. The same commands as the Python
             tick under the same Hessian-reuse rule (docs/guide/compiled-tick.md).
             :attr:`tick_path` says which path runs.

@@ -35,7 +35,7 @@ from mpc.buffered import BufferedFunction
 from mpc.control.lookahead import Lookahead, Strided
 from mpc.model.layout import PathInput, TickInput
 from mpc.model.tracking import TrackingModel, feedforward_twists, reference_directions
-from trajectories import Trajectory, TrajectorySample
+from trajectories import Trajectory, TrajectoryError, TrajectorySample
 
 #: Path mode: half-width of the trust region on the progress around where the reference
 #: was sampled [s of reference time]; the QP's first-order expansion of the path holds there.
@@ -235,7 +235,8 @@ class PathProgress:
 
     def refine(self, progress: FloatArray | None, heading: float) -> bool:
         """After a solve with no plan to start from: sample again at the planned progress
-        and return True if the caller should solve again (False once it has settled)."""
+        and return True if the caller should solve again (False once it has settled, or
+        where the trajectory cannot be sampled there: the solve stands)."""
         if progress is None or self._rounds <= 0:
             return False
         self._rounds -= 1
@@ -243,7 +244,10 @@ class PathProgress:
             return False
         guess = np.minimum(np.maximum.accumulate(progress), self._t_plan + self.offsets)
         guess[0] = self.path.lower[0]
-        self._sample(guess, heading)
+        try:
+            self._sample(guess, heading)
+        except TrajectoryError:  # (raised before anything is written) keep this solve
+            return False
         return True
 
     def _sample(self, guess: FloatArray, heading: float) -> None:

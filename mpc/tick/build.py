@@ -66,6 +66,9 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
         "MPC_MOVING_ROWS": graphs.moving_rows, "MPC_ROW_STATE": len(graphs.row_state),
         "MPC_STEER": graphs.steer,
     }
+    config = getattr(graphs, "config", None)  # path mode's sizes (mpc.tick.path)
+    if config is not None:
+        sizes.update(config())
     offsets = ", ".join(f"{value!r}" for value in graphs.offsets)
     moving = []  # swerve: the moving rows' sparsity (column by column), for tick.c's whitening
     if graphs.moving_rows:

@@ -32,6 +32,8 @@ from mpc.solvers import TrackingSolver
 from mpc.tick import reuse
 from mpc.tick.build import compiled_library
 from mpc.tick.graphs import UNPLANNED, build_graphs
+from mpc.tick.path import build_path_graphs
+from mpc.tick.path_edge import PathReference
 from mpc.tick.runners import (
     CLAMPED,
     FAILURES,
@@ -108,7 +110,12 @@ class CompiledTick:
                                  controller.delay_ticks, controller.command_ramp, time_limit,
                                  controller.polygon_sides)
         self._controller = controller
-        graphs = build_graphs(controller.model, wheels, controller.dt)
+        path_mode = controller.mode == "path"
+        graphs = (build_path_graphs(controller.model, wheels, controller.dt) if path_mode
+                  else build_graphs(controller.model, wheels, controller.dt))
+        #: Path mode's reference at the edge (:mod:`mpc.tick.path_edge`), else None.
+        self._path: PathReference | None = (
+            PathReference(controller.trajectory, controller.model) if path_mode else None)
         #: The tick's graphs (:func:`~mpc.tick.graphs.build_graphs`).
         self.graphs = graphs
         iterations = 1000 if max_iter is None else int(max_iter)
@@ -159,6 +166,8 @@ class CompiledTick:
             self._runner.set_steer(np.asarray(steer_angles, dtype=float))
         self._first_tick = not np.asarray(last).any()
         self._failures = 0
+        if self._path is not None:
+            self._path.reset()
 
     def _window(self, t: float) -> tuple[FloatArray, FloatArray, str | None]:
         """The reference's poses and world velocities at the stage times (N+1, 3), NaN with
@@ -182,30 +191,74 @@ class CompiledTick:
         measured = check_pose(pose, controller.allow_unusual)
         t_now = check_time(t)
         check_steer_angles(controller.robot, steer_angles)
+        if self._path is not None:
+            return self._path_step(measured, t_now, start)
         poses, velocities, failure = self._window(t_now)
         if failure is None and self._first_tick:
             check_heading("pose", float(measured[2]), float(poses[0, 2]),
                           controller.allow_unusual, ControllerError)
             self._first_tick = False
         out = self._runner.step(measured, poses, velocities)
+        return self._command(out, start, t_now, failure, t_now, int(out[ITERATIONS]),
+                             float(out[SOLVE_TIME]))
+
+    def _path_step(self, measured: FloatArray, t_now: float, start: float) -> Command:
+        """Path mode's tick: the reference sampled at the progress guess
+        (:class:`~mpc.tick.path_edge.PathReference`), solved again while the progress
+        settles after a start with no plan (the Python tick's warm-up)."""
+        path = self._path
+        assert path is not None
+        controller = self._controller
+        if path.trajectory is not controller.trajectory:
+            path = self._path = PathReference(controller.trajectory, controller.model)
+        heading = float(measured[2])
+        failure = None
+        try:
+            reference_time = path.fill(t_now, heading)
+        except TrajectoryError as error:  # the reference, not the caller: fall back
+            reference_time, failure = t_now, f"reference failed: {error}"
+        if failure is None and self._first_tick:
+            check_heading("pose", heading, path.reference_heading(),
+                          controller.allow_unusual, ControllerError)
+            self._first_tick = False
+        runner = self._runner
+        out = runner.step(measured, path.parameters, path.bounds)
+        iterations, seconds = int(out[ITERATIONS]), float(out[SOLVE_TIME])
+        progress_at = TWIST + 3 + self._wheels + 3 * (self._horizon + 1)
+        while (failure is None and int(out[STATUS]) == 0
+               and path.refine(out[progress_at:].copy(), heading)):
+            self.rebuilds += int(out[REBUILT])
+            runner.again()
+            out = runner.step(measured, path.parameters, path.bounds)
+            iterations += int(out[ITERATIONS])
+            seconds += float(out[SOLVE_TIME])
+        solved = int(out[STATUS]) == 0
+        path.solved(out[progress_at:].copy() if solved else None)
+        return self._command(out, start, t_now, failure, reference_time, iterations, seconds)
+
+    def _command(self, out: FloatArray, start: float, t_now: float, failure: str | None,
+                 reference_time: float, iterations: int, seconds: float) -> Command:
+        """The :class:`~mpc.control.command.Command` of a tick's output array."""
         status = _STATUSES[int(out[STATUS])]
         flag = int(out[FLAG])
         failures = int(out[FAILURES])
         self.rebuilds += int(out[REBUILT])
         self._log(failures, failure or _SOLVER_STATUS.get(flag, f"daqp exit flag {flag}"))
         speeds = TWIST + 3
-        twist = out[TWIST:speeds].copy()
-        at = speeds + self._wheels  # the plan's poses, then (swerve) the steer angles
-        plan = out[at:at + 3 * (self._horizon + 1)].reshape(self._horizon + 1, 3).copy()
-        steer = out[at + plan.size:].copy() if self.graphs.steer else None
+        poses = speeds + self._wheels  # the plan's poses, then (swerve) the steer angles
+        steer = poses + 3 * (self._horizon + 1)
         return Command(
-            wheel_speeds=out[speeds:speeds + self._wheels].copy(), twist=twist,
-            steer_angles=steer, predicted_poses=plan, status=status,
+            wheel_speeds=out[speeds:poses].copy(), twist=out[TWIST:speeds].copy(),
+            steer_angles=out[steer:steer + self.graphs.steer].copy() if self.graphs.steer
+            else None,
+            predicted_poses=out[poses:steer].reshape(self._horizon + 1, 3).copy(),
+            status=status,
             solver_status=(failure if flag == UNPLANNED and failure
                            else _SOLVER_STATUS.get(flag, f"daqp exit flag {flag}")),
-            solve_time=float(out[SOLVE_TIME]), tick_time=time.perf_counter() - start,
-            iterations=int(out[ITERATIONS]), consecutive_failures=failures,
-            clamped=bool(out[CLAMPED]), reference_time=t_now, lag=0.0)
+            solve_time=seconds, tick_time=time.perf_counter() - start,
+            iterations=iterations, consecutive_failures=failures,
+            clamped=bool(out[CLAMPED]), reference_time=reference_time,
+            lag=t_now - reference_time)
 
     def _log(self, failures: int, reason: str) -> None:
         """Fallbacks starting and ending, as :class:`~mpc.control.fallback.FallbackPolicy`

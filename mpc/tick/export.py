@@ -17,6 +17,7 @@ from mpc.errors import ControllerError
 from mpc.robots.base import Robot
 from mpc.tick.build import casadi_folder, write_sources
 from mpc.tick.edge import CompiledTick
+from mpc.tick.path import PathGraphs
 
 
 class Exportable(Protocol):
@@ -43,6 +44,10 @@ def export_c(controller: Exportable, folder: str | Path) -> Path:
         raise ControllerError(
             "export_c needs a controller built with compiled=True (or 'virtual-machine'): "
             f"this one runs the {controller.tick_path!r} tick")
+    if isinstance(compiled.graphs, PathGraphs):
+        raise ControllerError(
+            "export_c: mode='path' is not exported yet (its reference is sampled at the "
+            "planned progress, in Python); export a mode='time' controller")
     out = Path(folder)
     graphs = compiled.graphs
     write_sources(graphs, out)

@@ -6,6 +6,14 @@
 
 #include "mpc_tick_config.h"
 
+/* Time mode's sizes where the configuration does not set path mode's. */
+#ifndef MPC_PROGRESS
+#define MPC_PROGRESS 0                  /* progress values in a plan (path mode: N+1) */
+#define MPC_REF_SIZE (3 * (MPC_N + 1))  /* numbers in mpc_tick_step's ref_poses */
+#define MPC_REF2_SIZE (3 * (MPC_N + 1)) /* numbers in mpc_tick_step's ref_velocities */
+#define MPC_AGAIN_MODE 3
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -30,7 +38,11 @@ typedef struct mpc_tick mpc_tick;
 #define MPC_OUT_SPEEDS (MPC_OUT_TWIST + 3)      /* the wheel speeds to send (MPC_W) */
 #define MPC_OUT_POSES (MPC_OUT_SPEEDS + MPC_W)  /* the plan's poses (3 (MPC_N + 1)) */
 #define MPC_OUT_STEER (MPC_OUT_POSES + 3 * (MPC_N + 1)) /* swerve: steer angles (MPC_STEER) */
-#define MPC_OUT_SIZE (MPC_OUT_STEER + MPC_STEER)
+#define MPC_OUT_PROGRESS (MPC_OUT_STEER + MPC_STEER) /* path mode: progress [s] (MPC_PROGRESS) */
+#define MPC_OUT_SIZE (MPC_OUT_PROGRESS + MPC_PROGRESS)
+#if MPC_STEER && MPC_PROGRESS
+#error "the compiled tick has no path mode for swerve"
+#endif
 
 /* A controller (allocates everything it will use; NULL if daqp cannot be set up).
  * max_iter: daqp iterations per solve at most; budgeted: 1 if max_iter was chosen (no
@@ -53,6 +65,9 @@ int mpc_tick_output_size(void);
 /* Swerve (MPC_STEER > 0): the modules' steer angles now [rad] (MPC_STEER), e.g. measured;
  * each step starts from the angles the last one commanded unless set here. */
 void mpc_tick_set_steer_angles(mpc_tick* tick, const double* angles);
+/* Path mode's warm-up: solve the tick just stepped again (its plan, unshifted, is the
+ * guess; the last command and the fallback's memory as before it). */
+void mpc_tick_again(mpc_tick* tick);
 
 #ifdef __cplusplus
 }

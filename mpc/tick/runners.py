@@ -5,10 +5,11 @@ QP by the daqp Python module with the same rows, kept between ticks the same way
 
 Both write one output array a tick: status code, daqp's exit flag, iterations, solve
 time [s], clamped (0/1), failures in a row, Hessians built this tick, the twist (3), the
-wheel speeds (w), the plan's poses (3 (N+1), a stage's three numbers together), and for
-swerve the steer angles (n). Both keep the Hessian across ticks by the same rule
-(:mod:`mpc.tick.reuse`); swerve's rows move every tick (whitened every tick, daqp given
-them every tick) and its steer angles are state (the last commanded, or set).
+wheel speeds (w), the plan's poses (3 (N+1), a stage's three numbers together), for
+swerve the steer angles (n), in path mode the planned progress (N+1) [s]. Both keep the
+Hessian across ticks by the same rule (:mod:`mpc.tick.reuse`); swerve's rows move every
+tick (whitened every tick, daqp given them every tick) and its steer angles are state (the
+last commanded, or set).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from scipy.linalg import lapack
 from mpc.arrays import FloatArray
 from mpc.buffered import BufferedFunction
 from mpc.tick.graphs import COLD, HOLD, SOLVED, UNPLANNED, WARM, TickGraphs
+from mpc.tick.path import AGAIN
 from mpc.tick.reuse import must_rebuild
 
 #: The output array's leading fields (then the twist, the wheel speeds, the poses).
@@ -36,7 +38,13 @@ _EQUALITY = 5
 
 def output_size(graphs: TickGraphs) -> int:
     """Numbers in a tick's output array."""
-    return TWIST + 3 + graphs.wheels + 3 * (graphs.horizon + 1) + graphs.steer
+    return (TWIST + 3 + graphs.wheels + 3 * (graphs.horizon + 1) + graphs.steer
+            + _progress(graphs))
+
+
+def _progress(graphs: TickGraphs) -> int:
+    """Progress values a plan has: N+1 in path mode (:mod:`mpc.tick.path`), else 0."""
+    return int(getattr(graphs, "progress", 0))
 
 
 class TickRunner(Protocol):
@@ -53,8 +61,13 @@ class TickRunner(Protocol):
 
     def step(self, pose: FloatArray, ref_poses: FloatArray,
              ref_velocities: FloatArray) -> FloatArray:
-        """One tick (pose (3,), the window's poses and world velocities (N+1, 3)): the
-        output array (the runner's own, rewritten next tick)."""
+        """One tick (pose (3,), the window's poses and world velocities (N+1, 3); path
+        mode: the parameter vector and the progress bounds (N+1, 2)): the output array
+        (the runner's own, rewritten next tick)."""
+
+    def again(self) -> None:
+        """Path mode's warm-up: the next step solves the last one again (``tick.c``'s
+        ``mpc_tick_again``)."""
 
 
 class NativeTick:
@@ -73,6 +86,7 @@ class NativeTick:
         lib.mpc_tick_step.restype = ctypes.c_int
         if graphs.steer:
             lib.mpc_tick_set_steer_angles.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+        lib.mpc_tick_again.argtypes = [ctypes.c_void_p]
         if lib.mpc_tick_output_size() != output_size(graphs):
             raise RuntimeError("the compiled tick's output layout differs from the graphs'")
         handle = lib.mpc_tick_init(int(max_iter), int(budgeted), float(rebuild_drift))
@@ -97,6 +111,9 @@ class NativeTick:
     def set_steer(self, angles: FloatArray) -> None:
         values = np.ascontiguousarray(angles, dtype=float)
         self._lib.mpc_tick_set_steer_angles(self._handle, values.ctypes.data)
+
+    def again(self) -> None:
+        self._lib.mpc_tick_again(self._handle)
 
     def step(self, pose: FloatArray, ref_poses: FloatArray,
              ref_velocities: FloatArray) -> FloatArray:
@@ -140,8 +157,13 @@ class VirtualTick:
         self._settings = {"iter_limit": int(max_iter)}
         self._last, self._plan = np.zeros(3), np.zeros((n, 3))
         self._memory, self._warm = np.zeros(2), False
-        self._pose, self._poses, self._velocities = (np.zeros(3), np.zeros((n + 1, 3)),
-                                                     np.zeros((n + 1, 3)))
+        # (the window's poses and velocities, (N+1, 3); path mode: the parameter vector
+        # and the progress bounds, (N+1, 2))
+        self._pose, self._poses, self._velocities = (
+            np.zeros(3), np.zeros(graphs.prepare.size_in(1)[::-1]),
+            np.zeros(graphs.prepare.size_in(2)[::-1]))
+        self._again, self._before = False, np.zeros(5)  # path mode's warm-up (again)
+        self._progress = np.zeros(_progress(graphs))
         self._mode = np.zeros(1)
         self._moving = graphs.moving_rows > 0  # swerve: rows every tick, with a state
         self._steer, self._next_steer = np.zeros(graphs.steer), np.zeros(graphs.steer)
@@ -180,7 +202,8 @@ class VirtualTick:
                             self._memory, *([self._steer] if graphs.steer else [])],
             [self._status, self._twist, self._speeds, self._clamped, self._plan_poses,
              self._next_plan, self._next_memory,
-             *([self._next_steer] if graphs.steer else [])])
+             *([self._next_steer] if graphs.steer else []),
+             *([self._progress] if self._progress.size else [])])
         self._solver: daqp.Model | None = None
         self._out = np.zeros(output_size(graphs))
 
@@ -188,11 +211,16 @@ class VirtualTick:
         self._last[:] = last
         self._plan[:] = 0.0
         self._memory[:] = 0.0
-        self._warm = False
+        self._warm = self._again = False
         self._forget()
 
     def set_steer(self, angles: FloatArray) -> None:
         self._steer[:] = angles
+
+    def again(self) -> None:
+        self._last[:], self._memory[:] = self._before[:3], self._before[3:]
+        self._forget()
+        self._again = True
 
     def _forget(self) -> None:
         """daqp's model and the kept Hessian dropped (``tick.c``'s ``forget``)."""
@@ -248,8 +276,10 @@ class VirtualTick:
         self._pose[:] = pose
         self._poses[:] = ref_poses
         self._velocities[:] = ref_velocities
-        cold = not self._warm
-        self._mode[0] = COLD if cold else WARM
+        cold = not self._warm and not self._again
+        self._mode[0] = AGAIN if self._again else COLD if cold else WARM
+        self._again = False
+        self._before[:3], self._before[3:] = self._last, self._memory
         planned = (math.isfinite(float(self._poses.sum()))
                    and math.isfinite(float(self._velocities.sum())))
         self._prepare(planned)
@@ -287,5 +317,7 @@ class VirtualTick:
         out[speeds:speeds + self._speeds.size] = self._speeds
         poses = speeds + self._speeds.size
         out[poses:poses + self._plan_poses.size] = self._plan_poses.ravel()
-        out[poses + self._plan_poses.size:] = self._steer
+        tail = poses + self._plan_poses.size
+        out[tail:tail + self._steer.size] = self._steer
+        out[tail + self._steer.size:] = self._progress
         return out

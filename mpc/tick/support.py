@@ -10,7 +10,8 @@ from mpc.robots.wheels.swerve.robot import SwerveRobot
 #: What the compiled tick supports, for the error that refuses the rest.
 SUPPORTED = ("constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with no failed "
              "wheel and no motor model, and swerve robots with no axle offset, steering range, "
-             "failed module or motor model; solver='daqp', mode='time', delay_ticks=0, "
+             "failed module or motor model; solver='daqp', mode='time' (or 'path' on "
+             "constant-Jacobian robots), delay_ticks=0, "
              "command_ramp=False, time_limit=0")
 
 
@@ -33,8 +34,10 @@ def check_supported(robot: Robot, solver: str, mode: str, delay_ticks: int,
         problems.append(f"robot {robot.name!r} ({robot.kind}{_why(robot)})")
     if solver != "daqp":
         problems.append(f"solver={solver!r}")
-    if mode != "time":
+    if mode not in ("time", "path"):
         problems.append(f"mode={mode!r}")
+    elif mode == "path" and isinstance(robot, SwerveRobot):
+        problems.append("mode='path' on a swerve robot")
     if delay_ticks:
         problems.append(f"delay_ticks={delay_ticks}")
     if command_ramp:

@@ -27,6 +27,8 @@
 #define MPC_WARM 1.0
 #define MPC_HOLD 2.0
 #define MPC_UNPLANNED (-1000.0)
+/* daqp's flag of an equality row (active, immutable): a row whose bounds are equal */
+#define MPC_EQUALITY 5
 
 struct mpc_tick {
   /* state carried between ticks */
@@ -58,6 +60,11 @@ struct mpc_tick {
 #if MPC_STEER
   double steer[MPC_STEER], steer_next[MPC_STEER]; /* the modules' angles [rad] */
 #endif
+  /* path mode: the planned progress; a tick solved again (mpc_tick_again) takes the last
+   * round's plan unshifted, with the last command and memory from before the tick */
+  double progress[MPC_PROGRESS > 0 ? MPC_PROGRESS : 1];
+  int again;
+  double last_before[3], memory_before[2];
   DAQPProblem qp;
   DAQPWorkspace work;
   DAQPResult res;
@@ -295,18 +302,36 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
   mpc_tick_whiten(t->arg, t->out, t->iw, t->w, 0);
 }
 
+/* A cold start's sense: rows whose bounds are equal (path mode's first progress) active
+ * and immutable, as the Python tick's daqp set-up marks them; how many. */
+static int cold_sense(mpc_tick* t) {
+  int i, count = 0;
+  for (i = 0; i < MPC_M; i++)
+    if (t->lower[i] == t->upper[i]) {
+      t->sense[i] = MPC_EQUALITY;
+      count++;
+    }
+  return count;
+}
+
 /* daqp on the rows prepare wrote: its exit flag (the step in t->y). */
 static int solve(mpc_tick* t, double* iterations, double* seconds) {
-  int i, flag, mask = UPDATE_v + UPDATE_d;
+  int i, flag, mask = UPDATE_v + UPDATE_d, equalities = 0;
   if (t->rebuilt || MPC_MOVING_ROWS) mask += UPDATE_M; /* new whitened rows */
-  if (t->qp_cold) mask += UPDATE_sense; /* sense from t->sense: all inactive */
+  if (t->qp_cold) { /* sense from t->sense: all inactive but the equalities */
+    mask += UPDATE_sense;
+    equalities = cold_sense(t);
+  }
   reset_daqp_workspace(&t->work);
   flag = update_ldp(mask, &t->work);
-  if (flag >= 0 && !t->qp_cold && activate_constraints(&t->work) < 0) {
+  if (flag >= 0 && (!t->qp_cold || equalities) && activate_constraints(&t->work) < 0) {
     /* the kept active set does not fit the new rows: start cold */
     qp_cold(t);
+    equalities = cold_sense(t);
     reset_daqp_workspace(&t->work);
-    flag = update_ldp(mask + UPDATE_sense, &t->work);
+    flag = update_ldp(mask | UPDATE_sense, &t->work);
+    if (flag >= 0 && equalities && activate_constraints(&t->work) < 0)
+      flag = -1; /* the equalities alone do not fit: the tick fails (daqp's infeasible) */
   }
   t->qp_cold = 0;
   if (flag < 0) {
@@ -332,10 +357,14 @@ static int finite_vector(const double* x, int n) {
 int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
                   const double* ref_velocities, double* out) {
   double iterations = 0.0, seconds = 0.0, flag;
-  int cold = !t->warm, i, rebuilt;
-  int planned = finite_vector(ref_poses, 3 * (MPC_N + 1)) &&
-                finite_vector(ref_velocities, 3 * (MPC_N + 1));
-  prepare(t, pose, ref_poses, ref_velocities, cold ? MPC_COLD : MPC_WARM, planned);
+  int cold = !t->warm && !t->again, i, rebuilt;
+  int planned = finite_vector(ref_poses, MPC_REF_SIZE) &&
+                finite_vector(ref_velocities, MPC_REF2_SIZE);
+  double mode = t->again ? MPC_AGAIN_MODE : cold ? MPC_COLD : MPC_WARM;
+  t->again = 0;
+  memcpy(t->last_before, t->last, sizeof(t->last));
+  memcpy(t->memory_before, t->memory, sizeof(t->memory));
+  prepare(t, pose, ref_poses, ref_velocities, mode, planned);
   rebuilt = t->rebuilt;
   if (!planned) {
     flag = MPC_UNPLANNED; /* no QP: the fallback without the feedforward */
@@ -369,6 +398,8 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
 #if MPC_STEER
   t->arg[6] = t->steer;
   t->out[7] = t->steer_next;
+#elif MPC_PROGRESS > 0
+  t->out[7] = t->progress;
 #endif
   mpc_tick_finish(t->arg, t->out, t->iw, t->w, 0);
   t->warm = t->status == 0.0;
@@ -390,5 +421,17 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   memcpy(out + MPC_OUT_TWIST, t->twist, sizeof(t->twist));
   memcpy(out + MPC_OUT_SPEEDS, t->speeds, sizeof(t->speeds));
   memcpy(out + MPC_OUT_POSES, t->poses, sizeof(t->poses));
+#if MPC_PROGRESS > 0
+  memcpy(out + MPC_OUT_PROGRESS, t->progress, sizeof(double) * MPC_PROGRESS);
+#endif
   return (int)t->status;
+}
+
+/* Path mode's warm-up: the tick just stepped is solved again (its plan, unshifted, the
+ * guess; daqp cold; the last command and the fallback's memory as before that tick). */
+void mpc_tick_again(mpc_tick* t) {
+  memcpy(t->last, t->last_before, sizeof(t->last));
+  memcpy(t->memory, t->memory_before, sizeof(t->memory));
+  forget(t);
+  t->again = 1;
 }
