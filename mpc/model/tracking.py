@@ -222,12 +222,16 @@ class TrackingModel:
         weigh, beyond the reference's own (``twists_ref``; ``sampled``: its parameters).
 
         A robot with dynamics: what its motor rows bound, the body's acceleration times the
-        change's time ``h``: ``u_k - u_{k-1} + h coriolis(middle)``, the Coriolis term
-        linearised about the reference's middle (the cost stays quadratic). Weighing the
-        body-frame change instead let a plan meet the reference's change by turning the body,
-        which costs no force. Of the reference's own change it excuses only what friction
-        allows (``max_acceleration h``): beyond that the excuse pulled the plan after the
-        reference's acceleration instead of its poses."""
+        change's time ``h``: ``u_k - u_{k-1} + h coriolis``, the Coriolis term the
+        reference's (at the change's middle) plus that of the plan's turn rate beyond the
+        reference's, ``(omega - omega_ref) x v_ref`` (linear: the cost stays quadratic).
+        Weighing the body-frame change instead let a plan meet the reference's change by
+        turning the body, which costs no force. (The other first-order part, ``omega_ref x
+        (v - v_ref)``, is left out: a pull on the velocity the twist term already weighs,
+        it drove the swerve preset's tangent-heading circle into its voltage limit.) Of the
+        reference's own change it excuses only what friction allows (``max_acceleration
+        h``): beyond that the excuse pulled the plan after the reference's acceleration
+        instead of its poses."""
         reference = self._reference_change(twists_ref, k)
         dynamics = self.robot.dynamics
         if dynamics is None:
@@ -236,8 +240,7 @@ class TrackingModel:
         about = sampled[:, 0] if k == 0 else 0.5 * (sampled[:, k] + sampled[:, k - 1])
         own = _coriolis(about)
         middle = 0.5 * (twist + before) - about
-        linear = own + ca.vertcat(-(middle[2] * about[1] + about[2] * middle[1]),
-                                  middle[2] * about[0] + about[2] * middle[0], 0.0)
+        linear = own + ca.vertcat(-middle[2] * about[1], middle[2] * about[0], 0.0)
         reference = reference + h * own
         limit = dynamics.max_acceleration
         if limit is not None:  # a factor of the parameters only: the cost stays quadratic
