@@ -31,6 +31,9 @@ from mpc.robots.base import Robot
 #: Reference speed [m/s] below which the direction of travel fades to zero.
 DIRECTION_SPEED = 0.01
 
+#: [m^2/s^2] keeps the norm of a reference change smooth at rest.
+_TINY = 1e-12
+
 
 @dataclass(eq=False)
 class TrackingModel:
@@ -199,6 +202,7 @@ class TrackingModel:
                     + contour * across**2)
 
         total = ca.SX(0)
+        sampled = twists_ref
         if self.path:  # the feedforward at the planned progress rate, not the sampled one
             progress = variables.symbol(z, "progress")
             rates = ca.repmat(((progress[1:] - progress[:-1]) / ca.DM(self.durations)).T, 3, 1)
@@ -207,10 +211,43 @@ class TrackingModel:
             if k > 0:
                 total += pose_cost(k, weights.pose)
             deviation = twists[:, k] - twists_ref[:, k]
-            change = (twists[:, k] - (last if k == 0 else twists[:, k - 1])
-                      - self._reference_change(twists_ref, k))
+            change = self._change(twists[:, k], last if k == 0 else twists[:, k - 1],
+                                  twists_ref, sampled, k)
             total += ca.bilin(r, deviation, deviation) + ca.bilin(s, change, change)
         return total + pose_cost(self.horizon, weights.terminal) + self.progress_cost(z, p)
+
+    def _change(self, twist: ca.SX, before: ca.SX, twists_ref: ca.SX, sampled: ca.SX,
+                k: int) -> ca.SX:
+        """The change into stage ``k`` (from ``before`` to ``twist``) that the rate terms
+        weigh, beyond the reference's own (``twists_ref``; ``sampled``: its parameters).
+
+        A robot with dynamics: what its motor rows bound, the body's acceleration times the
+        change's time ``h``: ``u_k - u_{k-1} + h coriolis``, the Coriolis term the
+        reference's (at the change's middle) plus that of the plan's turn rate beyond the
+        reference's, ``(omega - omega_ref) x v_ref`` (linear: the cost stays quadratic).
+        Weighing the body-frame change instead let a plan meet the reference's change by
+        turning the body, which costs no force. (The other first-order part, ``omega_ref x
+        (v - v_ref)``, is left out: a pull on the velocity the twist term already weighs,
+        it drove the swerve preset's tangent-heading circle into its voltage limit.) Of the
+        reference's own change it excuses only what friction allows (``max_acceleration
+        h``): beyond that the excuse pulled the plan after the reference's acceleration
+        instead of its poses."""
+        reference = self._reference_change(twists_ref, k)
+        dynamics = self.robot.dynamics
+        if dynamics is None:
+            return twist - before - reference
+        h = float(self.change_times[k])
+        about = sampled[:, 0] if k == 0 else 0.5 * (sampled[:, k] + sampled[:, k - 1])
+        own = _coriolis(about)
+        middle = 0.5 * (twist + before) - about
+        linear = own + ca.vertcat(-middle[2] * about[1], middle[2] * about[0], 0.0)
+        reference = reference + h * own
+        limit = dynamics.max_acceleration
+        if limit is not None:  # a factor of the parameters only: the cost stays quadratic
+            ask = self._reference_change(sampled, k) + h * own
+            scale = ca.fmin(1.0, limit * h / ca.sqrt(ask[0]**2 + ask[1]**2 + _TINY))
+            reference = ca.vertcat(scale * reference[0], scale * reference[1], reference[2])
+        return twist - before + h * linear - reference
 
     def _reference_change(self, twists_ref: ca.SX, k: int) -> ca.SX:
         """The reference's own change of twist into stage ``k`` (what the rate terms do not
@@ -232,6 +269,11 @@ class TrackingModel:
                                                 ca.DM(self.durations).T)
         return ca.vertcat(poses[:, 0] - parameters.symbol(p, "x0"),
                           ca.vec(poses[:, 1:] - following))
+
+
+def _coriolis(twist: ca.SX) -> ca.SX:
+    """``omega x v`` of a body twist (3,): the body acceleration is ``du/dt`` plus it."""
+    return ca.vertcat(-twist[2] * twist[1], twist[2] * twist[0], 0.0)
 
 
 def feedforward_twists(starts: ca.SX, ends: ca.SX, durations: ca.DM) -> ca.SX:

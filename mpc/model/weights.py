@@ -55,7 +55,10 @@ class Weights:
     + module_rate * sum_i |G_i du_k|^2 + (the same pose terms at N with terminal)``
     with ``du_k = (u_k - u_{k-1}) - (uref_k - uref_{k-1})``, the change of twist beyond
     the reference's own (so a robot on the reference pays no rate cost for following its
-    turns; into stage 0 the reference's change is extrapolated from stages 0 and 1) and
+    turns; into stage 0 the reference's change is extrapolated from stages 0 and 1; for a
+    robot with dynamics ``du_k`` is the change of body acceleration, Coriolis term
+    included, and of the reference's own only what friction allows, as its motor rows
+    see it: :meth:`~mpc.model.tracking.TrackingModel.cost`) and
     ``G_i`` swerve module ``i``'s ground-velocity map, where ``e_k`` is the position
     error and ``t_k`` the reference's unit direction of travel. With ``along_track < 1``
     falling behind the reference costs less than leaving its path.

@@ -144,6 +144,15 @@ class RobotDynamics:
         return wheel.torque(self.current_limit * wheel.count)
 
     @property
+    def max_acceleration(self) -> float | None:
+        """The largest planar acceleration friction lets the plan give the body [m/s^2]:
+        ``(1 - headroom) friction g`` (the contacts' forces sum to at most ``mu m g``), or
+        None with unlimited traction."""
+        if self.friction is None:
+            return None
+        return (1.0 - self.headroom) * self.friction * GRAVITY
+
+    @property
     def max_steer_rate(self) -> float | None:
         """A swerve module's steering free speed at the battery voltage [rad/s], if a
         steering motor is given (its no-load speed; acceleration is not modelled)."""
