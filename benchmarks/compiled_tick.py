@@ -235,7 +235,7 @@ def _exported_row(replays: list[Any], recorded: Any, exported: ExportedTick,
 
 
 def _built(name: str, robot: Any, trajectory: Trajectory, horizon: int, dt: float,
-           mode: str) -> TrackingController:
+           mode: str) -> Controller:
     """The section's controller ``name`` (``compiled-rebuild``: built with no Hessian
     reuse, :data:`mpc.tick.reuse.REBUILD_DRIFT` below 0)."""
     saved = reuse.REBUILD_DRIFT
