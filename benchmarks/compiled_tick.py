@@ -184,7 +184,9 @@ def _scenario(built: dict[str, tuple[TrackingController, float]],
     say(line + f", IPOPT path / compiled {items['ipopt']['tick_p50'] / compiled:.1f}, rebuild "
         f"every tick / compiled {items['compiled-rebuild']['tick_p50'] / compiled:.2f} (tick "
         f"p50, same ticks); compiled p99 {own['tick_p99'] * 1e3:.3f} ms = "
-        f"{own['tick_p99'] / compiled:.2f} x its p50; Hessians built: "
+        f"{own['tick_p99'] / compiled:.2f} x its p50 (process CPU: p99 "
+        f"{own['cpu_p99'] * 1e3:.3f} ms = {own['cpu_p99'] / own['cpu_p50']:.2f} x its p50); "
+        f"Hessians built: "
         f"{own['hessian_builds']} compiled, {items['python']['hessian_builds']} python")
     if EXPORTED in items:
         export = items[EXPORTED]
@@ -261,7 +263,8 @@ def _builds(control: Any) -> int | None:
 
 def issue_targets(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """Issue 37's per-scenario lines over the section's rows: the worst scenario of each
-    (IPOPT path / compiled tick p50, compiled p99 / p50, compiled p99 [s]), named."""
+    (IPOPT path / compiled tick p50, compiled p99 / p50, compiled p99 [s]; the last two
+    in process CPU time too), named."""
     compiled = [item for item in rows if item["solver"] == "compiled"]
     if not compiled:
         return {}
@@ -272,12 +275,19 @@ def issue_targets(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     slowest = min(compiled, key=lambda item: item["ipopt_over_compiled_tick"])
     spread = max(compiled, key=lambda item: item["tick_p99"] / item["tick_p50"])
     worst = max(compiled, key=lambda item: item["tick_p99"])
+    # process CPU beside wall clock: on a shared machine the wall p99 is mostly the time
+    # the scheduler gave other processes
+    cpu_spread = max(compiled, key=lambda item: item["cpu_p99"] / item["cpu_p50"])
+    cpu_worst = max(compiled, key=lambda item: item["cpu_p99"])
     found = {
         "ipopt_over_compiled_tick_min": (slowest["ipopt_over_compiled_tick"],
                                          TARGET_IPOPT_OVER_COMPILED, False, name(slowest)),
         "compiled_p99_over_p50_max": (spread["tick_p99"] / spread["tick_p50"],
                                       TARGET_P99_OVER_P50, True, name(spread)),
         "compiled_tick_p99_max": (worst["tick_p99"], TARGET_P99, True, name(worst)),
+        "compiled_cpu_p99_over_p50_max": (cpu_spread["cpu_p99"] / cpu_spread["cpu_p50"],
+                                          TARGET_P99_OVER_P50, True, name(cpu_spread)),
+        "compiled_cpu_p99_max": (cpu_worst["cpu_p99"], TARGET_P99, True, name(cpu_worst)),
     }
     return {key: {"measured": float(value), "limit": limit,
                   "at_most" if at_most else "at_least": True, "scenario": scenario,

@@ -303,7 +303,8 @@ def test_the_summary_states_issue_37s_lines() -> None:
 
     def compiled(layout: str, p50: float, p99: float, ipopt: float) -> dict[str, Any]:
         return {"solver": "compiled", "layout": layout, "mode": "time", "speed": "inside",
-                "tick_p50": p50, "tick_p99": p99, "ipopt_over_compiled_tick": ipopt}
+                "tick_p50": p50, "tick_p99": p99, "cpu_p50": p50, "cpu_p99": 0.5 * p99,
+                "ipopt_over_compiled_tick": ipopt}
 
     section = {"rows": [compiled("mecanum", 1e-4, 2e-4, 100.0),
                         compiled("omni3", 2e-4, 8e-4, 40.0)],
@@ -322,4 +323,7 @@ def test_the_summary_states_issue_37s_lines() -> None:
     assert lines["compiled_p99_over_p50_max"]["measured"] == pytest.approx(4.0)
     assert lines["compiled_p99_over_p50_max"]["met"] is False
     assert lines["compiled_tick_p99_max"]["met"] is True
+    assert lines["compiled_cpu_p99_over_p50_max"]["measured"] == pytest.approx(2.0)
+    assert lines["compiled_cpu_p99_over_p50_max"]["met"] is True
+    assert lines["compiled_cpu_p99_max"]["scenario"] == "omni3 time inside"
     assert "issue37" not in summarise([], [], {"rows": peer_rows}, None)
