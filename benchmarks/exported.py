@@ -189,6 +189,7 @@ class ExportedTick:
         started = time.perf_counter()
         compiled = controller._compiled  # (export_c refuses a controller without one)
         work = Path(tempfile.mkdtemp(prefix="mpc-export-"))
+        self._private: Path | None = None  # a program outside the cache: removed with self
         try:
             mpc.export_c(controller, work / "src")
             key = _key(work / "src")
@@ -206,13 +207,18 @@ class ExportedTick:
                     os.close(handle)
                     shutil.copyfile(built, name)
                     os.chmod(name, 0o755)
-                    self.program = Path(name)
+                    self.program = self._private = Path(name)
         finally:
             shutil.rmtree(work, ignore_errors=True)
         self.arguments = [str(int(compiled.max_iter)), str(int(compiled.budgeted)),
                           repr(float(compiled.rebuild_drift))]
         self.wheels = int(compiled.graphs.wheels)
         self.build_time = time.perf_counter() - started
+
+    def __del__(self) -> None:
+        private, self._private = getattr(self, "_private", None), None
+        if private is not None:
+            private.unlink(missing_ok=True)
 
     def replay(self, inputs: str, rounds: int = 1) -> Replay:
         """The program on ``inputs`` (:func:`tick_inputs`), ``rounds`` times from a reset.

@@ -48,11 +48,14 @@ def test_quick_run_writes_every_section_and_skips_an_absent_peer(
     for header in ("1. tick split", "2. horizons", "3. scenarios", "4. peers", "summary",
                    "growth daqp: tick(N=20) / tick(N=10)"):
         assert header in out
+    # --quick leaves the compiled section out (it compiles a library per robot) unless named
+    assert "5. compiled" not in out and "mpc-compiled" not in out
 
     document = json.loads((tmp_path / "perf.json").read_text())
     assert {"command", "commit", "machine", "settings", "profiles", "rows", "peers", "jit",
             "summary", "wall_time"} <= set(document)
     assert document["command"] == f"mpc-bench perf --quick --out {tmp_path}"
+    assert document["compiled"] is None and "issue37" not in document["summary"]
     assert {"cpu_count", "python", "processor", "load_average_start",
             "thread_env"} <= set(document["machine"])
     assert document["settings"]["horizons"] == [10, 20]
