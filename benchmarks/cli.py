@@ -437,6 +437,9 @@ COMMANDS: dict[str, Command] = {
     "soak": Command("memory and tick time over a long run", "benchmarks.soak"),
     "export": Command("one robot preset's controller as a self-contained C library "
                       "(mpc.export_c)", "benchmarks.export"),
+    "export-check": Command("the exported C library, built with CMake, against the Python "
+                            "controller on recorded ticks of every preset",
+                            "benchmarks.export_check"),
     "motors": Command("motor-aware MPC against kinematic control on the motor plant",
                       "benchmarks.motors"),
     "fuzz": Command("seeded abuse of every robot and control path, counting unsafe commands",

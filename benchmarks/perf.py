@@ -23,10 +23,15 @@ are shared and noisy; absolute times are what this machine did while it ran. Sec
    frozen out of the garbage collector's scans meanwhile (``gc.freeze``): all of them are
    alive at once, as they would not be in a robot's program. Skipped with one line when
    do-mpc is not installed.
-5. ``compiled`` (only when named): the compiled tick (``Controller(compiled=True)``) beside
-   itself rebuilding its Hessian every tick, the Python tick, its virtual-machine path and
-   the IPOPT path, on the layouts it supports, inside and beyond the limits, in time mode
-   (and path mode where ``--modes`` names it) (:mod:`benchmarks.compiled_tick`).
+5. ``compiled``: on every scenario of section 3 (``--layouts`` x ``--modes`` x
+   ``--speeds``, figure-eight, fixed heading, N = 20), the compiled tick
+   (``Controller(compiled=True)``) beside itself rebuilding its Hessian every tick, the
+   Python tick, its virtual-machine path, the exported C library's tick (``mpc.export_c``,
+   built with CMake, timed in C) and the IPOPT path, as ratios within the run; a scenario
+   the compiled tick does not cover yet says why (:mod:`benchmarks.compiled_tick`). With
+   it, the peers section has the compiled tick too (``mpc-compiled``: do-mpc and the
+   IPOPT path over it, issue 37's lines). Each robot's library is compiled once (tens of
+   seconds at N = 20; cached after), so ``--quick`` leaves the section out unless named.
 
 Times [s] in ``perf.json``, printed in ms or us. ``tick`` is the whole ``step()``
 (``Command.tick_time``); ``solve`` the solver's own time (daqp and OSQP: their reported
@@ -52,7 +57,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from benchmarks import peers
-from benchmarks.compiled_tick import compiled_section
+from benchmarks.compiled_tick import compiled_section, issue_targets
 from benchmarks.options import add_list_option
 from benchmarks.outdir import add_force_argument, claim
 from benchmarks.runner import machine
@@ -87,14 +92,17 @@ FAST = "daqp"
 JIT = "daqp_jit"
 JIT_PEER = "mpc-daqp-jit"  # the peers section's row of the fast path with jit=True
 JIT_REPEATS = 3
+#: The peers section's row of the compiled tick (``Controller(compiled=True)``), with the
+#: ``compiled`` section.
+COMPILED_PEER = "mpc-compiled"
 #: Rounds of the peers section: each controller runs its ticks this many times, in turns.
 PEER_ROUNDS = 3
 #: A scenario's tick p99 above this is flagged [s].
 P99_LIMIT = 1e-3
-SECTIONS: tuple[str, ...] = ("profile", "horizons", "scenarios", "peers")
-#: Sections run only when named (``--sections compiled``): the compiled tick compiles its
-#: library the first time (tens of seconds at N = 20; cached after).
-OPTIONAL_SECTIONS: tuple[str, ...] = ("compiled",)
+SECTIONS: tuple[str, ...] = ("profile", "horizons", "scenarios", "peers", "compiled")
+#: ``--quick``'s sections unless named: the compiled tick compiles a library per robot the
+#: first time (tens of seconds at N = 20; cached after), not a smoke run's seconds.
+QUICK_SECTIONS: tuple[str, ...] = ("profile", "horizons", "scenarios", "peers")
 #: Environment variables that set how many threads NumPy's BLAS uses (kept in perf.json).
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 #: Errors leave out up to this much of a run's start [s].
@@ -110,6 +118,11 @@ TARGET_RMS_VS_IPOPT = 0.10  # daqp RMS error within 10% of IPOPT's, inside the l
 #: Issue 11's speed targets for swerve, time mode 1.3x beyond the limits, same run.
 TARGET_SWERVE_P99 = 2e-3  # [s] swerve's tick p99
 TARGET_SWERVE_OVER_MECANUM = 2.0  # swerve's tick p50 / Mecanum's at most
+#: Issue 37's lines for the compiled tick on the reference scenario (Mecanum figure-eight,
+#: N = 20, inside the limits), from the peers section's same ticks.
+TARGET_DO_MPC_OVER_COMPILED = 250.0  # do-mpc tick p50 / compiled tick p50 at least
+TARGET_IPOPT_OVER_COMPILED = 120.0  # IPOPT-path tick p50 / compiled tick p50 at least
+TARGET_COMPILED_RMS_VS_IPOPT = 0.05  # compiled RMS error within 5% of IPOPT's
 
 
 def _settle(ticks: int) -> int:
@@ -417,15 +430,17 @@ def scenarios_section(layouts: list[str], modes: list[str], speeds: dict[str, fl
 
 
 # ------------------------------------------------------------------------------- 4. peers
-def peers_section(ticks: int, say: Printer, rounds: int = PEER_ROUNDS) -> dict[str, Any]:
-    """daqp (the default and ``jit=True``, when it compiles), the IPOPT path and (when
+def peers_section(ticks: int, say: Printer, rounds: int = PEER_ROUNDS,
+                  compiled: bool = False) -> dict[str, Any]:
+    """daqp (the default and ``jit=True``, when it compiles; with ``compiled``, the compiled
+    tick too), the IPOPT path and (when
     installed) do-mpc on the reference scenario, inside and beyond the limits, over the same
     ticks on the same plant: each controller built once and run ``rounds`` times, the
     controllers taking turns (the order rotated each round), so that every ratio is taken
     under the same load, their objects frozen out of the garbage collector's scans
     (``gc.freeze``) meanwhile; tick times pooled over the rounds, errors from the first."""
     robot = preset(REFERENCE_LAYOUT)
-    names = [f"mpc-{FAST}", JIT_PEER, "mpc-ipopt"]
+    names = [f"mpc-{FAST}", JIT_PEER, *([COMPILED_PEER] if compiled else []), "mpc-ipopt"]
     if peers.available():
         names.append("do-mpc")
         say(f"do-mpc {peers.version()}: IPOPT inside do-mpc, exact SE(2) integral (no "
@@ -456,6 +471,13 @@ def peers_section(ticks: int, say: Printer, rounds: int = PEER_ROUNDS) -> dict[s
                     control = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT,
                                          solver=FAST, jit=True)
                 except ControllerError as error:  # no compiler: the row is left out
+                    say(f"{speed:7s} {name:10s} skipped: {error}")
+                    continue
+            elif name == COMPILED_PEER:
+                try:
+                    control = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT,
+                                         solver=FAST, compiled=True)
+                except ControllerError as error:  # not covered yet: the row is left out
                     say(f"{speed:7s} {name:10s} skipped: {error}")
                     continue
             else:
@@ -498,9 +520,11 @@ def peers_section(ticks: int, say: Printer, rounds: int = PEER_ROUNDS) -> dict[s
 # ------------------------------------------------------------------------------- summary
 def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, Any]],
               peer: dict[str, Any] | None, drift: dict[str, Any] | None,
-              jit: dict[str, Any] | None = None) -> dict[str, Any]:
+              jit: dict[str, Any] | None = None,
+              section: dict[str, Any] | None = None) -> dict[str, Any]:
     """Ratios within this run, and issues 11 and 12's targets checked against them
-    (``jit``: :func:`jit_comparison`'s document, reported beside them, not a target)."""
+    (``jit``: :func:`jit_comparison`'s document, reported beside them, not a target);
+    with the ``compiled`` section's document (``section``), issue 37's lines (``issue37``)."""
     summary: dict[str, Any] = {}
     at = {(row["solver"], row["horizon"]): row for row in horizon_rows}
     fast = at.get((FAST, REFERENCE_HORIZON))
@@ -555,11 +579,44 @@ def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, 
                 item["ipopt_over_jit_tick"] = ipopt["tick_p50"] / compiled["tick_p50"]
                 if other is not None:
                     item["do_mpc_over_jit_tick"] = other["tick_p50"] / compiled["tick_p50"]
+            tick = by.get((speed, COMPILED_PEER))
+            if tick is not None:  # issue 37's lines (the compiled tick)
+                item["compiled_tick_p50"] = tick["tick_p50"]
+                item["ipopt_over_compiled_tick"] = ipopt["tick_p50"] / tick["tick_p50"]
+                item["compiled_rms_over_ipopt_rms"] = (tick["rms_position_error"]
+                                                       / ipopt["rms_position_error"])
+                if other is not None:
+                    item["do_mpc_over_compiled_tick"] = other["tick_p50"] / tick["tick_p50"]
             summary[f"same_ticks_{speed}"] = item
     if drift is not None:
         summary["drift"] = drift
     summary["targets"] = _targets(summary)
+    if section is not None:
+        summary["compiled_scenarios"] = {
+            "measured": len({(row["layout"], row["mode"], row["speed"])
+                             for row in section["rows"]}),
+            "not_supported": len(section["unsupported"])}
+        summary["issue37"] = _issue37(summary, section["rows"])
     return summary
+
+
+def _issue37(summary: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Issue 37's "done when" lines measured in this run: the reference scenario's (from
+    the peers section's same ticks, inside the limits) and every scenario's
+    (:func:`benchmarks.compiled_tick.issue_targets`)."""
+    checks: dict[str, dict[str, Any]] = {}
+    inside = summary.get("same_ticks_inside", {})
+    for key, limit, at_most in (("do_mpc_over_compiled_tick", TARGET_DO_MPC_OVER_COMPILED, False),
+                                ("ipopt_over_compiled_tick", TARGET_IPOPT_OVER_COMPILED, False),
+                                ("compiled_rms_over_ipopt_rms",
+                                 1.0 + TARGET_COMPILED_RMS_VS_IPOPT, True)):
+        if key in inside:
+            value = inside[key]
+            checks[f"mecanum_inside_{key}"] = {
+                "measured": value, "limit": limit, "at_most" if at_most else "at_least": True,
+                "met": bool(value <= limit if at_most else value >= limit)}
+    checks.update(issue_targets(rows))
+    return checks
 
 
 def _targets(summary: dict[str, Any]) -> dict[str, dict[str, Any]]:
@@ -648,6 +705,16 @@ def _print_summary(summary: dict[str, Any], say: Printer) -> None:
             if "do_mpc_over_jit_tick" in item:
                 line += f", do-mpc / it {item['do_mpc_over_jit_tick']:.1f}"
         say(line)
+        if "ipopt_over_compiled_tick" in item:  # issue 37's two ratios, stated as such
+            line = (f"  same ticks, {speed}: {REFERENCE_LAYOUT} {REFERENCE_SHAPE} "
+                    f"N={REFERENCE_HORIZON}, compiled tick p50 "
+                    f"{item['compiled_tick_p50'] * 1e6:.1f} us: ")
+            if "do_mpc_over_compiled_tick" in item:
+                line += f"do-mpc / compiled {item['do_mpc_over_compiled_tick']:.1f}, "
+            else:
+                line += "do-mpc / compiled: do-mpc not installed, "
+            say(line + f"IPOPT path / compiled {item['ipopt_over_compiled_tick']:.1f}; RMS "
+                f"error compiled / IPOPT path {item['compiled_rms_over_ipopt_rms']:.4f}")
     if "drift" in summary:
         drift = summary["drift"]
         say(f"  drift: {FAST} N=20 tick p50 measured again at the end / at the start "
@@ -661,6 +728,17 @@ def _print_summary(summary: dict[str, Any], say: Printer) -> None:
             shown = (f"{value * 1e6:.1f} us {sign} {limit * 1e6:.0f} us" if limit < 0.01
                      else f"{value:.2f} {sign} {limit:g}")
             say(f"  {name}: {shown}: {'met' if item['met'] else 'NOT met'}")
+    if "issue37" in summary:
+        covered = summary["compiled_scenarios"]
+        say(f"issue 37 targets (the compiled tick, {covered['measured']} scenarios measured, "
+            f"{covered['not_supported']} not supported yet) on this machine:")
+        for name, item in summary["issue37"].items():
+            sign = "<=" if item.get("at_most") else ">="
+            value, limit = item["measured"], item["limit"]
+            shown = (f"{value * 1e6:.1f} us {sign} {limit * 1e6:.0f} us" if limit < 0.01
+                     else f"{value:.2f} {sign} {limit:g}")
+            where = f" (worst: {item['scenario']})" if "scenario" in item else ""
+            say(f"  {name}: {shown}{where}: {'met' if item['met'] else 'NOT met'}")
 
 
 # ---------------------------------------------------------------------------------- main
@@ -710,8 +788,8 @@ def _commit() -> str | None:
 def _parser() -> Parser:
     parser = Parser(prog="mpc-bench perf", description=__doc__.split("\n")[0])
     add_list_option(parser, "--sections",
-                    help=f"comma list of {', '.join((*SECTIONS, *OPTIONAL_SECTIONS))} "
-                         f"(default: {', '.join(SECTIONS)})")
+                    help=f"comma list of {', '.join(SECTIONS)} (default: all; "
+                         f"--quick: {', '.join(QUICK_SECTIONS)})")
     add_list_option(parser, "--horizons", help="horizons of the horizons section (10,20,50,100)")
     parser.add_argument("--profile-horizons",
                         help="horizons the tick is split into phases at (20)")
@@ -748,14 +826,14 @@ def _parser() -> Parser:
     add_force_argument(parser)
     parser.add_argument("--quick", action="store_true",
                         help="smoke run in seconds: horizons 10,20, 40 ticks (IPOPT 20), "
-                             "scenarios on mecanum only")
+                             "scenarios on mecanum only, no compiled section unless named")
     return parser
 
 
 def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
-    sections = choose("--sections", "section", args.sections,
-                      (*SECTIONS, *OPTIONAL_SECTIONS), SECTIONS)
+    sections = choose("--sections", "section", args.sections, SECTIONS,
+                      QUICK_SECTIONS if args.quick else SECTIONS)
     horizons = _integers("--horizons", args.horizons or ("10,20" if args.quick
                                                          else "10,20,50,100"))
     profile_horizons = _integers("--profile-horizons",
@@ -809,15 +887,15 @@ def main(argv: list[str]) -> int:
                                           ticks, say, args.jit)
     if "peers" in sections:
         say(f"\n== 4. peers: {FAST}, the IPOPT path and do-mpc on the same problem and ticks ==")
-        peer = peers_section(ipopt_ticks, say, rounds)
-    compiled_rows = None
+        peer = peers_section(ipopt_ticks, say, rounds, "compiled" in sections)
+    compiled = None
     if "compiled" in sections:
         say("\n== 5. compiled tick: Controller(compiled=True) beside itself rebuilding its "
-            "Hessian every tick, the Python tick, its virtual machine and the IPOPT path ==")
-        compiled_rows = compiled_section(
-            layouts, speeds, REFERENCE_SHAPE, REFERENCE_HEADING,
-            REFERENCE_HORIZON, DT, ipopt_ticks, rounds, reference, _run, _row, _settle, say,
-            tuple(modes) if args.modes else ("time",))  # path mode where --modes names it
+            "Hessian every tick, the Python tick, its virtual machine, the exported C library "
+            "and the IPOPT path ==")
+        compiled = compiled_section(
+            layouts, modes, speeds, REFERENCE_SHAPE, REFERENCE_HEADING,
+            REFERENCE_HORIZON, DT, ipopt_ticks, rounds, reference, _run, _row, _settle, say)
     first = next((row for row in horizon_rows or []
                   if row["solver"] == FAST and row["horizon"] == REFERENCE_HORIZON), None)
     if first is not None:  # the same run again: how much the machine moved meanwhile
@@ -828,11 +906,11 @@ def main(argv: list[str]) -> int:
                      _settle(ticks))
         drift = {"start_tick_p50": first["tick_p50"], "end_tick_p50": again["tick_p50"],
                  "end_over_start": again["tick_p50"] / first["tick_p50"]}
-    summary = summarise(horizon_rows or [], scenario_rows or [], peer, drift, jit)
+    summary = summarise(horizon_rows or [], scenario_rows or [], peer, drift, jit, compiled)
     say()
     _print_summary(summary, say)
     rows = [*(horizon_rows or []), *(scenario_rows or []), *((peer or {}).get("rows", [])),
-            *(compiled_rows or [])]
+            *((compiled or {}).get("rows", []))]
     document = {
         "command": command,
         "commit": commit,
@@ -853,6 +931,8 @@ def main(argv: list[str]) -> int:
         "peers": None if peer is None else {key: value for key, value in peer.items()
                                             if key != "rows"},
         "jit": jit,
+        "compiled": None if compiled is None else {key: value for key, value in
+                                                   compiled.items() if key != "rows"},
         "summary": summary,
         "wall_time": time.perf_counter() - started,
     }

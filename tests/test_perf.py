@@ -48,11 +48,14 @@ def test_quick_run_writes_every_section_and_skips_an_absent_peer(
     for header in ("1. tick split", "2. horizons", "3. scenarios", "4. peers", "summary",
                    "growth daqp: tick(N=20) / tick(N=10)"):
         assert header in out
+    # --quick leaves the compiled section out (it compiles a library per robot) unless named
+    assert "5. compiled" not in out and "mpc-compiled" not in out
 
     document = json.loads((tmp_path / "perf.json").read_text())
     assert {"command", "commit", "machine", "settings", "profiles", "rows", "peers", "jit",
             "summary", "wall_time"} <= set(document)
     assert document["command"] == f"mpc-bench perf --quick --out {tmp_path}"
+    assert document["compiled"] is None and "issue37" not in document["summary"]
     assert {"cpu_count", "python", "processor", "load_average_start",
             "thread_env"} <= set(document["machine"])
     assert document["settings"]["horizons"] == [10, 20]
@@ -238,3 +241,92 @@ def test_the_summary_checks_swerve_against_mecanum_in_the_same_run() -> None:
     assert targets["swerve_over_mecanum_tick_p50_beyond"]["met"] is False
     assert "swerve_tick_p99_beyond" not in summarise([], [row("mecanum", 2e-4, 4e-4)], None,
                                                      None)["targets"]
+
+
+@pytest.mark.skipif(shutil.which("cmake") is None, reason="needs cmake")
+def test_the_compiled_section_covers_every_scenario_or_says_why(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Every scenario gets the six controllers' rows (the exported library's commands the
+    compiled tick's), or one line with the reason the compiled tick refuses it: the very
+    error ``Controller(compiled=True)`` raises (so rows appear as support widens)."""
+    from benchmarks.compiled_tick import EXPORTED, compiled_section
+    from benchmarks.perf import _row, _run, _settle
+    from mpc import Controller
+    from mpc.tick import UnsupportedTickError
+
+    lines: list[str] = []
+    section = compiled_section(["mecanum", "swerve"], ["time", "path"], {"inside": 0.8},
+                               "figure8", "fixed", 8, 0.05, 20, 2, reference, _run, _row,
+                               _settle, lines.append)
+    names = {"python", "compiled", "compiled-rebuild", "virtual-machine", "ipopt", EXPORTED}
+    refused = {(item["layout"], item["mode"]): item["reason"]
+               for item in section["unsupported"]}
+    measured = {(row["layout"], row["mode"]) for row in section["rows"]}
+    assert ("mecanum", "time") in measured
+    for layout in ("mecanum", "swerve"):
+        robot = preset(layout)
+        for mode in ("time", "path"):
+            try:
+                Controller(robot, reference("figure8", "fixed", robot, 0.8), horizon=8,
+                           mode=mode, compiled="virtual-machine")
+            except UnsupportedTickError as error:
+                assert refused[(layout, mode)] == str(error)
+                assert (layout, mode) not in measured
+                head = str(error).partition("; it supports ")[0]
+                assert any(line.endswith(f"not supported: {head}") for line in lines)
+                continue
+            rows = {row["solver"]: row for row in section["rows"]
+                    if (row["layout"], row["mode"]) == (layout, mode)}
+            assert set(rows) == names
+            for row in rows.values():
+                _sane(row)
+                assert row["rounds"] == 2 and row["horizon"] == 8
+                assert row["over_compiled_tick"] == pytest.approx(
+                    row["tick_p50"] / rows["compiled"]["tick_p50"])
+            exported = rows[EXPORTED]
+            assert exported["ticks"] == 2 * (20 - exported["settle"])
+            assert exported["export_max_difference"] <= 1e-9
+            assert exported["export_status_mismatches"] == 0
+            assert exported["rms_position_error"] == rows["compiled"]["rms_position_error"]
+    assert set(section["builds"]) == {layout for layout, _ in measured}
+    assert any("exported / compiled" in line for line in lines)
+
+
+def test_the_summary_states_issue_37s_lines() -> None:
+    """do-mpc and the IPOPT path over the compiled tick on the reference scenario (peers'
+    same ticks), and every scenario's worst ratio, p99 spread and p99, each named."""
+    from benchmarks.perf import summarise
+
+    def peer(solver: str, speed: str, p50: float, rms: float) -> dict[str, Any]:
+        return {"solver": solver, "speed": speed, "tick_p50": p50, "rms_position_error": rms}
+
+    peer_rows = [peer(solver, speed, p50, rms) for speed in ("inside", "beyond")
+                 for solver, p50, rms in (("mpc-daqp", 2e-4, 1.0), ("mpc-compiled", 1e-4, 1.02),
+                                          ("mpc-ipopt", 1e-2, 1.0), ("do-mpc", 3e-2, 1.0))]
+
+    def compiled(layout: str, p50: float, p99: float, ipopt: float) -> dict[str, Any]:
+        return {"solver": "compiled", "layout": layout, "mode": "time", "speed": "inside",
+                "tick_p50": p50, "tick_p99": p99, "cpu_p50": p50, "cpu_p99": 0.5 * p99,
+                "ipopt_over_compiled_tick": ipopt}
+
+    section = {"rows": [compiled("mecanum", 1e-4, 2e-4, 100.0),
+                        compiled("omni3", 2e-4, 8e-4, 40.0)],
+               "unsupported": [{"layout": "swerve", "mode": "time", "speed": "inside",
+                                "reason": "x"}]}
+    summary = summarise([], [], {"rows": peer_rows}, None, None, section)
+    assert summary["compiled_scenarios"] == {"measured": 2, "not_supported": 1}
+    lines = summary["issue37"]
+    assert lines["mecanum_inside_do_mpc_over_compiled_tick"]["measured"] == pytest.approx(300)
+    assert lines["mecanum_inside_do_mpc_over_compiled_tick"]["met"] is True
+    assert lines["mecanum_inside_ipopt_over_compiled_tick"]["measured"] == pytest.approx(100)
+    assert lines["mecanum_inside_ipopt_over_compiled_tick"]["met"] is False
+    assert lines["mecanum_inside_compiled_rms_over_ipopt_rms"]["met"] is True
+    assert lines["ipopt_over_compiled_tick_min"]["scenario"] == "omni3 time inside"
+    assert lines["ipopt_over_compiled_tick_min"]["met"] is False
+    assert lines["compiled_p99_over_p50_max"]["measured"] == pytest.approx(4.0)
+    assert lines["compiled_p99_over_p50_max"]["met"] is False
+    assert lines["compiled_tick_p99_max"]["met"] is True
+    assert lines["compiled_cpu_p99_over_p50_max"]["measured"] == pytest.approx(2.0)
+    assert lines["compiled_cpu_p99_over_p50_max"]["met"] is True
+    assert lines["compiled_cpu_p99_max"]["scenario"] == "omni3 time inside"
+    assert "issue37" not in summarise([], [], {"rows": peer_rows}, None)

@@ -1,0 +1,177 @@
+"""``mpc-bench export-check``: the exported C library against the Python controller, on
+every preset and mode the compiled tick covers.
+
+For each robot preset (``--layouts``) x mode x speed: the Python controller (daqp,
+``compiled=False``) runs ``--ticks`` ticks in a closed loop on a plant that differs from
+the model (3 % slip along the body x axis, five Euler substeps; the model integrates SE(2)
+exactly), from a start
+0.16 m and 0.2 rad off the reference, on a figure-eight at ``--speeds`` x the wheel limits
+(fixed heading). Its measured poses and the reference windows it sampled are fed to the
+library :func:`mpc.export_c` writes for the same controller, built with gcc from its
+``CMakeLists.txt`` (:mod:`benchmarks.exported`); the command reports the largest
+difference of a commanded twist component or wheel speed, and the ticks whose status
+differs. The Python tick keeps its Hessian by the compiled tick's rule for this (rebuilt at
+once when it drifted beyond :data:`mpc.tick.reuse.REBUILD_DRIFT`, never staged: a kept
+Hessian changes a step by far more than rounding, docs/guide/compiled-tick.md). A preset
+or mode the compiled tick does not cover is a line with its reason. Exit code 1 if any
+difference exceeds ``--tolerance`` or any status differs.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+
+import mpc.solvers.dense as dense
+import mpc.tick.reuse as reuse
+from benchmarks.exported import ExportBuildError, ExportedTick, command_differences, tick_inputs
+from benchmarks.options import add_list_option
+from benchmarks.scenarios import Parser, ScenarioError, choose, parse_speeds, reference
+from mpc import Command, Controller, Status
+from mpc.control.controller import MODES
+from mpc.robots import preset, shipped_presets
+from mpc.tick import UnsupportedTickError
+
+#: The start's offset from the reference's first pose (x [m], y [m], heading [rad]).
+START_OFFSET = (0.15, -0.05, 0.2)
+SLIP = 0.03  # the plant's slip along the body x axis
+SUBSTEPS = 5  # the plant's Euler substeps a tick
+TOLERANCE = 1e-9  # the largest command difference accepted [m/s, rad/s]
+
+
+@contextmanager
+def compiled_reuse_rule() -> Iterator[None]:
+    """The Python tick rebuilding its Hessian at once when it drifted beyond
+    :data:`~mpc.tick.reuse.REBUILD_DRIFT` (no staged rebuild): the compiled tick's rule
+    (as tests/tick_loop.py's ``same_reuse_rule``)."""
+    saved = dense.REBUILD_NOW, dense.REBUILD_EARLY
+    dense.REBUILD_NOW = dense.REBUILD_EARLY = reuse.REBUILD_DRIFT
+    try:
+        yield
+    finally:
+        dense.REBUILD_NOW, dense.REBUILD_EARLY = saved
+
+
+def plant_step(pose: np.ndarray, twist: np.ndarray, dt: float) -> np.ndarray:
+    """The next pose on a plant that differs from the model: :data:`SLIP` along the body
+    x axis, :data:`SUBSTEPS` Euler substeps over ``dt`` [s]."""
+    pose = np.array(pose, dtype=float)
+    vx, vy, omega = twist[0] * (1.0 - SLIP), twist[1], twist[2]
+    for _ in range(SUBSTEPS):
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        pose += dt / SUBSTEPS * np.array([c * vx - s * vy, s * vx + c * vy, omega])
+    return pose
+
+
+def record(controller: Controller, ticks: int) -> tuple[list[float], list[np.ndarray],
+                                                         list[Command]]:
+    """``controller``'s closed loop on the plant (:func:`plant_step`): each tick's time
+    [s], the measured pose and the command."""
+    dt = controller.dt
+    pose = controller.trajectory.sample(0.0).pose + np.array(START_OFFSET)
+    times, poses, commands = [], [], []
+    for k in range(ticks):
+        command = controller.step(pose, k * dt)
+        times.append(k * dt)
+        poses.append(pose)
+        commands.append(command)
+        pose = plant_step(pose, command.twist, dt)
+    return times, poses, commands
+
+
+def check(robot_name: str, mode: str, ratio: float, ticks: int, horizon: int,
+          dt: float) -> dict[str, Any]:
+    """One preset, mode and speed: ``{"supported": False, "reason": ...}``, or the
+    comparison (``max_difference``, ``status_mismatches``, ``fallbacks``, ``build_s``)."""
+    robot = preset(robot_name)
+    trajectory = reference("figure8", "fixed", robot, ratio)
+    try:
+        exported = Controller(robot, trajectory, horizon=horizon, dt=dt, mode=mode,
+                              compiled="virtual-machine")
+    except UnsupportedTickError as error:
+        return {"supported": False, "reason": str(error)}
+    library = ExportedTick(exported)
+    with compiled_reuse_rule():
+        python = Controller(robot, trajectory, horizon=horizon, dt=dt, mode=mode)
+        times, poses, commands = record(python, ticks)
+    replay = library.replay(tick_inputs(python, times, poses))
+    difference, mismatches = command_differences(replay, commands)
+    return {"supported": True, "max_difference": difference, "status_mismatches": mismatches,
+            "ticks": len(commands),
+            "fallbacks": sum(command.status is not Status.SOLVED for command in commands),
+            "hessians_built": int(replay.rebuilt.sum()), "build_s": library.build_time,
+            "cached": library.cached}
+
+
+def _parser() -> Parser:
+    parser = Parser(prog="mpc-bench export-check", description=__doc__.split("\n")[0])
+    add_list_option(parser, "--layouts",
+                    help="comma list of robot presets (default: every shipped preset)")
+    add_list_option(parser, "--modes", help=f"comma list of {', '.join(MODES)} (default: all)")
+    add_list_option(parser, "--speeds",
+                    help="inside (0.8 x limits), beyond (1.3 x) or peak ratios like 1.1 "
+                         "(default: inside,beyond)")
+    parser.add_argument("--ticks", type=int, default=2000,
+                        help="closed-loop ticks recorded per preset, mode and speed (2000)")
+    parser.add_argument("--horizon", type=int, default=20, help="MPC horizon in ticks (20)")
+    parser.add_argument("--dt", type=float, default=0.05, help="control tick [s] (0.05)")
+    parser.add_argument("--tolerance", type=float, default=TOLERANCE,
+                        help=f"largest command difference accepted ({TOLERANCE:g})")
+    return parser
+
+
+def main(argv: list[str]) -> int:
+    args = _parser().parse_args(argv)
+    presets = shipped_presets()
+    robots = choose("--layouts", "layout", args.layouts, presets, presets)
+    modes = choose("--modes", "mode", args.modes, list(MODES))
+    speeds = parse_speeds(args.speeds)
+    if args.ticks < 1:
+        raise ScenarioError(f"--ticks must be >= 1, got {args.ticks}")
+    if not (math.isfinite(args.tolerance) and args.tolerance >= 0):
+        raise ScenarioError(f"--tolerance must be finite and >= 0, got {args.tolerance}")
+    started = time.perf_counter()
+    print(f"exported library against the Python controller: {args.ticks} closed-loop ticks, "
+          f"N={args.horizon}, dt {args.dt:g} s, figure8 fixed heading, plant with "
+          f"{SLIP:.0%} slip and {SUBSTEPS} Euler substeps; tolerance {args.tolerance:g}",
+          flush=True)
+    print(f"{'robot':14s} {'mode':5s} {'speed':7s} {'ticks':>6s} {'max diff':>9s} "
+          f"{'status':>6s} {'fallbk':>6s} {'builds':>6s} {'build s':>7s}", flush=True)
+    failed = checked = 0
+    notes: dict[str, None] = {}
+    for robot in robots:
+        for mode in modes:
+            for speed, ratio in speeds.items():
+                label = f"{robot:14s} {mode:5s} {speed:7s}"
+                try:
+                    item = check(robot, mode, ratio, args.ticks, args.horizon, args.dt)
+                except ExportBuildError as error:
+                    failed += 1
+                    print(f"{label} FAILED: {error}", flush=True)
+                    continue
+                if not item["supported"]:
+                    reason, _, supported = item["reason"].partition("; it supports ")
+                    if supported:
+                        notes[supported] = None
+                    print(f"{label} not supported: {reason}", flush=True)
+                    continue
+                checked += 1
+                bad = (item["max_difference"] > args.tolerance
+                       or item["status_mismatches"] > 0)
+                failed += bad
+                print(f"{label} {item['ticks']:6d} {item['max_difference']:9.2g} "
+                      f"{item['status_mismatches']:6d} {item['fallbacks']:6d} "
+                      f"{item['hessians_built']:6d} {item['build_s']:7.1f}"
+                      + ("  BEYOND TOLERANCE" if bad else ""), flush=True)
+    for supported in notes:
+        print(f"(the compiled tick supports {supported})")
+    print(f"max diff: the largest |twist or wheel-speed difference| [m/s, rad/s] over the "
+          f"ticks; status: ticks whose status differs; fallbk: the Python controller's "
+          f"fallback ticks; builds: Hessians the library built; {checked} checked, "
+          f"{failed} failed, {time.perf_counter() - started:.0f} s")
+    return 1 if failed else 0

@@ -1,0 +1,343 @@
+"""The exported C library (:func:`mpc.export_c`) built with CMake and fed recorded ticks:
+its commands, statuses and the time of each ``mpc_tick_step``, for ``mpc-bench perf`` and
+``mpc-bench export-check``.
+
+A controller's library is written by :func:`mpc.export_c`, built from its own
+``CMakeLists.txt`` (``add_subdirectory``) beside a timing program (:data:`HARNESS`), and the
+program kept in the library cache (:func:`mpc.model.jit.cache_folder`) under a hash of the
+exported sources, the harness and the compiler: the same controller exported again loads
+it instead of building it. The program reads every tick from stdin first (the measured
+pose, then the reference's poses and world velocities at the stage times, as the exported
+``main.c`` reads them), runs them ``rounds`` times from a reset and times each step in C
+(no Python, no ctypes): what an embedded caller of the library gets.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import mpc
+from mpc.arrays import FloatArray
+from mpc.control.command import Command, Status
+from mpc.control.lookahead import Lookahead
+from mpc.errors import MpcError
+from mpc.model.jit import cache_folder
+from trajectories import TrajectoryError
+
+#: The exported library's status codes (``mpc_tick.h``), in order.
+STATUSES = (Status.SOLVED, Status.PREVIOUS_PLAN, Status.FEEDFORWARD, Status.STOPPING)
+
+#: The timing program: the exported library's ``mpc_tick_step`` on recorded ticks.
+HARNESS = """\
+/* Times the exported tick (holonomic-mpc benchmarks/exported.py). Usage:
+ *   mpc_tick_timed MAX_ITER BUDGETED REBUILD_DRIFT ROUNDS < ticks
+ * Reads every tick first (a line: the pose (3), the reference's poses and world velocities
+ * at the stage times (3 (MPC_N + 1) each), as main.c), then runs them ROUNDS times, each
+ * from mpc_tick_reset at rest, timing every mpc_tick_step (wall: CLOCK_MONOTONIC; CPU: the
+ * thread's clock). Prints the first round's outputs, a line a tick:
+ *   C status flag iterations solve_time failures rebuilt twist(3) speeds(MPC_W)
+ * then every step's times [s]: T round tick wall cpu */
+#define _POSIX_C_SOURCE 199309L
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "mpc_tick.h"
+
+#define INPUTS (3 + 6 * (MPC_N + 1))
+
+static double now(clockid_t clock) {
+  struct timespec at;
+  clock_gettime(clock, &at);
+  return (double)at.tv_sec + 1e-9 * (double)at.tv_nsec;
+}
+
+int main(int argc, char** argv) {
+  static const double rest[3] = {0.0, 0.0, 0.0};
+  static double out[MPC_OUT_SIZE];
+  size_t capacity = 256, count = 0, k;
+  int rounds, round, i, got;
+  double *ticks, *outputs, *wall, *cpu;
+  mpc_tick* tick;
+  if (argc != 5) {
+    fprintf(stderr, "usage: %s MAX_ITER BUDGETED REBUILD_DRIFT ROUNDS < ticks\\n", argv[0]);
+    return 2;
+  }
+  rounds = atoi(argv[4]);
+  ticks = malloc(capacity * INPUTS * sizeof(double));
+  if (!ticks || rounds < 1) return 2;
+  for (;;) {
+    if (count == capacity) {
+      capacity *= 2;
+      ticks = realloc(ticks, capacity * INPUTS * sizeof(double));
+      if (!ticks) return 2;
+    }
+    for (i = 0; i < INPUTS; i++) {
+      got = scanf("%lf", &ticks[count * INPUTS + i]);
+      if (got != 1) break;
+    }
+    if (i == 0) break;
+    if (i != INPUTS) {
+      fprintf(stderr, "tick %lu: %d numbers, expected %d\\n", (unsigned long)count, i,
+              INPUTS);
+      return 2;
+    }
+    count++;
+  }
+  outputs = malloc((count ? count : 1) * MPC_OUT_SIZE * sizeof(double));
+  wall = malloc((count ? count : 1) * (size_t)rounds * sizeof(double));
+  cpu = malloc((count ? count : 1) * (size_t)rounds * sizeof(double));
+  tick = mpc_tick_init(atoi(argv[1]), atoi(argv[2]), atof(argv[3]));
+  if (!outputs || !wall || !cpu || !tick) return 3;
+  for (round = 0; round < rounds; round++) {
+    mpc_tick_reset(tick, rest);
+    for (k = 0; k < count; k++) {
+      const double* line = ticks + k * INPUTS;
+      double w = now(CLOCK_MONOTONIC), c = now(CLOCK_THREAD_CPUTIME_ID);
+      mpc_tick_step(tick, line, line + 3, line + 3 + 3 * (MPC_N + 1), out);
+      cpu[round * count + k] = now(CLOCK_THREAD_CPUTIME_ID) - c;
+      wall[round * count + k] = now(CLOCK_MONOTONIC) - w;
+      if (round == 0) memcpy(outputs + k * MPC_OUT_SIZE, out, sizeof(out));
+    }
+  }
+  for (k = 0; k < count; k++) {
+    const double* o = outputs + k * MPC_OUT_SIZE;
+    printf("C %d %d %d %.17g %d %d", (int)o[MPC_OUT_STATUS], (int)o[MPC_OUT_FLAG],
+           (int)o[MPC_OUT_ITERATIONS], o[MPC_OUT_SOLVE_TIME], (int)o[MPC_OUT_FAILURES],
+           (int)o[MPC_OUT_REBUILT]);
+    for (i = 0; i < 3 + MPC_W; i++) printf(" %.17g", o[MPC_OUT_TWIST + i]);
+    printf("\\n");
+  }
+  for (round = 0; round < rounds; round++)
+    for (k = 0; k < count; k++)
+      printf("T %d %lu %.9e %.9e\\n", round, (unsigned long)k, wall[round * count + k],
+             cpu[round * count + k]);
+  mpc_tick_free(tick);
+  free(ticks);
+  free(outputs);
+  free(wall);
+  free(cpu);
+  return 0;
+}
+"""
+
+#: The timing program's project: the exported library from its own CMakeLists.txt.
+_PROJECT = """\
+cmake_minimum_required(VERSION 3.13)
+project(mpc_tick_timing C)
+add_subdirectory(${CMAKE_CURRENT_SOURCE_DIR}/../src mpc_tick)
+add_executable(mpc_tick_timed timed.c)
+target_link_libraries(mpc_tick_timed PRIVATE mpc_tick)
+"""
+
+
+class ExportBuildError(MpcError):
+    """The exported library could not be built (no cmake, no compiler, or it failed)."""
+
+
+@dataclass(frozen=True)
+class Replay:
+    """What the exported library did with recorded ticks (K ticks, R rounds).
+
+    Attributes:
+        status: each tick's status code (K,) (:data:`STATUSES`), first round.
+        flag: daqp's exit flag (K,); iterations (K,); solve_time [s] (K,); failures (K,)
+            in a row; rebuilt (K,): Hessians built that tick.
+        twist: the commanded twists (K, 3) [m/s, m/s, rad/s]; speeds (K, W) [rad/s].
+        wall, cpu: each step's wall-clock and thread CPU time (R, K) [s].
+    """
+
+    status: np.ndarray
+    flag: np.ndarray
+    iterations: np.ndarray
+    solve_time: FloatArray
+    failures: np.ndarray
+    rebuilt: np.ndarray
+    twist: FloatArray
+    speeds: FloatArray
+    wall: FloatArray
+    cpu: FloatArray
+
+
+class ExportedTick:
+    """``controller``'s tick exported (:func:`mpc.export_c`) and built with CMake, with the
+    controller's iteration limit, budget and Hessian rule.
+
+    Attributes:
+        program: the timing program's path. build_time: seconds spent exporting and
+        building (or loading it from the cache). cached: it came from the cache.
+
+    Raises:
+        ExportBuildError: cmake or the compiler is missing or failed.
+        ControllerError: the controller does not run the compiled tick.
+    """
+
+    def __init__(self, controller: Any) -> None:
+        started = time.perf_counter()
+        compiled = controller._compiled  # (export_c refuses a controller without one)
+        work = Path(tempfile.mkdtemp(prefix="mpc-export-"))
+        self._private: Path | None = None  # a program outside the cache: removed with self
+        try:
+            mpc.export_c(controller, work / "src")
+            key = _key(work / "src")
+            folder = cache_folder()
+            cached = None if folder is None else folder / f"mpc_export_timed-{key}"
+            self.cached = cached is not None and cached.is_file()
+            if cached is not None and self.cached:
+                self.program = cached
+            else:
+                built = _build(work)
+                if cached is not None and _keep(built, cached):
+                    self.program = cached
+                else:  # no cache: a private copy that outlives the build folder
+                    handle, name = tempfile.mkstemp(prefix="mpc_export_timed-")
+                    os.close(handle)
+                    shutil.copyfile(built, name)
+                    os.chmod(name, 0o755)
+                    self.program = self._private = Path(name)
+        finally:
+            shutil.rmtree(work, ignore_errors=True)
+        self.arguments = [str(int(compiled.max_iter)), str(int(compiled.budgeted)),
+                          repr(float(compiled.rebuild_drift))]
+        self.wheels = int(compiled.graphs.wheels)
+        self.build_time = time.perf_counter() - started
+
+    def __del__(self) -> None:
+        private, self._private = getattr(self, "_private", None), None
+        if private is not None:
+            private.unlink(missing_ok=True)
+
+    def replay(self, inputs: str, rounds: int = 1) -> Replay:
+        """The program on ``inputs`` (:func:`tick_inputs`), ``rounds`` times from a reset.
+
+        Raises:
+            ExportBuildError: the program failed (its last words in the message)."""
+        done = subprocess.run([str(self.program), *self.arguments, str(rounds)], input=inputs,
+                              capture_output=True, text=True, check=False)
+        if done.returncode != 0:
+            raise ExportBuildError(f"the exported library's program failed (exit "
+                                   f"{done.returncode}): {done.stderr.strip()[-300:]}")
+        outputs, times = [], []
+        for line in done.stdout.splitlines():
+            if line.startswith("C "):
+                outputs.append([float(word) for word in line.split()[1:]])
+            elif line.startswith("T "):
+                times.append([float(word) for word in line.split()[1:]])
+        count = len(outputs)
+        if count == 0 or len(times) != rounds * count:
+            raise ExportBuildError(f"the exported library's program printed {count} ticks "
+                                   f"and {len(times)} times for {rounds} rounds")
+        out, timing = np.array(outputs), np.array(times)
+        return Replay(status=out[:, 0].astype(int), flag=out[:, 1].astype(int),
+                      iterations=out[:, 2].astype(int), solve_time=out[:, 3],
+                      failures=out[:, 4].astype(int), rebuilt=out[:, 5].astype(int),
+                      twist=out[:, 6:9], speeds=out[:, 9:9 + self.wheels],
+                      wall=timing[:, 2].reshape(rounds, count),
+                      cpu=timing[:, 3].reshape(rounds, count))
+
+
+def tick_inputs(controller: Any, times: Sequence[float], poses: Sequence[Any]) -> str:
+    """The program's stdin for ticks at ``times`` [s] with measured ``poses`` (K, 3): each
+    line the pose, then ``controller``'s reference at the stage times as it samples it
+    (NaN where the trajectory cannot be sampled: the library falls back)."""
+    ahead = Lookahead(controller.trajectory, controller.model.offsets, controller.dt)
+    stages = len(controller.model.offsets)
+    lines = []
+    for t, pose in zip(times, poses, strict=True):
+        try:
+            window, velocities = ahead.window(float(t))
+        except TrajectoryError:
+            window = velocities = np.full((stages, 3), math.nan)
+        numbers = np.concatenate([np.asarray(pose, dtype=float), np.ravel(window),
+                                  np.ravel(velocities)])
+        lines.append(" ".join(repr(float(value)) for value in numbers))
+    return "\n".join(lines) + "\n"
+
+
+def differences(replay: Replay, twists: FloatArray, speeds: FloatArray,
+                statuses: Sequence[Status]) -> tuple[float, int]:
+    """The largest difference of a twist component or wheel speed between the library's
+    ticks and ``twists`` (K, 3), ``speeds`` (K, W) (inf where one side is NaN and the
+    other not), and the ticks whose status differs from ``statuses``."""
+    ours = np.hstack([replay.twist, replay.speeds])
+    theirs = np.hstack([np.asarray(twists, dtype=float), np.asarray(speeds, dtype=float)])
+    gap = np.abs(ours - theirs)
+    both_nan = np.isnan(ours) & np.isnan(theirs)
+    gap = np.where(both_nan, 0.0, np.where(np.isnan(gap), math.inf, gap))
+    mismatches = sum(STATUSES[code] is not Status(status)
+                     for code, status in zip(replay.status, statuses, strict=True))
+    return float(gap.max(initial=0.0)), int(mismatches)
+
+
+def command_differences(replay: Replay, commands: Sequence[Command]) -> tuple[float, int]:
+    """:func:`differences` against a list of :class:`~mpc.Command`."""
+    return differences(replay, np.array([command.twist for command in commands]),
+                       np.array([command.wheel_speeds for command in commands]),
+                       [command.status for command in commands])
+
+
+def _key(source: Path) -> str:
+    """What the timing program depends on, hashed: the exported files, the harness, the
+    compiler and cmake."""
+    digest = hashlib.sha256()
+    for name in sorted(os.listdir(source)):
+        digest.update(name.encode())
+        digest.update((source / name).read_bytes())
+    digest.update(HARNESS.encode())
+    digest.update(_PROJECT.encode())
+    digest.update((os.environ.get("CC") or "cc").encode())
+    return digest.hexdigest()[:32]
+
+
+def _build(work: Path) -> Path:
+    """The timing program built in ``work`` (the export in ``work/src``) with CMake."""
+    cmake = shutil.which("cmake")
+    if cmake is None:
+        raise ExportBuildError("building the exported library needs cmake (not found)")
+    project = work / "timing"
+    project.mkdir()
+    (project / "CMakeLists.txt").write_text(_PROJECT)
+    (project / "timed.c").write_text(HARNESS)
+    build = work / "build"
+    for command in ([cmake, "-S", str(project), "-B", str(build)],
+                    [cmake, "--build", str(build)]):
+        done = subprocess.run(command, capture_output=True, text=True, check=False)
+        if done.returncode != 0:
+            words = (done.stderr or done.stdout).strip().splitlines()[-3:]
+            raise ExportBuildError(f"building the exported library failed ({' '.join(command[:2])}"
+                                   f", exit {done.returncode}): " + " / ".join(words))
+    program = build / "mpc_tick_timed"
+    if not program.is_file():
+        raise ExportBuildError("building the exported library wrote no program")
+    return program
+
+
+def _keep(program: Path, cached: Path) -> bool:
+    """``program`` copied to ``cached``, whole or not at all; whether it is there now."""
+    try:
+        handle, name = tempfile.mkstemp(dir=cached.parent, suffix=".part")
+    except OSError:
+        return False
+    os.close(handle)
+    partial = Path(name)
+    try:
+        shutil.copyfile(program, partial)
+        partial.chmod(0o755)
+        os.replace(partial, cached)
+    except OSError:
+        partial.unlink(missing_ok=True)
+        return False
+    return True
