@@ -57,6 +57,8 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
     sizes = {
         "MPC_N": graphs.horizon, "MPC_NV": graphs.variables, "MPC_M": graphs.rows,
         "MPC_W": graphs.wheels, "MPC_CARRY": graphs.carry, "MPC_TERMS": graphs.terms,
+        # motor-aware robots (mpc.tick.motors): the rows of the tick, the feedforward
+        "MPC_STAGE_ROWS": graphs.stage_rows, "MPC_FF": graphs.feedforward,
         "MPC_SZ_ARG": max(f.sz_arg() for f in functions),
         "MPC_SZ_RES": max(f.sz_res() for f in functions),
         "MPC_SZ_IW": max(max(f.sz_iw() for f in functions), 1),

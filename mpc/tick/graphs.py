@@ -53,9 +53,16 @@ from mpc.control.fallback import FallbackPolicy
 from mpc.model.grid import shift_maps
 from mpc.model.tracking import TrackingModel
 from mpc.robots.base import SPEED_SLACK, ScalarWheels
-from mpc.robots.drive.motor_limits import stage_limits
+from mpc.robots.drive.motor_limits import MotorStageLimits, stage_limits
 from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
 from mpc.solvers.qp_structure import assemble_qp
+from mpc.tick.motors import (
+    MotorGraphs,
+    feedforward_size,
+    motor_clamp,
+    motor_feedforward,
+    motor_graphs,
+)
 from mpc.tick.reuse import isotropic_cost, reuse_terms, terms_size
 
 #: ``prepare``'s guess modes: the reference's feedforward (no plan kept), the last plan
@@ -112,6 +119,10 @@ class TickGraphs:
     terms: int
     offsets: tuple[float, ...] = ()  # each stage's start from the window's [s] (N+1)
     tick: float = 0.0  # the control tick [s]
+    # motor-aware robots (mpc.tick.motors): numbers of prepare's ``stage_rows`` output
+    # (whiten_rows' second input; the rows move every tick), of finish's ``feedforward``
+    stage_rows: int = 0
+    feedforward: int = 0
 
 
 def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> TickGraphs:
@@ -119,6 +130,8 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
     by :func:`mpc.tick.support.check_supported`), control tick ``tick`` [s]."""
     n = model.horizon
     limits = stage_limits(model.robot, model.change_times, None)
+    motor = (motor_graphs(model.robot, limits) if isinstance(limits, MotorStageLimits)
+             else None)
     structure = assemble_qp(model, limits)
     condenser = Condenser(model, structure)
     size, m = condenser.size, condenser.constraints.shape[0]
@@ -160,14 +173,22 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
     shift = ca.vertcat(ca.DM(limits.before[0]) @ last, ca.SX.zeros(m - limits.rows, 1))
     lower = ca.DM(structure.lower[first:]) - at_guess - shift
     upper = ca.DM(structure.upper[first:]) - at_guess - shift
+    moving: list[ca.SX] = []  # the rows, where they move with the plan
+    if motor is not None:
+        stage_rows, lower, upper = motor.stage_rows(guess, last)
+        at_guess, first_shift = motor.at_guess(stage_rows, guess, last)
+        shift = ca.vertcat(first_shift, ca.SX.zeros(m - limits.rows, 1))
+        lower, upper = lower - at_guess - shift, upper - at_guess - shift
+        moving = [ca.densify(stage_rows)]
     carry_parts = [rollout, sensitivities, steps, guess, feedforward, unwrapped]
     carry = ca.vertcat(*[ca.densify(ca.vec(part)) for part in carry_parts])
     prepare = ca.Function(
         "mpc_tick_prepare", [pose, ref_poses, ref_velocities, last, plan, mode, kept],
         [ca.densify(gradient), ca.densify(lower), ca.densify(upper), carry,
-         ca.densify(terms), drift],
+         ca.densify(terms), drift, *moving],
         ["pose", "ref_poses", "ref_velocities", "last", "plan", "guess_mode", "kept"],
-        ["gradient", "lower", "upper", "carry", "terms", "drift"], {"cse": True})
+        ["gradient", "lower", "upper", "carry", "terms", "drift",
+         *(["stage_rows"] if moving else [])], {"cse": True})
     hessian = _hessian_graph(model, constant_cost, carry.shape[0])
 
     # L^{-1}: its lower triangle packed column by column (CasADi's lower-triangular input)
@@ -178,13 +199,20 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
                          ["inverse", "gradient"], ["f"])
     whiten_rows = ca.Function("mpc_tick_whiten_rows", [inverse],
                               [ca.densify(inverse @ sparse_rows.T)], ["inverse"], ["rows_t"])
+    if motor is not None:  # the rows of the tick, whitened every tick
+        stage_in = ca.MX.sym("stage_rows", *moving[0].shape)
+        whiten_rows = ca.Function("mpc_tick_whiten_rows", [inverse, stage_in],
+                                  [motor.whiten_rows(inverse, stage_in)],
+                                  ["inverse", "stage_rows"], ["rows_t"])
     unwhiten = ca.Function("mpc_tick_unwhiten", [inverse, y],
                            [ca.densify((y.T @ inverse).T)], ["inverse", "y"], ["step"])
 
-    finish = _finish(model, wheels, tick, size, carry.shape[0])
+    finish = _finish(model, wheels, tick, size, carry.shape[0], motor)
     return TickGraphs(prepare, hessian, whiten, whiten_rows, unwhiten, finish, n, size, m,
                       len(wheels.limits), carry.shape[0], terms_size(n),
-                      tuple(float(x) for x in model.offsets), float(tick))
+                      tuple(float(x) for x in model.offsets), float(tick),
+                      moving[0].numel() if moving else 0,
+                      0 if motor is None else feedforward_size(model.robot))
 
 
 def _hessian_graph(model: TrackingModel, cost: ca.DM, carry_size: int) -> ca.Function:
@@ -283,7 +311,7 @@ def _hessian_block() -> ca.Function:
 
 
 def _finish(model: TrackingModel, wheels: ScalarWheels, tick: float, size: int,
-            carry_size: int) -> ca.Function:
+            carry_size: int, motor: MotorGraphs | None = None) -> ca.Function:
     """The graph after daqp and the unwhitening (module docstring)."""
     n = model.horizon
     robot = model.robot
@@ -320,6 +348,10 @@ def _finish(model: TrackingModel, wheels: ScalarWheels, tick: float, size: int,
     status = ca.if_else(success, SOLVED, ca.if_else(
         use_plan, PREVIOUS_PLAN, ca.if_else(use_feedforward, FEEDFORWARD, STOPPING)))
     twist, changed = _clamped(wheels, target, last, tick)
+    extra: list[ca.SX] = []  # motor-aware robots: the clamp's motor passes, the feedforward
+    if motor is not None:
+        twist = motor_clamp(robot, wheels, twist, last, tick)
+        extra, changed = [motor_feedforward(robot, last, twist, tick)], ca.SX(1)
     clamped = ca.logic_and(changed, ca.logic_or(ca.logic_or(twist[0] != target[0],
                                                             twist[1] != target[1]),
                                                 twist[2] != target[2]))
@@ -331,10 +363,10 @@ def _finish(model: TrackingModel, wheels: ScalarWheels, tick: float, size: int,
     memory_out = ca.vertcat(failures, ca.logic_or(success, have_plan > 0))
     return ca.Function(
         "mpc_tick_finish", [step, flag, carry, last, kept, memory],
-        [status, twist, speeds, clamped, plan_out, stored, memory_out],
+        [status, twist, speeds, clamped, plan_out, stored, memory_out, *extra],
         ["step", "flag", "carry", "last", "plan", "memory"],
-        ["status", "twist", "wheel_speeds", "clamped", "poses", "next_plan", "next_memory"],
-        {"cse": True})
+        ["status", "twist", "wheel_speeds", "clamped", "poses", "next_plan", "next_memory",
+         *(["feedforward"] if extra else [])], {"cse": True})
 
 
 def _finite(value: ca.SX) -> ca.SX:

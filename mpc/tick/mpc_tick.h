@@ -29,7 +29,12 @@ typedef struct mpc_tick mpc_tick;
 #define MPC_OUT_TWIST 7      /* the commanded twist (3) */
 #define MPC_OUT_SPEEDS (MPC_OUT_TWIST + 3)      /* the wheel speeds to send (MPC_W) */
 #define MPC_OUT_POSES (MPC_OUT_SPEEDS + MPC_W)  /* the plan's poses (3 (MPC_N + 1)) */
-#define MPC_OUT_SIZE (MPC_OUT_POSES + 3 * (MPC_N + 1))
+/* robots with a motor model (MPC_FF = 5 MPC_W, else 0): per wheel the drive force at the
+ * floor [N], each motor's torque [N m] and current [A], then the contact force vectors
+ * (x, y per wheel, body frame) [N], as Command.wheel_forces, motor_torques,
+ * motor_currents, contact_forces */
+#define MPC_OUT_FEEDFORWARD (MPC_OUT_POSES + 3 * (MPC_N + 1))
+#define MPC_OUT_SIZE (MPC_OUT_FEEDFORWARD + MPC_FF)
 
 /* A controller (allocates everything it will use; NULL if daqp cannot be set up).
  * max_iter: daqp iterations per solve at most; budgeted: 1 if max_iter was chosen (no

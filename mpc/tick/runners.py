@@ -5,7 +5,8 @@ QP by the daqp Python module with the same rows, kept between ticks the same way
 
 Both write one output array a tick: status code, daqp's exit flag, iterations, solve
 time [s], clamped (0/1), failures in a row, Hessians built this tick, the twist (3), the
-wheel speeds (w), the plan's poses (3 (N+1), a stage's three numbers together). Both keep
+wheel speeds (w), the plan's poses (3 (N+1), a stage's three numbers together), and for a
+motor-aware robot the feedforward (:func:`mpc.tick.motors.motor_feedforward`, 5 w). Both keep
 the Hessian across ticks by the same rule (:mod:`mpc.tick.reuse`).
 """
 
@@ -34,7 +35,7 @@ _EQUALITY = 5
 
 def output_size(graphs: TickGraphs) -> int:
     """Numbers in a tick's output array."""
-    return TWIST + 3 + graphs.wheels + 3 * (graphs.horizon + 1)
+    return TWIST + 3 + graphs.wheels + 3 * (graphs.horizon + 1) + graphs.feedforward
 
 
 class TickRunner(Protocol):
@@ -137,16 +138,20 @@ class VirtualTick:
         self._f, self._rows = np.zeros(nv), np.zeros((m, nv))
         self._lower, self._upper = np.zeros(m), np.zeros(m)
         self._carry = np.zeros(graphs.carry)
+        # motor-aware robots: the rows of the tick (whitened every tick), the feedforward
+        self._stage_rows = np.zeros(graphs.stage_rows)
+        self._feedforward = np.zeros(graphs.feedforward)
+        moving = [self._stage_rows] if graphs.stage_rows else []
         self._prepare_graph = BufferedFunction(
             graphs.prepare, [self._pose, self._poses, self._velocities, self._last,
                              self._plan, self._mode, self._kept_terms],
             [self._gradient, self._lower, self._upper, self._carry, self._terms,
-             self._drift])
+             self._drift, *moving])
         self._hessian_graph = BufferedFunction(graphs.hessian, [self._carry],
                                                [self._hessian])
         self._whiten = BufferedFunction(graphs.whiten, [self._inverse, self._gradient],
                                         [self._f])
-        self._whiten_rows = BufferedFunction(graphs.whiten_rows, [self._inverse],
+        self._whiten_rows = BufferedFunction(graphs.whiten_rows, [self._inverse, *moving],
                                              [self._rows])
         self._y, self._flag, self._step = np.zeros(nv), np.zeros(1), np.zeros(nv)
         self._unwhiten = BufferedFunction(graphs.unwhiten, [self._inverse, self._y],
@@ -159,7 +164,8 @@ class VirtualTick:
             graphs.finish, [self._step, self._flag, self._carry, self._last, self._plan,
                             self._memory],
             [self._status, self._twist, self._speeds, self._clamped, self._plan_poses,
-             self._next_plan, self._next_memory])
+             self._next_plan, self._next_memory,
+             *([self._feedforward] if graphs.feedforward else [])])
         self._solver: daqp.Model | None = None
         self._out = np.zeros(output_size(graphs))
 
@@ -186,9 +192,12 @@ class VirtualTick:
             self._hessian_graph()
             # (H is symmetric: its C-ordered buffer is H either way)
             self._inverse[:] = inverse_factor(self._hessian).T[self._packed]
-            self._whiten_rows()
+            if not self._graphs.stage_rows:
+                self._whiten_rows()
             self._kept_terms[:] = self._terms
             self._kept = True
+        if self._graphs.stage_rows and planned:  # rows that move: whitened every tick
+            self._whiten_rows()
         self._whiten()
 
     def _solve(self) -> tuple[int, int, float]:
@@ -207,7 +216,7 @@ class VirtualTick:
             settings.update(self._settings)
             solver.settings = settings
             self._solver = solver
-        elif self._rebuilt:
+        elif self._rebuilt or self._graphs.stage_rows:
             solver.update(f=self._f, bupper=self._upper, blower=self._lower, A=self._rows)
         else:  # the kept Hessian: daqp keeps its rows
             solver.update(f=self._f, bupper=self._upper, blower=self._lower)
@@ -257,5 +266,7 @@ class VirtualTick:
         speeds = TWIST + 3
         out[TWIST:speeds] = self._twist
         out[speeds:speeds + self._speeds.size] = self._speeds
-        out[speeds + self._speeds.size:] = self._plan_poses.ravel()
+        poses = speeds + self._speeds.size
+        out[poses:poses + self._plan_poses.size] = self._plan_poses.ravel()
+        out[poses + self._plan_poses.size:] = self._feedforward
         return out

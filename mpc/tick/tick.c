@@ -12,7 +12,11 @@
  * tick drops the active set (the Python path's solver.reset()); a tick that failed from
  * the cold guess is solved once more from the last command held, unless a budget was
  * given (the Python controller's rule). Everything the caller needs comes out in one
- * array, the status included (a non-optimal QP never loses it). */
+ * array, the status included (a non-optimal QP never loses it).
+ *
+ * A motor model (MPC_STAGE_ROWS > 0, mpc/tick/motors.py): prepare also gives the rows of
+ * the tick (they move with the plan), whitened every tick with the kept L^{-1} and handed
+ * to daqp every tick; finish also gives the feedforward (MPC_FF numbers). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -50,6 +54,9 @@ struct mpc_tick {
   /* finish's outputs */
   double status, twist[3], speeds[MPC_W], clamped, poses[3 * (MPC_N + 1)];
   double plan_next[3 * MPC_N], memory_next[2];
+  /* motor-aware robots: the rows of the tick, the feedforward (1: no empty arrays) */
+  double stage_rows[MPC_STAGE_ROWS > 0 ? MPC_STAGE_ROWS : 1];
+  double feedforward[MPC_FF > 0 ? MPC_FF : 1];
   double mode;
   DAQPProblem qp;
   DAQPWorkspace work;
@@ -201,6 +208,9 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
   t->out[3] = t->carry;
   t->out[4] = t->terms;
   t->out[5] = &t->drift;
+#if MPC_STAGE_ROWS > 0
+  t->out[6] = t->stage_rows;
+#endif
   mpc_tick_prepare(t->arg, t->out, t->iw, t->w, 0);
   /* the rule (mpc/tick/reuse.py, must_rebuild): nothing kept, or moved too far */
   t->rebuilt = planned && (!t->kept || t->drift > t->rebuild_drift);
@@ -210,12 +220,22 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
     mpc_tick_hessian(t->arg, t->out, t->iw, t->w, 0);
     cholesky(t->hessian, t->factor);
     lower_inverse(t->factor, t->inverse);
+#if MPC_STAGE_ROWS == 0
     t->arg[0] = t->inverse;
     t->out[0] = t->rows;
     mpc_tick_whiten_rows(t->arg, t->out, t->iw, t->w, 0);
+#endif
     memcpy(t->kept_terms, t->terms, sizeof(t->kept_terms));
     t->kept = 1;
   }
+#if MPC_STAGE_ROWS > 0
+  if (planned) { /* rows that move with the plan: whitened every tick */
+    t->arg[0] = t->inverse;
+    t->arg[1] = t->stage_rows;
+    t->out[0] = t->rows;
+    mpc_tick_whiten_rows(t->arg, t->out, t->iw, t->w, 0);
+  }
+#endif
   t->arg[0] = t->inverse;
   t->arg[1] = t->gradient;
   t->out[0] = t->f;
@@ -225,7 +245,7 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
 /* daqp on the rows prepare wrote: its exit flag (the step in t->y). */
 static int solve(mpc_tick* t, double* iterations, double* seconds) {
   int i, flag, mask = UPDATE_v + UPDATE_d;
-  if (t->rebuilt) mask += UPDATE_M;     /* new whitened rows */
+  if (t->rebuilt || MPC_STAGE_ROWS > 0) mask += UPDATE_M; /* new whitened rows */
   if (t->qp_cold) mask += UPDATE_sense; /* sense from t->sense: all inactive */
   reset_daqp_workspace(&t->work);
   flag = update_ldp(mask, &t->work);
@@ -293,6 +313,9 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   t->out[4] = t->poses;
   t->out[5] = t->plan_next;
   t->out[6] = t->memory_next;
+#if MPC_FF > 0
+  t->out[7] = t->feedforward;
+#endif
   mpc_tick_finish(t->arg, t->out, t->iw, t->w, 0);
   t->warm = t->status == 0.0;
   if (!t->warm) forget(t);
@@ -309,5 +332,8 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   memcpy(out + MPC_OUT_TWIST, t->twist, sizeof(t->twist));
   memcpy(out + MPC_OUT_SPEEDS, t->speeds, sizeof(t->speeds));
   memcpy(out + MPC_OUT_POSES, t->poses, sizeof(t->poses));
+#if MPC_FF > 0
+  memcpy(out + MPC_OUT_FEEDFORWARD, t->feedforward, sizeof(t->feedforward));
+#endif
   return (int)t->status;
 }
