@@ -209,6 +209,9 @@ conventions).
 fallbacks, in order), `MPC_OUT_FLAG` (daqp's exit flag; -1000: the reference had a NaN),
 `MPC_OUT_ITERATIONS`, `MPC_OUT_SOLVE_TIME` [s], `MPC_OUT_CLAMPED`, `MPC_OUT_FAILURES`,
 `MPC_OUT_REBUILT` (Hessians built this tick), `MPC_OUT_TWIST` (3), `MPC_OUT_SPEEDS`
-(MPC_W wheel speeds to send), `MPC_OUT_POSES` (the plan, 3 (N+1)). Every command is
-within every wheel's speed and acceleration limit.
+(MPC_W wheel speeds to send), `MPC_OUT_POSES` (the plan, 3 (N+1)), and with a motor
+model `MPC_OUT_FEEDFORWARD` (`MPC_FF` = 5 MPC_W: per wheel the drive force at the floor
+[N], each motor's torque [N m] and current [A], then each wheel's contact force (x, y)
+[N], body frame). Every command is within every wheel's speed and acceleration limit
+(and, with a motor model, its battery voltage, current and traction limits).
 """

@@ -173,22 +173,19 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
     shift = ca.vertcat(ca.DM(limits.before[0]) @ last, ca.SX.zeros(m - limits.rows, 1))
     lower = ca.DM(structure.lower[first:]) - at_guess - shift
     upper = ca.DM(structure.upper[first:]) - at_guess - shift
-    moving: list[ca.SX] = []  # the rows, where they move with the plan
-    if motor is not None:
-        stage_rows, lower, upper = motor.stage_rows(guess, last)
-        at_guess, first_shift = motor.at_guess(stage_rows, guess, last)
-        shift = ca.vertcat(first_shift, ca.SX.zeros(m - limits.rows, 1))
-        lower, upper = lower - at_guess - shift, upper - at_guess - shift
-        moving = [ca.densify(stage_rows)]
+    if motor is not None:  # rows that move with the plan: motor.prepare fills them
+        lower = upper = ca.SX.zeros(m, 1)
     carry_parts = [rollout, sensitivities, steps, guess, feedforward, unwrapped]
     carry = ca.vertcat(*[ca.densify(ca.vec(part)) for part in carry_parts])
     prepare = ca.Function(
-        "mpc_tick_prepare", [pose, ref_poses, ref_velocities, last, plan, mode, kept],
+        "mpc_tick_prepare" if motor is None else "mpc_tick_prepare_terms",
+        [pose, ref_poses, ref_velocities, last, plan, mode, kept],
         [ca.densify(gradient), ca.densify(lower), ca.densify(upper), carry,
-         ca.densify(terms), drift, *moving],
+         ca.densify(terms), drift],
         ["pose", "ref_poses", "ref_velocities", "last", "plan", "guess_mode", "kept"],
-        ["gradient", "lower", "upper", "carry", "terms", "drift",
-         *(["stage_rows"] if moving else [])], {"cse": True})
+        ["gradient", "lower", "upper", "carry", "terms", "drift"], {"cse": True})
+    if motor is not None:  # (the guess: carry's fourth part)
+        prepare = motor.prepare(prepare, sum(part.numel() for part in carry_parts[:3]))
     hessian = _hessian_graph(model, constant_cost, carry.shape[0])
 
     # L^{-1}: its lower triangle packed column by column (CasADi's lower-triangular input)
@@ -200,7 +197,7 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
     whiten_rows = ca.Function("mpc_tick_whiten_rows", [inverse],
                               [ca.densify(inverse @ sparse_rows.T)], ["inverse"], ["rows_t"])
     if motor is not None:  # the rows of the tick, whitened every tick
-        stage_in = ca.MX.sym("stage_rows", *moving[0].shape)
+        stage_in = ca.MX.sym("stage_rows", prepare.sparsity_out("stage_rows"))
         whiten_rows = ca.Function("mpc_tick_whiten_rows", [inverse, stage_in],
                                   [motor.whiten_rows(inverse, stage_in)],
                                   ["inverse", "stage_rows"], ["rows_t"])
@@ -211,7 +208,7 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> Tic
     return TickGraphs(prepare, hessian, whiten, whiten_rows, unwhiten, finish, n, size, m,
                       len(wheels.limits), carry.shape[0], terms_size(n),
                       tuple(float(x) for x in model.offsets), float(tick),
-                      moving[0].numel() if moving else 0,
+                      0 if motor is None else prepare.numel_out("stage_rows"),
                       0 if motor is None else feedforward_size(model.robot))
 
 

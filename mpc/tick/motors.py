@@ -7,12 +7,13 @@ The rows are :mod:`mpc.robots.drive.motor_limits`'s: its tables (:class:`MotorRo
 tick uses, and its refill (:func:`~mpc.robots.drive.motor_limits.update_stage_limits`: the
 traction polygons turned to the planned force, the Coriolis term linearised along the
 guess, the bus sag's Newton step, stage 0 widened to hold the last command) written as
-one SX function of a stage, ``(u_k, u_{k-1}, change time) -> (now, before, lower, upper)``
-(called N times, not inlined: the library compiles in seconds). They depend on the plan,
-so they change every tick: ``prepare`` gives them as ``stage_rows`` (3 x 2 N m: each
-stage's rows on ``u_k``, then on ``u_{k-1}``) and ``whiten_rows`` whitens them every tick
-with the kept ``L^{-1}``; the kept Hessian stays the Hessian alone
-(:mod:`mpc.tick.reuse`).
+one SX function of a stage, ``(u_k, u_{k-1}, change time, ...) -> (rows, their bounds on
+the step)``, mapped over the stages by an MX ``prepare`` around the kinematic one (a loop
+in the generated C: written out in one function, the rows of every stage made gcc take
+minutes). They depend on the plan, so they change every tick: ``prepare`` gives them as
+``stage_rows`` (3 x 2 N m: each stage's rows on ``u_k``, then on ``u_{k-1}``) and
+``whiten_rows`` whitens them every tick with the kept ``L^{-1}``; the kept Hessian stays
+the Hessian alone (:mod:`mpc.tick.reuse`).
 
 The clamp is :func:`~mpc.control.clamp.clamp_command`'s array path for these robots: the
 speed scaling and acceleration step (:func:`mpc.tick.graphs._clamped`), then up to four
@@ -72,8 +73,7 @@ class MotorGraphs:
 
     Attributes:
         limits: the stage rows (:class:`MotorStageLimits`, the Python tick's tables).
-        stage: ``(u_k 3, u_{k-1} 3, change time 1) -> (now m x 3, before m x 3, lower m,
-            upper m)``: a stage's motor rows refilled (module docstring).
+        stage: one stage's rows and their bounds on the step (:func:`_stage_function`).
         forces: the robot's force map.
     """
 
@@ -86,41 +86,41 @@ class MotorGraphs:
         """Rows a stage (the robot's own, then the motor rows)."""
         return int(self.limits.rows)
 
-    def stage_rows(self, guess: ca.SX, last: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
-        """``(stage_rows 3 x 2 N m, lower N m, upper N m)``: each stage's rows on ``u_k``
-        (columns stage-major), then on ``u_{k-1}``, at the guess twists (3 x N) after the
-        command ``last``, and their bounds (the Python tick's ``limits.now``, ``before``,
-        ``lower``, ``upper`` after ``update_stage_limits``)."""
+    def stage_rows(self, guess: ca.MX, last: ca.MX) -> tuple[ca.MX, ca.MX, ca.MX]:
+        """``(stage_rows 3 x 2 N m, lower N m, upper N m)`` at the guess twists (3 x N)
+        after the command ``last``: each stage's rows on ``u_k`` (a row a column, stages
+        in order), then on ``u_{k-1}``, as the Python tick's ``limits.now`` and ``before``
+        after ``update_stage_limits``; and the bounds on the step from the guess (stage 0's
+        part on ``last`` moved into its bounds). The stage function mapped over the stages
+        (a loop in the generated C)."""
         limits, kinematic = self.limits, self.limits.kinematic
         assert kinematic is not None  # set by stage_limits
         n = limits.horizon
-        now, before, lower, upper = [], [], [], []
-        for k in range(n):
-            previous = last if k == 0 else guess[:, k - 1]
-            m_now, m_before, m_lower, m_upper = self.stage(guess[:, k], previous,
-                                                           float(limits.change_times[k]))
-            if k == 0:  # _reach_last: stage 0 holds the last command
-                held = m_now @ last + m_before @ last
-                m_lower, m_upper = ca.fmin(m_lower, held), ca.fmax(m_upper, held)
-            now.append(ca.vertcat(ca.DM(kinematic.now[k]), m_now).T)
-            before.append(ca.vertcat(ca.DM(kinematic.before[k]), m_before).T)
-            lower.append(ca.vertcat(ca.DM(kinematic.lower[k]), m_lower))
-            upper.append(ca.vertcat(ca.DM(kinematic.upper[k]), m_upper))
-        return ca.horzcat(*now, *before), ca.vertcat(*lower), ca.vertcat(*upper)
+        previous = ca.horzcat(last, guess[:, :n - 1])
+        first = ca.DM([[1.0] + [0.0] * (n - 1)])
+        constants = [ca.DM(np.hstack([block.T for block in kinematic.now])),
+                     ca.DM(np.hstack([block.T for block in kinematic.before])),
+                     ca.DM(kinematic.lower.T), ca.DM(kinematic.upper.T)]
+        now, before, lower, upper = self.stage.map(n)(
+            guess, previous, ca.DM(limits.change_times).T, first, *constants)
+        return ca.horzcat(now, before), ca.vec(lower), ca.vec(upper)
 
-    def at_guess(self, stage_rows: ca.SX, guess: ca.SX, last: ca.SX) -> tuple[ca.SX, ca.SX]:
-        """The rows' values at the guess (stage 0's part on ``u_{-1}`` left out: the
-        caller's ``shift``), and that part, ``before_0 @ last`` (N m and m)."""
-        n, m = self.limits.horizon, self.rows
-        values = []
-        for k in range(n):
-            value = stage_rows[:, k * m:(k + 1) * m].T @ guess[:, k]
-            if k > 0:
-                start = (n + k) * m
-                value = value + stage_rows[:, start:start + m].T @ guess[:, k - 1]
-            values.append(value)
-        shift = stage_rows[:, n * m:(n + 1) * m].T @ last
-        return ca.vertcat(*values), shift
+    def prepare(self, terms: ca.Function, guess_at: int) -> ca.Function:
+        """``prepare`` for a robot whose rows move with the plan: ``terms`` (the graph of
+        :func:`mpc.tick.graphs.build_graphs`, its bounds left out) called, then the rows
+        and bounds of the guess it chose (in its ``carry`` from ``guess_at``), and the rows
+        as one more output, ``stage_rows``."""
+        inputs = [ca.MX.sym(terms.name_in(i), terms.sparsity_in(i))
+                  for i in range(terms.n_in())]
+        outputs = list(terms(*inputs))
+        n = self.limits.horizon
+        guess = ca.reshape(outputs[3][guess_at:guess_at + 3 * n], 3, n)
+        stage_rows, lower, upper = self.stage_rows(guess, inputs[terms.index_in("last")])
+        outputs[1], outputs[2] = lower, upper
+        names = [terms.name_out(i) for i in range(terms.n_out())]
+        return ca.Function("mpc_tick_prepare", inputs, [*outputs, ca.densify(stage_rows)],
+                           [terms.name_in(i) for i in range(terms.n_in())],
+                           [*names, "stage_rows"])
 
     def whiten_rows(self, inverse: ca.MX, stage_rows: ca.MX) -> ca.MX:
         """``(A L^{-T})'`` (n x N m) of the rows ``stage_rows`` (as :meth:`stage_rows` lays
@@ -158,6 +158,12 @@ def _stage_function(robot: Robot, limits: MotorStageLimits, forces: ForceMap) ->
     rows = limits.motor
     assert rows is not None
     u, p, dt = ca.SX.sym("u", 3), ca.SX.sym("previous", 3), ca.SX.sym("change_time")
+    kinematic = limits.kinematic
+    assert kinematic is not None
+    own = kinematic.rows
+    first = ca.SX.sym("first")  # 1 at stage 0 (its rows hold the last command), else 0
+    own_now, own_before = ca.SX.sym("own_now", 3, own), ca.SX.sym("own_before", 3, own)
+    own_lower, own_upper = ca.SX.sym("own_lower", own), ca.SX.sym("own_upper", own)
     turn_end, turn_start = _turn(u), _turn(p)
     change = (u - p) / dt
     # _turn_rows: a 2-D contact's polygon turned to the force the guess asks of it at the
@@ -202,9 +208,20 @@ def _stage_function(robot: Robot, limits: MotorStageLimits, forces: ForceMap) ->
         bound, now_rows, before_rows, shift = _sagged(robot, forces, rows.bound, u, p, dt,
                                                       turn_end, turn_start, bound, now_rows,
                                                       before_rows, shift)
-    return ca.Function("mpc_tick_motor_stage", [u, p, dt],
-                       [now_rows, before_rows, -bound - shift, bound - shift],
-                       ["u", "previous", "change_time"], ["now", "before", "lower", "upper"],
+    lower, upper = -bound - shift, bound - shift
+    # _reach_last: stage 0's rows widened to hold its start, the last command (previous)
+    held = now_rows @ p + before_rows @ p
+    lower = ca.if_else(first > 0, ca.fmin(lower, held), lower)
+    upper = ca.if_else(first > 0, ca.fmax(upper, held), upper)
+    now_rows = ca.vertcat(own_now.T, now_rows)
+    before_rows = ca.vertcat(own_before.T, before_rows)
+    lower, upper = ca.vertcat(own_lower, lower), ca.vertcat(own_upper, upper)
+    at_guess = now_rows @ u + before_rows @ p  # the bounds on the step from the guess
+    return ca.Function("mpc_tick_motor_stage",
+                       [u, p, dt, first, own_now, own_before, own_lower, own_upper],
+                       [now_rows.T, before_rows.T, lower - at_guess, upper - at_guess],
+                       ["u", "previous", "change_time", "first", "own_now", "own_before",
+                        "own_lower", "own_upper"], ["now", "before", "lower", "upper"],
                        {"cse": True})
 
 
@@ -264,9 +281,13 @@ def motor_clamp(robot: Robot, wheels: ScalarWheels, twist: ca.SX, last: ca.SX,
         last_over = ca.logic_or(
             last_over, ca.fabs(a * last[0] + b * last[1] + c * last[2]) - limit * (1 + 1e-9)
             > extra)
+    start, target = ca.SX.sym("last", 3), ca.SX.sym("target", 3)
+    step_fraction = ca.Function("mpc_tick_motor_fraction", [start, target],
+                                [_step_fraction(forces, start, target, dt)],
+                                {"cse": True, "never_inline": True})
     safe, stopped = twist, ca.SX(0)
     for _ in range(MOTOR_PASSES):
-        fraction = _step_fraction(forces, last, safe, dt)
+        fraction = step_fraction(last, safe)
         stopped = ca.logic_or(stopped, fraction >= 1.0 - 1e-9)
         safe = ca.if_else(stopped, safe, last + fraction * (safe - last))
     return ca.if_else(last_over, twist, safe)
