@@ -5,7 +5,9 @@ virtual-machine path and the project's IPOPT path, on the scenarios it supports
 (constant-Jacobian layouts, time mode), inside and beyond the limits: the same ticks on the same
 ideal plant, every controller built once and run ``rounds`` times in turns (the order
 rotated each round) so that their ratios are taken under the same load; tick times pooled
-over the rounds, errors from the first round.
+over the rounds, errors from the first round. ``--motors``: the layouts' motor presets
+(:func:`~mpc.robots.motor_preset`), the Python tick with its motor rows screened as it
+ships (:mod:`mpc.solvers.row_screen`).
 """
 
 from __future__ import annotations
@@ -15,8 +17,9 @@ from collections.abc import Callable
 from typing import Any
 
 import mpc.tick.reuse as reuse
+from benchmarks.scenarios import ScenarioError
 from mpc import Controller, ControllerError
-from mpc.robots import preset
+from mpc.robots import MOTOR_ROBOT_PRESETS, motor_preset, preset
 from mpc.sim import TrackingController
 from trajectories import Trajectory
 
@@ -35,18 +38,25 @@ def compiled_section(layouts: list[str], speeds: dict[str, float], shape: str, h
                      reference: Callable[..., Trajectory],
                      run: Callable[[TrackingController, int], Any],
                      row: Callable[..., dict[str, Any]], settle: Callable[[int], int],
-                     say: Callable[[str], None]) -> list[dict[str, Any]]:
+                     say: Callable[[str], None], motors: bool = False) -> list[dict[str, Any]]:
     """The section's rows (``reference``, ``run``, ``row``, ``settle``: perf's own helpers,
-    so that its rows have every other section's keys)."""
+    so that its rows have every other section's keys); ``motors``: on the layouts' motor
+    presets."""
+    if motors:
+        unknown = [layout for layout in layouts if layout not in MOTOR_ROBOT_PRESETS]
+        if unknown:
+            raise ScenarioError(f"--motors: no motor preset of {', '.join(unknown)}; "
+                                f"expected some of {', '.join(MOTOR_ROBOT_PRESETS)}")
     say(f"{rounds} rounds of {ticks} ticks each, the controllers taking turns; N={horizon}, "
-        f"{shape} {heading} heading, time mode, ideal plant")
+        f"{shape} {heading} heading, time mode, ideal plant"
+        + ("; motor presets" if motors else ""))
     say(f"{'layout':8s} {'speed':7s} {'controller':16s} {'tick p50':>9s} {'tick p99':>9s} "
         f"{'solve p50':>9s} {'rms err':>9s} {'/compiled':>9s} {'build':>6s}  path")
     say(f"{'':8s} {'':7s} {'':16s} {'[ms]':>9s} {'[ms]':>9s} {'[ms]':>9s} {'[mm]':>9s} "
         f"{'':>9s} {'[s]':>6s}")
     rows: list[dict[str, Any]] = []
     for layout in layouts:
-        robot = preset(layout)
+        robot = motor_preset(layout) if motors else preset(layout)
         for speed, ratio in speeds.items():
             trajectory = reference(shape, heading, robot, ratio)
             built: dict[str, tuple[TrackingController, float]] = {}
@@ -66,6 +76,7 @@ def compiled_section(layouts: list[str], speeds: dict[str, float], shape: str, h
             section_rows = {name: row(runs[name], settle(ticks), section="compiled",
                                       layout=layout, mode="time", speed=speed,
                                       peak_ratio=ratio, solver=name, horizon=horizon,
+                                      motors=motors,
                                       build_time=build, rounds=rounds,
                                       tick_path=getattr(control, "tick_path", None),
                                       hessian_builds=_builds(control))

@@ -190,8 +190,9 @@ class CompiledTick:
         self._log(failures, failure or _SOLVER_STATUS.get(flag, f"daqp exit flag {flag}"))
         speeds = TWIST + 3
         twist = out[TWIST:speeds].copy()
-        poses = speeds + self._wheels
-        plan = out[poses:poses + 3 * (self._horizon + 1)].reshape(self._horizon + 1, 3).copy()
+        tail = speeds + self._wheels + 3 * (self._horizon + 1)  # the feedforward's start
+        plan = out[speeds + self._wheels:tail].reshape(self._horizon + 1, 3).copy()
+        forces, torques, currents, vectors = self._feedforward(out[tail:])
         return Command(
             wheel_speeds=out[speeds:speeds + self._wheels].copy(), twist=twist,
             steer_angles=None, predicted_poses=plan, status=status,
@@ -200,17 +201,18 @@ class CompiledTick:
             solve_time=float(out[SOLVE_TIME]), tick_time=time.perf_counter() - start,
             iterations=int(out[ITERATIONS]), consecutive_failures=failures,
             clamped=bool(out[CLAMPED]), reference_time=t_now, lag=0.0,
-            **self._feedforward(out[poses + 3 * (self._horizon + 1):]))
+            wheel_forces=forces, motor_torques=torques, motor_currents=currents,
+            contact_forces=vectors)
 
-    def _feedforward(self, values: FloatArray) -> dict[str, FloatArray]:
-        """``Command``'s motor feedforward fields from the output's tail (motor-aware
-        robots: :func:`mpc.tick.motors.feedforward`'s layout; none otherwise)."""
+    def _feedforward(self, values: FloatArray) -> tuple[FloatArray | None, ...]:
+        """``Command``'s motor feedforward fields (wheel forces, motor torques and currents,
+        contact force vectors) from the output's tail (motor-aware robots:
+        :func:`mpc.tick.motors.motor_feedforward`'s layout; None otherwise)."""
         if not values.size:
-            return {}
+            return None, None, None, None
         n = self._wheels
-        return {"wheel_forces": values[:n].copy(), "motor_torques": values[n:2 * n].copy(),
-                "motor_currents": values[2 * n:3 * n].copy(),
-                "contact_forces": values[3 * n:5 * n].reshape(n, 2).copy()}
+        return (values[:n].copy(), values[n:2 * n].copy(), values[2 * n:3 * n].copy(),
+                values[3 * n:5 * n].reshape(n, 2).copy())
 
     def _log(self, failures: int, reason: str) -> None:
         """Fallbacks starting and ending, as :class:`~mpc.control.fallback.FallbackPolicy`

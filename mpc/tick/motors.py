@@ -123,17 +123,25 @@ class MotorGraphs:
                            [*names, "stage_rows"])
 
     def whiten_rows(self, inverse: ca.MX, stage_rows: ca.MX) -> ca.MX:
-        """``(A L^{-T})'`` (n x N m) of the rows ``stage_rows`` (as :meth:`stage_rows` lays
-        them out), stage by stage: stage ``k``'s rows touch ``u_k`` and ``u_{k-1}`` only."""
+        """``(A L^{-T})' = L^{-1} A'`` (n x N m) of the rows ``stage_rows`` (as
+        :meth:`stage_rows` lays them out): ``A'`` put together as a sparse matrix (stage
+        ``k``'s rows touch ``u_k`` and ``u_{k-1}`` only: six entries a row, three in stage
+        0), then one sparse product (its loops in the generated C)."""
         n, m = self.limits.horizon, self.rows
-        blocks = []
+        rows, columns, picks = [], [], []
         for k in range(n):
-            block = inverse[:, 3 * k:3 * k + 3] @ stage_rows[:, k * m:(k + 1) * m]
-            if k > 0:
-                start = (n + k) * m
-                block = block + inverse[:, 3 * k - 3:3 * k] @ stage_rows[:, start:start + m]
-            blocks.append(block)
-        return ca.densify(ca.horzcat(*blocks))
+            for i in range(m):
+                column = k * m + i
+                if k > 0:  # the row's part on u_{k-1}: stage_rows' column N m + k m + i
+                    rows += [3 * k - 3, 3 * k - 2, 3 * k - 1]
+                    picks += [3 * (n * m + column) + axis for axis in range(3)]
+                    columns += [column] * 3
+                rows += [3 * k, 3 * k + 1, 3 * k + 2]
+                picks += [3 * column + axis for axis in range(3)]
+                columns += [column] * 3
+        pattern, mapping = ca.Sparsity.triplet(3 * n, n * m, rows, columns, True)
+        values = ca.vec(stage_rows)[[picks[index] for index in np.argsort(mapping)]]
+        return ca.densify(inverse @ ca.MX(pattern, values))
 
 
 def motor_graphs(robot: Robot, limits: MotorStageLimits) -> MotorGraphs:
@@ -185,7 +193,7 @@ def _stage_function(robot: Robot, limits: MotorStageLimits, forces: ForceMap) ->
             cos, sin = math.cos(rows.angle[i]), math.sin(rows.angle[i])
             d = ca.horzcat(ux * cos - uy * sin, uy * cos + ux * sin)
         else:
-            d = ca.DM(limits.directions[0, i]).T
+            d = ca.SX(ca.DM(limits.directions[0, i]).T)
         turned = d @ ca.DM(basis[i])  # (1, 16): _fill_rows
         q = turned[0:3] / dt
         base_now, base_before = turned[3:6] + q, turned[6:9] - q
