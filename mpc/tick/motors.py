@@ -41,7 +41,7 @@ from mpc.robots.base import Robot, ScalarWheels
 from mpc.robots.drive.force_map import ForceMap, force_map
 from mpc.robots.drive.motor_limits import LINEARISE_CORIOLIS, MotorStageLimits
 from mpc.robots.drive.motor_rows import FIXED, FORCE
-from mpc.robots.drive.motor_step import CLAMP_HEADROOM, _step_rows
+from mpc.robots.drive.motor_step import CLAMP_HEADROOM, STILL_SLOPE, _step_rows
 
 #: Passes of the motor step in the clamp (:data:`mpc.control.clamp._MOTOR_PASSES`).
 MOTOR_PASSES = 4
@@ -327,8 +327,10 @@ def _step_fraction(forces: ForceMap, last: ca.SX, target: ca.SX, dt: float) -> c
 
 def _linear_fraction(start: ca.SX, slope: ca.SX) -> ca.SX:
     """``motor_step._linear_fraction``: the largest f in [0, 1] with every
-    ``|start + f slope| <= 1`` (a row already beyond it only back in)."""
-    reach = (ca.copysign(1.0, slope) - ca.if_else(slope == 0.0, 0.0, start)) / slope
+    ``|start + f slope| <= 1`` (a row already beyond it only back in; a row the step does
+    not move, :data:`~mpc.robots.drive.motor_step.STILL_SLOPE`, no limit)."""
+    reach = ca.if_else(ca.fabs(slope) <= STILL_SLOPE, math.inf,
+                       (ca.copysign(1.0, slope) - start) / slope)
     return ca.fmin(1.0, ca.fmax(0.0, ca.mmin(reach)))
 
 
