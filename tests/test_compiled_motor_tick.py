@@ -208,8 +208,13 @@ def _assert_within_motors(robot: Robot, commands: list[Command]) -> int:
 def test_compiled_motor_tick_matches_the_python_tick(layout: str) -> None:
     """160 ticks on the motor plant (a figure-eight that takes the motors to their limits, a
     start off the reference): the compiled library and its virtual machine replaying the
-    poses the Python tick was given give its statuses, commands, plans and feedforward to
-    1e-9 (scaled by each field's size), never NaN, every command within the motors."""
+    poses the Python tick was given give its statuses, commands, plans and feedforward,
+    never NaN, every command within the motors. The virtual machine (the daqp module, as
+    the Python tick) to 1e-9; the library links the casadi wheel's daqp 0.5.1, another
+    release (pivot tolerance 1e-6 against 1e-8; both take rows met to 1e-6 as met), and
+    its solutions of the motor QPs agree to that tolerance, not to rounding (measured:
+    2.3e-6 in a ball3 twist, 1e-12 on Mecanum): 1e-5. Tolerances scaled by each field's
+    size."""
     trajectory = LOOP
     poses, expected = _motor_loop(layout)
     robot = motor_preset(layout)
@@ -219,9 +224,9 @@ def test_compiled_motor_tick_matches_the_python_tick(layout: str) -> None:
         machine = Controller(robot, trajectory, horizon=HORIZON, dt=DT,
                              compiled="virtual-machine")
     assert compiled.tick_path == "compiled"
-    for controller in (compiled, machine):
+    for controller, tolerance in ((compiled, 1e-5), (machine, 1e-9)):
         got = [controller.step(pose, k * DT) for k, pose in enumerate(poses)]
-        _assert_same(expected, got, 1e-9)
+        _assert_same(expected, got, tolerance)
         for command in got:
             for name in ("wheel_speeds", "twist", "predicted_poses", "motor_currents",
                          "contact_forces"):
