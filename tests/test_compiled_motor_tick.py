@@ -21,13 +21,19 @@ from tick_loop import DT, HORIZON, same_reuse_rule
 
 import mpc
 import mpc.solvers.row_screen as row_screen
+from benchmarks.compiled_tick import compiled_section
+from benchmarks.scenarios import ScenarioError, reference
 from mpc import Command, Controller, Status
 from mpc.control.clamp import clamp_command
 from mpc.control.lookahead import Lookahead
 from mpc.robots import motor_preset
 from mpc.robots.base import Robot
 from mpc.robots.drive.dynamics import GRAVITY, bus_voltage
-from mpc.robots.drive.motor_limits import stage_limits, update_stage_limits
+from mpc.robots.drive.motor_limits import (
+    MotorStageLimits,
+    stage_limits,
+    update_stage_limits,
+)
 from mpc.robots.drive.motor_step import first_step_feedforward
 from mpc.robots.limits import stage_values
 from mpc.sim.motor_plant import MotorPlant, MotorPlantConfig
@@ -59,6 +65,7 @@ def test_motor_rows_are_the_python_refill(layout: str) -> None:
     stages = 5
     times = np.array([0.03, 0.05, 0.05, 0.1, 0.1])
     limits = stage_limits(robot, times, None)
+    assert isinstance(limits, MotorStageLimits)
     graphs = motor_graphs(robot, limits)
     guess_sym, last_sym = ca.MX.sym("guess", 3, stages), ca.MX.sym("last", 3)
     rows, lower, upper = graphs.stage_rows(guess_sym, last_sym)
@@ -272,3 +279,13 @@ def test_the_exported_motor_library_gives_the_python_commands(tmp_path: Path) ->
         assert statuses[int(row[0])] is command.status, tick
         np.testing.assert_allclose(row[1:4], command.twist, rtol=0, atol=1e-9)
         np.testing.assert_allclose(row[4:], command.wheel_speeds, rtol=0, atol=1e-9)
+
+
+def test_perf_motors_names_the_layouts_without_motors() -> None:
+    """``mpc-bench perf --sections compiled --motors`` on a layout with no motor preset: a
+    one-line error naming the ones there are, before anything is built."""
+    with pytest.raises(ScenarioError, match=r"no motor preset of caster4; expected some of "
+                                            r"omni3, omni4, mecanum, swerve, ball3"):
+        compiled_section(["caster4"], {"inside": 0.8}, "figure8", "fixed", HORIZON, DT, 20, 1,
+                         reference, lambda control, ticks: None, lambda *a, **k: {},
+                         lambda ticks: 0, lambda line: None, motors=True)

@@ -38,7 +38,8 @@ limits (:func:`~mpc.control.clamp.clamp_command`'s scalar-wheel steps), all as
 expressions.
 
 Scope of this slice: constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with
-no failed wheel and no motor model, time mode (:mod:`mpc.tick.support`).
+no failed wheel, time mode (:mod:`mpc.tick.support`); a motor model's rows, clamp and
+feedforward from :mod:`mpc.tick.motors`.
 """
 
 from __future__ import annotations
