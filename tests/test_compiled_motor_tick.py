@@ -17,7 +17,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 import pytest
-from tick_loop import DT, HORIZON, same_reuse_rule
+from tick_loop import DT, HORIZON, Broken, plant_step, same_reuse_rule
 
 import mpc
 import mpc.solvers.row_screen as row_screen
@@ -289,3 +289,31 @@ def test_perf_motors_names_the_layouts_without_motors() -> None:
         compiled_section(["caster4"], {"inside": 0.8}, "figure8", "fixed", HORIZON, DT, 20, 1,
                          reference, lambda control, ticks: None, lambda *a, **k: {},
                          lambda ticks: 0, lambda line: None, motors=True)
+
+
+def test_a_failing_reference_falls_back_as_in_the_python_tick() -> None:
+    """A reference that cannot be sampled for a second (the previous plan, then stopping,
+    then solved again) on the Mecanum motor preset: the virtual machine gives the Python
+    tick's statuses, failure counts, commands and motor currents to 1e-9 (the library runs
+    the same graphs; its daqp is the other release, above)."""
+    trajectory = Broken(1.0, 8.0, heading="tangent")
+    robot = motor_preset("mecanum")
+    saved = row_screen.SCREEN_AFTER
+    row_screen.SCREEN_AFTER = 10**9
+    try:
+        with same_reuse_rule():
+            python = Controller(robot, trajectory, horizon=HORIZON, dt=DT)
+            machine = Controller(robot, trajectory, horizon=HORIZON, dt=DT,
+                                 compiled="virtual-machine")
+            start = FigureEight(1.0, 8.0, heading="tangent").sample(0.0).pose
+            pose = start + np.array([0.15, -0.05, 0.2])
+            expected, got = [], []
+            for k in range(140):
+                expected.append(python.step(pose, k * DT))
+                got.append(machine.step(pose, k * DT))
+                pose = plant_step(pose, expected[-1].twist)
+    finally:
+        row_screen.SCREEN_AFTER = saved
+    assert {c.status for c in expected} == {Status.SOLVED, Status.PREVIOUS_PLAN,
+                                            Status.STOPPING}
+    _assert_same(expected, got, 1e-9)
