@@ -27,7 +27,8 @@ def check_supported(robot: Robot, solver: str, mode: str, delay_ticks: int,
               and robot.wheel_dim == 1 and robot.rest_projector is None)
     if not isinstance(robot, ConstantJacobianRobot) or (robot.scalar_wheels is None
                                                         and not motors):
-        steered = " (motor-aware steered wheels: not covered)" if robot.dynamics else ""
+        steered = (" (motor-aware steered wheels: not covered)"
+                   if robot.dynamics is not None and robot.wheel_dim != 1 else "")
         problems.append(f"robot {robot.name!r} ({robot.kind}){steered}")
     if solver != "daqp":
         problems.append(f"solver={solver!r}")
