@@ -325,3 +325,58 @@ def test_a_failing_reference_falls_back_as_in_the_python_tick() -> None:
     assert {c.status for c in expected} == {Status.SOLVED, Status.PREVIOUS_PLAN,
                                             Status.STOPPING}
     _assert_same(expected, got, 1e-9)
+
+
+def test_the_moving_cost_reaches_the_hessian_and_the_drift() -> None:
+    """A motor robot's rate terms weigh the body acceleration with the reference's Coriolis
+    term (:meth:`~mpc.model.tracking.TrackingModel.cost`), so its cost Hessian moves with
+    the reference: ``prepare`` carries the model's values, ``hessian`` gives the NumPy
+    condensed Hessian (:meth:`~mpc.solvers.condensed.Condenser.hessian`) of those values,
+    two references that turn differently give two Hessians, and the drift from a kept
+    build counts the values' change over the Python tick's tolerance."""
+    from mpc.solvers.condensed import Condenser
+    from mpc.solvers.hessian_reuse import COST_TOLERANCE
+    from mpc.solvers.qp_structure import assemble_qp
+    from mpc.tick.graphs import build_graphs
+    from mpc.tick.reuse import terms_size
+
+    horizon = 6
+    robot = motor_preset("mecanum")
+    trajectory = FigureEight(1.0, 6.0, heading="tangent")
+    controller = Controller(robot, trajectory, horizon=horizon, dt=DT)
+    model = controller.model
+    graphs = build_graphs(model, motor_wheels(robot), DT)
+    structure = assemble_qp(model, stage_limits(robot, model.change_times, None))
+    nnz = structure.cost_terms.sparsity_out(0).nnz()
+    assert graphs.terms == terms_size(horizon) + nnz  # the cost's values are reuse terms
+    ahead = Lookahead(trajectory, model.offsets, DT)
+    n = horizon
+    cost_at = 3 * (n + 1) + 9 * n + 2 * n + 3 * n + 3 * n + 3 * (n + 1)
+    results = []
+    for t in (0.0, 1.3):  # the figure-eight's turn rate differs
+        poses, velocities = ahead.window(t)
+        pose = poses[0] + np.array([0.02, -0.01, 0.03])
+        last = np.array([0.3, 0.1, 0.5])
+        out = graphs.prepare(pose, poses.T, velocities.T, last, np.zeros((3, n)), 0.0,
+                             np.zeros(graphs.terms), np.zeros(0), np.zeros(0))
+        carry, terms = np.array(out[3]).ravel(), np.array(out[4]).ravel()
+        hessian = np.array(graphs.hessian(carry))
+        condenser = Condenser(model, structure)
+        start = 3 * (n + 1)
+        sensitivity = carry[start:start + 9 * n].reshape(n, 3, 3).transpose(0, 2, 1)
+        steps = carry[start + 9 * n:start + 11 * n].reshape(n, 2)
+        values = carry[cost_at:cost_at + nnz]
+        condenser.scatter(values)
+        expected = condenser.hessian(condenser.state_sensitivities(sensitivity, steps))
+        np.testing.assert_allclose(hessian, expected, rtol=0,
+                                   atol=1e-9 * np.abs(expected).max())
+        results.append((pose, poses, velocities, last, terms, values, hessian))
+    (_, _, _, _, terms_a, values_a, hessian_a), (pose, poses, velocities, last, _, values_b,
+                                                 hessian_b) = results
+    assert np.abs(values_a - values_b).max() > 1e-6 * np.abs(values_a).max()
+    assert np.abs(hessian_a - hessian_b).max() > 1e-6 * np.abs(hessian_a).max()
+    # the same tick again, the first reference's build kept: the cost's change counted
+    drift = float(graphs.prepare(pose, poses.T, velocities.T, last, np.zeros((3, n)), 0.0,
+                                 terms_a, np.zeros(0), np.zeros(0))[5])
+    tolerance = COST_TOLERANCE * np.abs(np.asarray(structure.hessian.data)).max()
+    assert drift >= np.abs(values_b - values_a).max() / tolerance * (1 - 1e-12)
