@@ -63,8 +63,8 @@ from mpc.model.grid import shift_maps
 from mpc.model.tracking import TrackingModel
 from mpc.robots.base import SPEED_SLACK, PlanarModules, ScalarWheels
 from mpc.robots.drive.motor_limits import MotorStageLimits, stage_limits
-from mpc.solvers.hessian_reuse import COST_TOLERANCE
 from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
+from mpc.solvers.hessian_reuse import COST_TOLERANCE
 from mpc.solvers.qp_structure import assemble_qp
 from mpc.tick.motors import (
     MotorGraphs,
