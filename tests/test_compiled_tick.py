@@ -286,18 +286,19 @@ def test_perf_shows_the_compiled_tick_beside_the_others(tmp_path: Path,
     """``mpc-bench perf --sections compiled``: rows of the compiled tick, the Python tick,
     the virtual machine, the compiled tick rebuilding its Hessian every tick and the IPOPT
     path on the same ticks, with their ratios; a layout
-    it does not cover (axle-offset swerve) is skipped with one line (at N = 8 here, for a
+    it does not cover (axle-offset swerve) says why in one line (at N = 8 here, for a
     quick build)."""
     monkeypatch.setattr(perf, "REFERENCE_HORIZON", HORIZON)
     assert main(["perf", "--sections", "compiled", "--layouts", "mecanum,mpo700",
-                 "--speeds", "beyond", "--ipopt-ticks", "20", "--peer-rounds", "1",
+                 "--modes", "time", "--speeds", "beyond", "--ipopt-ticks", "20", "--peer-rounds", "1",
                  "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "mpo700   beyond  skipped: compiled tick: robot 'mpo700' (swerve with axle" in out
+    assert ("mpo700   time  beyond  not supported: compiled tick: robot 'mpo700' (swerve "
+            "with axle") in out
     rows = [row for row in json.loads((tmp_path / "perf.json").read_text())["rows"]
             if row["section"] == "compiled"]
     assert {row["solver"] for row in rows} == {"compiled", "compiled-rebuild", "python",
-                                               "virtual-machine", "ipopt"}
+                                               "virtual-machine", "ipopt", "exported"}
     by = {row["solver"]: row for row in rows}
     # the rebuild row builds a Hessian every tick, the compiled tick keeps one between
     assert by["compiled-rebuild"]["hessian_builds"] == 20

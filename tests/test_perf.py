@@ -277,17 +277,23 @@ def test_the_compiled_section_covers_every_scenario_or_says_why(
                 continue
             rows = {row["solver"]: row for row in section["rows"]
                     if (row["layout"], row["mode"]) == (layout, mode)}
-            assert set(rows) == names
+            exports = mode == "time"  # mpc.export_c refuses path mode, by name
+            assert set(rows) == (names if exports else names - {EXPORTED})
             for row in rows.values():
                 _sane(row)
                 assert row["rounds"] == 2 and row["horizon"] == 8
                 assert row["over_compiled_tick"] == pytest.approx(
                     row["tick_p50"] / rows["compiled"]["tick_p50"])
+            if not exports:
+                assert any(line.startswith(f"{layout:8s} {mode:5s}")
+                           and "exported library not built: " in line for line in lines)
+                continue
             exported = rows[EXPORTED]
             assert exported["ticks"] == 2 * (20 - exported["settle"])
             assert exported["export_max_difference"] <= 1e-9
             assert exported["export_status_mismatches"] == 0
-            assert exported["rms_position_error"] == rows["compiled"]["rms_position_error"]
+            assert exported["rms_position_error"] == pytest.approx(
+                rows["compiled"]["rms_position_error"], rel=1e-9)  # the same run, again
     assert set(section["builds"]) == {layout for layout, _ in measured}
     assert any("exported / compiled" in line for line in lines)
 
