@@ -13,6 +13,9 @@ A scenario the compiled tick does not cover says so, with the reason its
 :class:`~mpc.tick.UnsupportedTickError` gives, instead of rows: as the compiled tick covers
 more, rows appear with no change here. Each robot's library is compiled once (the first
 scenario that needs it; later ones load it from the cache), and so is its exported program.
+``motors`` (``mpc-bench perf --motors``): the layouts' motor presets
+(:func:`~mpc.robots.motor_preset`) instead, the Python tick with its motor rows screened as
+it ships (:mod:`mpc.solvers.row_screen`).
 """
 
 from __future__ import annotations
@@ -25,8 +28,9 @@ import numpy as np
 
 import mpc.tick.reuse as reuse
 from benchmarks.exported import ExportBuildError, ExportedTick, differences, tick_inputs
+from benchmarks.scenarios import ScenarioError
 from mpc import Controller, ControllerError
-from mpc.robots import preset
+from mpc.robots import MOTOR_ROBOT_PRESETS, motor_preset, preset
 from mpc.sim import TrackingController
 from mpc.tick import UnsupportedTickError
 from trajectories import Trajectory
@@ -60,13 +64,19 @@ def compiled_section(layouts: list[str], modes: list[str], speeds: dict[str, flo
                      rounds: int, reference: Callable[..., Trajectory],
                      run: Callable[[TrackingController, int], Any],
                      row: Callable[..., dict[str, Any]], settle: Callable[[int], int],
-                     say: Callable[[str], None]) -> dict[str, Any]:
+                     say: Callable[[str], None], motors: bool = False) -> dict[str, Any]:
     """The section: ``rows`` (each with perf's row keys), ``unsupported`` (the scenarios
     the compiled tick refuses, with the reason) and ``builds`` (per robot: seconds to build
     or load its compiled and exported libraries). ``reference``, ``run``, ``row``,
-    ``settle``: perf's own helpers, so that its rows have every other section's keys."""
+    ``settle``: perf's own helpers, so that its rows have every other section's keys;
+    ``motors``: on the layouts' motor presets (a layout with none: ScenarioError)."""
+    if motors:
+        unknown = [layout for layout in layouts if layout not in MOTOR_ROBOT_PRESETS]
+        if unknown:
+            raise ScenarioError(f"--motors: no motor preset of {', '.join(unknown)}; "
+                                f"expected some of {', '.join(MOTOR_ROBOT_PRESETS)}")
     say(f"{rounds} rounds of {ticks} ticks each, the controllers taking turns; N={horizon}, "
-        f"{shape} {heading} heading, ideal plant")
+        f"{shape} {heading} heading, ideal plant" + ("; motor presets" if motors else ""))
     say(f"{'layout':8s} {'mode':5s} {'speed':7s} {'controller':16s} {'tick p50':>9s} "
         f"{'tick p99':>9s} {'solve p50':>9s} {'rms err':>9s} {'/compiled':>9s} {'build':>6s}"
         f"  path")
@@ -78,7 +88,7 @@ def compiled_section(layouts: list[str], modes: list[str], speeds: dict[str, flo
     notes: dict[str, None] = {}
     announced: set[str] = set()
     for layout in layouts:
-        robot = preset(layout)
+        robot = motor_preset(layout) if motors else preset(layout)
         for mode in modes:
             exported: ExportedTick | str | None = None  # built at the mode's first scenario
             for speed, ratio in speeds.items():
@@ -122,7 +132,7 @@ def compiled_section(layouts: list[str], modes: list[str], speeds: dict[str, flo
                         exported if isinstance(exported, str)
                         else {"build_s": exported.build_time, "cached": exported.cached})
                 rows += _scenario(built, exported, layout, mode, speed, ratio, horizon,
-                                  ticks, rounds, run, row, settle, say)
+                                  ticks, rounds, run, row, settle, say, motors)
     say("/compiled: the row's tick p50 over the compiled tick's; path: what ran the tick "
         "(the compiled tick runs the virtual machine where no compiler works); "
         "compiled-rebuild: the compiled tick with its Hessian rebuilt every tick; exported: "
@@ -137,8 +147,9 @@ def _scenario(built: dict[str, tuple[TrackingController, float]],
               exported: ExportedTick | str, layout: str, mode: str, speed: str, ratio: float,
               horizon: int, ticks: int, rounds: int, run: Callable[..., Any],
               row: Callable[..., dict[str, Any]], settle: Callable[[int], int],
-              say: Callable[[str], None]) -> list[dict[str, Any]]:
-    """One scenario's rows: every controller in turns, the exported library among them."""
+              say: Callable[[str], None], motors: bool = False) -> list[dict[str, Any]]:
+    """One scenario's rows: every controller in turns, the exported library among them
+    (``motors``: the robot is the layout's motor preset)."""
     label = f"{layout:8s} {mode:5s} {speed:7s}"
     names: list[str] = list(built)
     recorded = inputs = None
@@ -156,7 +167,7 @@ def _scenario(built: dict[str, tuple[TrackingController, float]],
             else:
                 runs[name].append(run(built[name][0], ticks))
     common = {"section": "compiled", "layout": layout, "mode": mode, "speed": speed,
-              "peak_ratio": ratio, "horizon": horizon, "rounds": rounds}
+              "peak_ratio": ratio, "horizon": horizon, "rounds": rounds, "motors": motors}
     items: dict[str, dict[str, Any]] = {}
     for name, (control, build) in built.items():
         items[name] = row(runs[name], settle(ticks), **common, solver=name, build_time=build,

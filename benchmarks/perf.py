@@ -814,6 +814,9 @@ def _parser() -> Parser:
     parser.add_argument("--jit", action="store_true",
                         help="scenarios: build the daqp controllers with jit=True (their "
                              "CasADi terms compiled to C) instead of the default")
+    parser.add_argument("--motors", action="store_true",
+                        help="compiled: the layouts' motor presets (mpc.robots.motor_preset: "
+                             "voltage, current and traction rows) instead of the kinematic")
     parser.add_argument("--ticks", type=int, help="ticks per run (400; --quick 40)")
     parser.add_argument("--ipopt-ticks", type=int,
                         help="ticks per IPOPT run and per peers run (120; --quick 20)")
@@ -895,7 +898,8 @@ def main(argv: list[str]) -> int:
             "and the IPOPT path ==")
         compiled = compiled_section(
             layouts, modes, speeds, REFERENCE_SHAPE, REFERENCE_HEADING,
-            REFERENCE_HORIZON, DT, ipopt_ticks, rounds, reference, _run, _row, _settle, say)
+            REFERENCE_HORIZON, DT, ipopt_ticks, rounds, reference, _run, _row, _settle, say,
+            motors=args.motors)
     first = next((row for row in horizon_rows or []
                   if row["solver"] == FAST and row["horizon"] == REFERENCE_HORIZON), None)
     if first is not None:  # the same run again: how much the machine moved meanwhile
@@ -924,7 +928,7 @@ def main(argv: list[str]) -> int:
                      "solvers": solvers, "layouts": layouts,
                      "modes": modes, "speeds": speeds, "trajectories": trajectories,
                      "headings": headings, "sections": sections, "plant": "ideal",
-                     "jit_scenarios": args.jit,
+                     "jit_scenarios": args.jit, "motors_compiled": args.motors,
                      "p99_limit": P99_LIMIT},
         "profiles": profile,
         "rows": rows,

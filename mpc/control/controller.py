@@ -156,8 +156,9 @@ class Controller:
             is used modulo whole turns, so wrapping a multi-turn one
             (``math.remainder(theta, 2 * math.pi)``) changes no command.
         compiled: run the tick as one program (:mod:`mpc.tick`, opt-in; constant-Jacobian
-            robots and swerve without axle offset or steering range; time mode, and path
-            mode on constant-Jacobian robots; ``solver="daqp"`` for now, else a
+            robots, with or without a motor model, and swerve without axle offset,
+            steering range or motor model; time mode, and path mode on constant-Jacobian
+            robots without a motor model; ``solver="daqp"`` for now, else a
             ControllerError naming what is supported): ``True`` compiles it to C (seconds
             the first time, then cached) and runs CasADi's virtual machine where no
             compiler works;

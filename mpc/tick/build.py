@@ -57,12 +57,15 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
     sizes = {
         "MPC_N": graphs.horizon, "MPC_NV": graphs.variables, "MPC_M": graphs.rows,
         "MPC_W": graphs.wheels, "MPC_CARRY": graphs.carry, "MPC_TERMS": graphs.terms,
+        # motor-aware robots (mpc.tick.motors): the feedforward's numbers (else 0)
+        "MPC_FF": graphs.feedforward,
         "MPC_SZ_ARG": max(f.sz_arg() for f in functions),
         "MPC_SZ_RES": max(f.sz_res() for f in functions),
         "MPC_SZ_IW": max(max(f.sz_iw() for f in functions), 1),
         "MPC_SZ_W": max(max(f.sz_w() for f in functions), 1),
-        # swerve (mpc/tick/steered.py): rows that move every tick (their nonzeros), the
-        # rows' state (the faces' directions), the steer angles; 0 for other robots
+        # swerve (mpc/tick/steered.py) and motor-aware robots (mpc/tick/motors.py): rows
+        # that move every tick (their nonzeros); swerve: the rows' state (the faces'
+        # directions), the steer angles; 0 for other robots
         "MPC_MOVING_ROWS": graphs.moving_rows, "MPC_ROW_STATE": len(graphs.row_state),
         "MPC_STEER": graphs.steer,
     }
@@ -70,7 +73,7 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
     if config is not None:
         sizes.update(config())
     offsets = ", ".join(f"{value!r}" for value in graphs.offsets)
-    moving = []  # swerve: the moving rows' sparsity (column by column), for tick.c's whitening
+    moving = []  # moving rows' sparsity (column by column), for tick.c's whitening
     if graphs.moving_rows:
         pattern = graphs.whiten_rows.sparsity_in(1)
         moving = [f"#define MPC_ROWS_COLIND {{{', '.join(map(str, pattern.colind()))}}}",

@@ -225,15 +225,16 @@ class CompiledTick:
         out = runner.step(measured, path.parameters, path.bounds)
         iterations, seconds = int(out[ITERATIONS]), float(out[SOLVE_TIME])
         progress_at = TWIST + 3 + self._wheels + 3 * (self._horizon + 1)
+        progress_end = progress_at + self._horizon + 1  # (mpc_tick.h's MPC_OUT_PROGRESS)
         while (failure is None and int(out[STATUS]) == 0
-               and path.refine(out[progress_at:].copy(), heading)):
+               and path.refine(out[progress_at:progress_end].copy(), heading)):
             self.rebuilds += int(out[REBUILT])
             runner.again()
             out = runner.step(measured, path.parameters, path.bounds)
             iterations += int(out[ITERATIONS])
             seconds += float(out[SOLVE_TIME])
         solved = int(out[STATUS]) == 0
-        path.solved(out[progress_at:].copy() if solved else None)
+        path.solved(out[progress_at:progress_end].copy() if solved else None)
         return self._command(out, start, t_now, failure, reference_time, iterations, seconds)
 
     def _command(self, out: FloatArray, start: float, t_now: float, failure: str | None,
@@ -245,8 +246,13 @@ class CompiledTick:
         self.rebuilds += int(out[REBUILT])
         self._log(failures, failure or _SOLVER_STATUS.get(flag, f"daqp exit flag {flag}"))
         speeds = TWIST + 3
-        poses = speeds + self._wheels  # the plan's poses, then (swerve) the steer angles
+        # the plan's poses, then (swerve) the steer angles, (path mode) the progress, (a
+        # motor model) the feedforward: mpc_tick.h's layout
+        poses = speeds + self._wheels
         steer = poses + 3 * (self._horizon + 1)
+        feedforward = steer + self.graphs.steer + int(getattr(self.graphs, "progress", 0))
+        forces, torques, currents, vectors = self._feedforward(
+            out[feedforward:feedforward + self.graphs.feedforward])
         return Command(
             wheel_speeds=out[speeds:poses].copy(), twist=out[TWIST:speeds].copy(),
             steer_angles=out[steer:steer + self.graphs.steer].copy() if self.graphs.steer
@@ -258,7 +264,18 @@ class CompiledTick:
             solve_time=seconds, tick_time=time.perf_counter() - start,
             iterations=iterations, consecutive_failures=failures,
             clamped=bool(out[CLAMPED]), reference_time=reference_time,
-            lag=t_now - reference_time)
+            lag=t_now - reference_time, wheel_forces=forces, motor_torques=torques,
+            motor_currents=currents, contact_forces=vectors)
+
+    def _feedforward(self, values: FloatArray) -> tuple[FloatArray | None, ...]:
+        """``Command``'s motor feedforward fields (wheel forces, motor torques and currents,
+        contact force vectors) from the output's feedforward part (motor-aware robots:
+        :func:`mpc.tick.motors.motor_feedforward`'s layout; None otherwise)."""
+        if not values.size:
+            return None, None, None, None
+        n = self._wheels
+        return (values[:n].copy(), values[n:2 * n].copy(), values[2 * n:3 * n].copy(),
+                values[3 * n:5 * n].reshape(n, 2).copy())
 
     def _log(self, failures: int, reason: str) -> None:
         """Fallbacks starting and ending, as :class:`~mpc.control.fallback.FallbackPolicy`

@@ -217,10 +217,13 @@ conventions).
 fallbacks, in order), `MPC_OUT_FLAG` (daqp's exit flag; -1000: the reference had a NaN),
 `MPC_OUT_ITERATIONS`, `MPC_OUT_SOLVE_TIME` [s], `MPC_OUT_CLAMPED`, `MPC_OUT_FAILURES`,
 `MPC_OUT_REBUILT` (Hessians built this tick), `MPC_OUT_TWIST` (3), `MPC_OUT_SPEEDS`
-(MPC_W wheel speeds to send), `MPC_OUT_POSES` (the plan, 3 (N+1)), and for a swerve robot
+(MPC_W wheel speeds to send), `MPC_OUT_POSES` (the plan, 3 (N+1)), for a swerve robot
 `MPC_OUT_STEER` (MPC_STEER steer angles [rad] in (-pi, pi] to send with the signed wheel
-speeds). Every command is within every wheel's speed and acceleration limit (and a swerve
-module's steering rate).
+speeds), and with a motor model `MPC_OUT_FEEDFORWARD` (`MPC_FF` = 5 MPC_W: per wheel the
+drive force at the floor [N], each motor's torque [N m] and current [A], then each wheel's
+contact force (x, y) [N], body frame). Every command is within every wheel's speed and
+acceleration limit (and a swerve module's steering rate; with a motor model, its battery
+voltage, current and traction limits).
 
 Swerve (`MPC_STEER` > 0): each step starts from the steer angles the last one commanded
 (straight ahead after `mpc_tick_init`); `void mpc_tick_set_steer_angles(mpc_tick*, const

@@ -38,9 +38,16 @@ limits (:func:`~mpc.control.clamp.clamp_command`'s scalar-wheel steps), all as
 expressions.
 
 Scope of this slice: constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with
-no failed wheel and no motor model, and swerve robots without axle offset, steering range,
-failed module or motor model (their rows, clamp and commands from
-:mod:`mpc.tick.steered`), time mode (:mod:`mpc.tick.support`).
+no failed wheel, with or without a motor model (its rows, clamp and feedforward from
+:mod:`mpc.tick.motors`), and swerve robots without axle offset, steering range, failed
+module or motor model (their rows, clamp and commands from :mod:`mpc.tick.steered`), time
+mode (:mod:`mpc.tick.support`; path mode: :mod:`mpc.tick.path`).
+
+Rows that move every tick (swerve's speed faces, a motor model's rows) are one mechanism:
+``prepare`` gives their nonzeros (``rows``, a fixed sparsity) and ``whiten_rows`` takes
+them (``tick.c``'s ``mpc_tick_whiten_moving``). A cost Hessian that moves with the
+reference (a motor model's rate terms: their Coriolis term is the reference's) is carried
+to ``hessian`` and its change counted in the drift, as path mode does.
 """
 
 from __future__ import annotations
@@ -55,9 +62,17 @@ from mpc.control.fallback import FallbackPolicy
 from mpc.model.grid import shift_maps
 from mpc.model.tracking import TrackingModel
 from mpc.robots.base import SPEED_SLACK, PlanarModules, ScalarWheels
-from mpc.robots.drive.motor_limits import stage_limits
+from mpc.robots.drive.motor_limits import MotorStageLimits, stage_limits
 from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
+from mpc.solvers.hessian_reuse import COST_TOLERANCE
 from mpc.solvers.qp_structure import assemble_qp
+from mpc.tick.motors import (
+    MotorGraphs,
+    feedforward_size,
+    motor_clamp,
+    motor_feedforward,
+    motor_graphs,
+)
 from mpc.tick.reuse import isotropic_cost, reuse_terms, terms_size
 from mpc.tick.steered import Steering
 
@@ -95,7 +110,8 @@ class TickGraphs:
         unwhiten: ``(inverse n x n, y n) -> step n``: ``d = L^{-T} y``.
         finish: ``(step n, flag 1, carry k, last 3, plan 3 x N, memory 2) ->
             (status 1, twist 3, wheel_speeds w, clamped 1, poses 3 x N+1, next_plan 3 x N,
-            next_memory 2)``; ``memory`` is (failures in a row, whether a plan is kept).
+            next_memory 2)``; ``memory`` is (failures in a row, whether a plan is kept);
+            a motor-aware robot's also ``feedforward`` (:attr:`feedforward`) last.
         horizon, variables (n = 3 N), rows (m), wheels (w), carry (k), terms (t); offsets: each
         stage's start from the window's [s] (N+1), where the reference is sampled; tick:
         the control tick [s].
@@ -115,17 +131,21 @@ class TickGraphs:
     terms: int
     offsets: tuple[float, ...] = ()  # each stage's start from the window's [s] (N+1)
     tick: float = 0.0  # the control tick [s]
-    #: Swerve (:mod:`mpc.tick.steered`): the rows move every tick. ``prepare`` then also
-    #: takes the steer angles (``steer``) and the rows' state (``state``, its start
-    #: ``row_state``) and gives the rows' nonzeros (``rows``, ``moving_rows`` of them) and
-    #: the next state; ``whiten_rows`` takes ``(inverse, rows)`` and runs every tick;
+    #: Swerve (:mod:`mpc.tick.steered`) and motor-aware robots (:mod:`mpc.tick.motors`):
+    #: the rows move every tick. ``prepare`` then also takes the steer angles (``steer``)
+    #: and the rows' state (``state``, its start ``row_state``; both empty for a motor
+    #: model) and gives the rows' nonzeros (``rows``, ``moving_rows`` of them) and the next
+    #: state; ``whiten_rows`` takes ``(inverse, rows)`` and runs every tick; swerve's
     #: ``finish`` takes the steer angles last and gives the next ones last.
     moving_rows: int = 0
     row_state: tuple[float, ...] = ()
     steer: int = 0
-    #: Swerve: which of the ``rows`` move (the speed faces; the acceleration polygon's do
-    #: not: whitened again only with a new Hessian).
+    #: Which of the ``rows`` move (swerve: the speed faces; the acceleration polygon's do
+    #: not: whitened again only with a new Hessian; a motor model: every row).
     rows_move: tuple[bool, ...] = ()
+    #: Motor-aware robots: numbers of ``finish``'s ``feedforward`` output
+    #: (:func:`mpc.tick.motors.motor_feedforward`: 5 w), else 0.
+    feedforward: int = 0
 
 
 def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
@@ -138,6 +158,8 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
                 if isinstance(wheels, PlanarModules) else None)
     limits = (steering.limits if steering is not None
               else stage_limits(model.robot, model.change_times, None))
+    motor = (motor_graphs(model.robot, limits) if isinstance(limits, MotorStageLimits)
+             else None)
     structure = assemble_qp(model, limits)
     condenser = Condenser(model, structure)
     size, m = condenser.size, condenser.constraints.shape[0]
@@ -170,12 +192,21 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
     p_data, rollout, sensitivities, gradient, steps = tick_terms(
         model, structure.cost_terms)(p, guess)
     inputs = ca.vertcat(pose, ca.vec(ref_poses), ca.vec(ref_velocities), last, steer)
-    if ca.depends_on(p_data, inputs):
-        raise RuntimeError("the compiled tick needs a cost Hessian no parameter moves")
+    cost_moves = bool(ca.depends_on(p_data, inputs))
+    # (the cost Hessian at zero inputs: all of it where nothing moves it; else its
+    # position blocks, which decide isotropy and must not move: _moving_cost)
     constant_cost = ca.evalf(ca.substitute(p_data, inputs, ca.DM.zeros(inputs.shape)))
-    kept = ca.SX.sym("kept", terms_size(n))
-    terms, drift = reuse_terms(sensitivities, steps, kept, model.dt,
+    cost_values = _moving_cost(model, p_data, inputs) if cost_moves else None
+    kept = ca.SX.sym("kept", terms_size(n) + (0 if cost_values is None else
+                                              cost_values.numel()))
+    terms, drift = reuse_terms(sensitivities, steps, kept[:terms_size(n)], model.dt,
                                isotropic_cost(condenser, constant_cost))
+    if cost_values is not None:  # the Python tick's measure of the cost's change
+        tolerance = COST_TOLERANCE * float(np.abs(np.asarray(
+            structure.hessian.data, dtype=float)).max() or 1.0)
+        terms = ca.vertcat(terms, cost_values)
+        drift = ca.fmax(drift, ca.mmax(ca.fabs(cost_values - kept[terms_size(n):]))
+                        / tolerance)
     rows: ca.DM | ca.SX = ca.DM(condenser.constraints)
     moving: list[ca.SX] = []
     if steering is not None:  # the faces turned to the guess (mpc.tick.steered)
@@ -186,11 +217,17 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
     shift = ca.vertcat(ca.DM(limits.before[0]) @ last, ca.SX.zeros(m - limits.rows, 1))
     lower = ca.DM(structure.lower[first:]) - at_guess - shift
     upper = ca.DM(structure.upper[first:]) - at_guess - shift
+    if motor is not None:  # (motor.prepare gives the bounds on the step)
+        lower = upper = ca.SX.zeros(m, 1)
     carry_parts = [rollout, sensitivities, steps, guess, feedforward, unwrapped]
-    carry = ca.vertcat(*[ca.densify(ca.vec(part)) for part in carry_parts])
-    extra_in, extra_names = ([steer, row_state], ["steer", "state"]) if moving else ([], [])
+    carry = ca.vertcat(*[ca.densify(ca.vec(part)) for part in carry_parts],
+                       *([] if cost_values is None else [cost_values]))
+    # (a motor model: motor.prepare adds the rows, every one turned to the guess, and an
+    # empty next state)
+    moves = steering is not None or motor is not None
+    extra_in, extra_names = ([steer, row_state], ["steer", "state"]) if moves else ([], [])
     prepare = ca.Function(
-        "mpc_tick_prepare",
+        "mpc_tick_prepare" if motor is None else "mpc_tick_prepare_terms",
         [pose, ref_poses, ref_velocities, last, plan, mode, kept, *extra_in],
         [ca.densify(gradient), ca.densify(lower), ca.densify(upper), carry,
          ca.densify(terms), drift, *moving],
@@ -198,7 +235,11 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
          *extra_names],
         ["gradient", "lower", "upper", "carry", "terms", "drift",
          *(["rows", "next_state"] if moving else [])], {"cse": True})
-    hessian = _hessian_graph(model, constant_cost, carry.shape[0])
+    if motor is not None:  # (the guess: carry's fourth part)
+        prepare = motor.prepare(prepare, sum(part.numel() for part in carry_parts[:3]))
+    cost_at = sum(part.numel() for part in carry_parts)  # the moving cost's values
+    hessian = _hessian_graph(model, constant_cost if cost_values is None
+                             else (p_data.sparsity(), cost_at), carry.shape[0])
 
     # L^{-1}: its lower triangle packed column by column (CasADi's lower-triangular input)
     inverse = ca.MX.sym("inverse", ca.Sparsity.lower(size))
@@ -206,8 +247,8 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
     sparse_rows = ca.DM(ca.sparsify(ca.DM(condenser.constraints)))
     whiten = ca.Function("mpc_tick_whiten", [inverse, g], [ca.densify(inverse @ g)],
                          ["inverse", "gradient"], ["f"])
-    if moving:  # the rows prepare gives, their sparsity fixed
-        row_values = ca.MX.sym("rows", rows.sparsity())
+    if moves:  # the rows prepare gives, their sparsity fixed
+        row_values = ca.MX.sym("rows", prepare.sparsity_out("rows"))
         whiten_rows = ca.Function("mpc_tick_whiten_rows", [inverse, row_values],
                                   [ca.densify(inverse @ row_values.T)], ["inverse", "rows"],
                                   ["rows_t"])
@@ -218,25 +259,46 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
     unwhiten = ca.Function("mpc_tick_unwhiten", [inverse, y],
                            [ca.densify((y.T @ inverse).T)], ["inverse", "y"], ["step"])
 
-    finish = _finish(model, wheels, tick, size, carry.shape[0], steering)
+    finish = _finish(model, wheels, tick, size, carry.shape[0], steering, motor)
+    rows_move = (steering.rows_move(m) if steering is not None
+                 else (True,) * m if motor is not None else ())
     return TickGraphs(prepare, hessian, whiten, whiten_rows, unwhiten, finish, n, size, m,
-                      len(wheels.limits), carry.shape[0], terms_size(n),
+                      len(wheels.limits), carry.shape[0], int(kept.shape[0]),
                       tuple(float(x) for x in model.offsets), float(tick),
-                      rows.nnz() if moving else 0,
+                      prepare.nnz_out("rows") if moves else 0,
                       () if steering is None else steering.state,
-                      0 if steering is None else steering.wheels,
-                      () if steering is None else steering.rows_move(m))
+                      0 if steering is None else steering.wheels, rows_move,
+                      0 if motor is None else feedforward_size(model.robot))
 
 
-def _hessian_graph(model: TrackingModel, cost: ca.DM, carry_size: int) -> ca.Function:
+def _moving_cost(model: TrackingModel, p_data: ca.SX, inputs: ca.SX) -> ca.SX:
+    """The values of a cost Hessian the inputs move (``p_data``'s nonzeros): carried to
+    ``hessian``, their change counted in the drift. Its position blocks must stay put
+    (they decide whether a rotation of the plan counts, :func:`isotropic_cost`)."""
+    poses = model.layouts.variables["poses"]
+    rows = slice(poses.start, poses.start + poses.size)
+    if ca.depends_on(ca.SX(p_data)[rows, rows], inputs):
+        raise RuntimeError("the compiled tick needs a cost whose position weights no "
+                           "parameter moves")
+    return p_data.nz[:]
+
+
+def _hessian_graph(model: TrackingModel, cost: ca.DM | tuple[ca.Sparsity, int],
+                   carry_size: int) -> ca.Function:
     """``hessian``: the condensed Hessian from the sensitivities and steps in ``carry``
-    (``cost``: the constant cost Hessian's upper triangle)."""
+    (``cost``: the constant cost Hessian's upper triangle, or where one that moves has its
+    values in ``carry``: its sparsity and their start)."""
     n = model.horizon
     carry = ca.SX.sym("carry", carry_size)
     start = 3 * (n + 1)
     sensitivities = ca.reshape(carry[start:start + 9 * n], 9, n)
     steps = ca.reshape(carry[start + 9 * n:start + 11 * n], 2, n)
-    hessian = _condensed_hessian(model, ca.SX(cost), sensitivities, steps)
+    if isinstance(cost, tuple):
+        sparsity, at = cost
+        upper = ca.SX(sparsity, carry[at:at + sparsity.nnz()])
+    else:
+        upper = ca.SX(cost)
+    hessian = _condensed_hessian(model, upper, sensitivities, steps)
     return ca.Function("mpc_tick_hessian", [carry], [ca.densify(hessian)], ["carry"],
                        ["hessian"], {"cse": True})
 
@@ -324,10 +386,12 @@ def _hessian_block() -> ca.Function:
 
 
 def _finish(model: TrackingModel, wheels: ScalarWheels | PlanarModules, tick: float,
-            size: int, carry_size: int, steering: Steering | None = None) -> ca.Function:
+            size: int, carry_size: int, steering: Steering | None = None,
+            motor: MotorGraphs | None = None) -> ca.Function:
     """The graph after daqp and the unwhitening (module docstring); ``steering``: swerve's
     clamp and module commands (:mod:`mpc.tick.steered`), the steer angles an input and an
-    output."""
+    output; ``motor``: the clamp's motor passes and the feedforward, one more output
+    (:mod:`mpc.tick.motors`)."""
     n = model.horizon
     robot = model.robot
     step = ca.SX.sym("step", size)
@@ -366,6 +430,10 @@ def _finish(model: TrackingModel, wheels: ScalarWheels | PlanarModules, tick: fl
         use_plan, PREVIOUS_PLAN, ca.if_else(use_feedforward, FEEDFORWARD, STOPPING)))
     twist, changed = (steering.clamped(target, last, steer) if steering is not None
                       else _clamped(wheels, target, last, tick))  # type: ignore[arg-type]
+    extra: list[ca.SX] = []  # a motor model: the clamp's motor passes, the feedforward
+    if motor is not None:
+        twist = motor_clamp(robot, wheels, twist, last, tick)  # type: ignore[arg-type]
+        extra, changed = [motor_feedforward(robot, last, twist, tick)], ca.SX(1)
     clamped = ca.logic_and(changed, ca.logic_or(ca.logic_or(twist[0] != target[0],
                                                             twist[1] != target[1]),
                                                 twist[2] != target[2]))
@@ -382,10 +450,10 @@ def _finish(model: TrackingModel, wheels: ScalarWheels | PlanarModules, tick: fl
     memory_out = ca.vertcat(failures, ca.logic_or(success, have_plan > 0))
     return ca.Function(
         "mpc_tick_finish", [step, flag, carry, last, kept, memory, *([steer] if steer_out else [])],
-        [status, twist, speeds, clamped, plan_out, stored, memory_out, *steer_out],
+        [status, twist, speeds, clamped, plan_out, stored, memory_out, *steer_out, *extra],
         ["step", "flag", "carry", "last", "plan", "memory", *(["steer"] if steer_out else [])],
         ["status", "twist", "wheel_speeds", "clamped", "poses", "next_plan", "next_memory",
-         *(["steer_angles"] if steer_out else [])],
+         *(["steer_angles"] if steer_out else []), *(["feedforward"] if extra else [])],
         {"cse": True})
 
 

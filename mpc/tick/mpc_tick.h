@@ -39,9 +39,17 @@ typedef struct mpc_tick mpc_tick;
 #define MPC_OUT_POSES (MPC_OUT_SPEEDS + MPC_W)  /* the plan's poses (3 (MPC_N + 1)) */
 #define MPC_OUT_STEER (MPC_OUT_POSES + 3 * (MPC_N + 1)) /* swerve: steer angles (MPC_STEER) */
 #define MPC_OUT_PROGRESS (MPC_OUT_STEER + MPC_STEER) /* path mode: progress [s] (MPC_PROGRESS) */
-#define MPC_OUT_SIZE (MPC_OUT_PROGRESS + MPC_PROGRESS)
+/* robots with a motor model (MPC_FF = 5 MPC_W, else 0): per wheel the drive force at the
+ * floor [N], each motor's torque [N m] and current [A], then the contact force vectors
+ * (x, y per wheel, body frame) [N], as Command.wheel_forces, motor_torques,
+ * motor_currents, contact_forces */
+#define MPC_OUT_FEEDFORWARD (MPC_OUT_PROGRESS + MPC_PROGRESS)
+#define MPC_OUT_SIZE (MPC_OUT_FEEDFORWARD + MPC_FF)
 #if MPC_STEER && MPC_PROGRESS
 #error "the compiled tick has no path mode for swerve"
+#endif
+#if MPC_FF && (MPC_STEER || MPC_PROGRESS)
+#error "the compiled tick has no motor model for swerve or in path mode"
 #endif
 
 /* A controller (allocates everything it will use; NULL if daqp cannot be set up).

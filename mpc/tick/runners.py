@@ -6,10 +6,11 @@ QP by the daqp Python module with the same rows, kept between ticks the same way
 Both write one output array a tick: status code, daqp's exit flag, iterations, solve
 time [s], clamped (0/1), failures in a row, Hessians built this tick, the twist (3), the
 wheel speeds (w), the plan's poses (3 (N+1), a stage's three numbers together), for
-swerve the steer angles (n), in path mode the planned progress (N+1) [s]. Both keep the
-Hessian across ticks by the same rule (:mod:`mpc.tick.reuse`); swerve's rows move every
-tick (whitened every tick, daqp given them every tick) and its steer angles are state (the
-last commanded, or set).
+swerve the steer angles (n), in path mode the planned progress (N+1) [s], for a motor-aware
+robot the feedforward (:func:`mpc.tick.motors.motor_feedforward`, 5 w). Both keep the
+Hessian across ticks by the same rule (:mod:`mpc.tick.reuse`); swerve's and a motor
+model's rows move every tick (whitened every tick, daqp given them every tick) and swerve's
+steer angles are state (the last commanded, or set).
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ _EQUALITY = 5
 def output_size(graphs: TickGraphs) -> int:
     """Numbers in a tick's output array."""
     return (TWIST + 3 + graphs.wheels + 3 * (graphs.horizon + 1) + graphs.steer
-            + _progress(graphs))
+            + _progress(graphs) + graphs.feedforward)
 
 
 def _progress(graphs: TickGraphs) -> int:
@@ -165,7 +166,7 @@ class VirtualTick:
         self._again, self._before = False, np.zeros(5)  # path mode's warm-up (again)
         self._progress = np.zeros(_progress(graphs))
         self._mode = np.zeros(1)
-        self._moving = graphs.moving_rows > 0  # swerve: rows every tick, with a state
+        self._moving = graphs.moving_rows > 0  # rows every tick (swerve: with a state)
         self._steer, self._next_steer = np.zeros(graphs.steer), np.zeros(graphs.steer)
         self._state = np.array(graphs.row_state, dtype=float)
         self._next_state = np.zeros(len(graphs.row_state))
@@ -197,13 +198,15 @@ class VirtualTick:
         self._speeds, self._clamped = np.zeros(graphs.wheels), np.zeros(1)
         self._plan_poses, self._next_plan = np.zeros((n + 1, 3)), np.zeros((n, 3))
         self._next_memory = np.zeros(2)
+        self._feedforward = np.zeros(graphs.feedforward)  # a motor model's
         self._finish = BufferedFunction(
             graphs.finish, [self._step, self._flag, self._carry, self._last, self._plan,
                             self._memory, *([self._steer] if graphs.steer else [])],
             [self._status, self._twist, self._speeds, self._clamped, self._plan_poses,
              self._next_plan, self._next_memory,
              *([self._next_steer] if graphs.steer else []),
-             *([self._progress] if self._progress.size else [])])
+             *([self._progress] if self._progress.size else []),
+             *([self._feedforward] if self._feedforward.size else [])])
         self._solver: daqp.Model | None = None
         self._out = np.zeros(output_size(graphs))
 
@@ -319,5 +322,7 @@ class VirtualTick:
         out[poses:poses + self._plan_poses.size] = self._plan_poses.ravel()
         tail = poses + self._plan_poses.size
         out[tail:tail + self._steer.size] = self._steer
-        out[tail + self._steer.size:] = self._progress
+        tail += self._steer.size
+        out[tail:tail + self._progress.size] = self._progress
+        out[tail + self._progress.size:] = self._feedforward
         return out

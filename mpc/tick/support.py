@@ -6,27 +6,33 @@ from mpc.errors import ControllerError
 from mpc.robots.base import PlanarModules, Robot, ScalarWheels
 from mpc.robots.wheels.constant_jacobian import ConstantJacobianRobot
 from mpc.robots.wheels.swerve.robot import SwerveRobot
+from mpc.tick.motors import motor_wheels
 
 #: What the compiled tick supports, for the error that refuses the rest.
 SUPPORTED = ("constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with no failed "
-             "wheel and no motor model, and swerve robots with no axle offset, steering range, "
-             "failed module or motor model; solver='daqp', mode='time' (or 'path' on "
-             "constant-Jacobian robots), delay_ticks=0, "
+             "wheel, with or without a motor model, and swerve robots with no axle offset, "
+             "steering range, failed module or motor model; solver='daqp', mode='time' (or "
+             "'path' on constant-Jacobian robots with no motor model), delay_ticks=0, "
              "command_ramp=False, time_limit=0")
 
 
 class UnsupportedTickError(ControllerError):
-    """A controller the compiled tick does not cover yet (the message says what it does)."""
+    """A controller set-up the compiled tick does not cover (:data:`SUPPORTED`)."""
 
 
 def check_supported(robot: Robot, solver: str, mode: str, delay_ticks: int,
                     command_ramp: bool, time_limit: float,
                     polygon_sides: int | None = None) -> ScalarWheels | PlanarModules:
-    """The robot's wheels as the tick's graphs take them (:class:`ScalarWheels`, or a swerve
-    robot's :class:`PlanarModules`), or UnsupportedTickError naming what is supported."""
+    """The robot's wheels as the tick's graphs take them (:class:`ScalarWheels`, a
+    motor-aware constant-Jacobian robot's as :func:`mpc.tick.motors.motor_wheels` gives
+    them, or a swerve robot's :class:`PlanarModules`), or UnsupportedTickError naming what
+    is supported."""
     problems = []
     wheels: ScalarWheels | PlanarModules | None = None
-    if isinstance(robot, ConstantJacobianRobot):
+    motors = _motor_aware(robot)
+    if motors:  # a motor model leaves scalar_wheels None (its clamp runs on arrays)
+        wheels = motor_wheels(robot)
+    elif isinstance(robot, ConstantJacobianRobot):
         wheels = robot.scalar_wheels
     elif isinstance(robot, SwerveRobot):
         wheels = robot.planar_modules
@@ -38,6 +44,8 @@ def check_supported(robot: Robot, solver: str, mode: str, delay_ticks: int,
         problems.append(f"mode={mode!r}")
     elif mode == "path" and isinstance(robot, SwerveRobot):
         problems.append("mode='path' on a swerve robot")
+    elif mode == "path" and motors:
+        problems.append("mode='path' on a robot with a motor model")
     if delay_ticks:
         problems.append(f"delay_ticks={delay_ticks}")
     if command_ramp:
@@ -51,6 +59,13 @@ def check_supported(robot: Robot, solver: str, mode: str, delay_ticks: int,
             f"compiled tick: {', '.join(problems)} not supported yet; it supports {SUPPORTED}")
     assert wheels is not None
     return wheels
+
+
+def _motor_aware(robot: Robot) -> bool:
+    """A constant-Jacobian robot with a motor model whose wheels do not steer and none
+    failed: its motor rows, clamp and feedforward from :mod:`mpc.tick.motors`."""
+    return (robot.dynamics is not None and isinstance(robot, ConstantJacobianRobot)
+            and robot.wheel_dim == 1 and robot.rest_projector is None)
 
 
 def _why(robot: Robot) -> str:

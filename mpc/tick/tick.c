@@ -12,7 +12,12 @@
  * tick drops the active set (the Python path's solver.reset()); a tick that failed from
  * the cold guess is solved once more from the last command held, unless a budget was
  * given (the Python controller's rule). Everything the caller needs comes out in one
- * array, the status included (a non-optimal QP never loses it). */
+ * array, the status included (a non-optimal QP never loses it).
+ *
+ * Rows that move every tick (MPC_MOVING_ROWS > 0: swerve's speed faces, a motor model's
+ * rows, mpc/tick/steered.py and motors.py): prepare gives their nonzeros, whitened every
+ * tick with the kept L^{-1} and handed to daqp every tick. A motor model (MPC_FF > 0):
+ * finish also gives the feedforward. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -54,8 +59,11 @@ struct mpc_tick {
   double plan_next[3 * MPC_N], memory_next[2];
   double mode;
 #if MPC_MOVING_ROWS
-  /* swerve: the rows prepare gives every tick (nonzeros), the faces' directions */
-  double row_values[MPC_MOVING_ROWS], state[MPC_ROW_STATE], state_next[MPC_ROW_STATE];
+  /* the rows prepare gives every tick (nonzeros); swerve: the faces' directions (a motor
+   * model has no such state: 1, no empty arrays) */
+  double row_values[MPC_MOVING_ROWS];
+  double state[MPC_ROW_STATE > 0 ? MPC_ROW_STATE : 1];
+  double state_next[MPC_ROW_STATE > 0 ? MPC_ROW_STATE : 1];
 #endif
 #if MPC_STEER
   double steer[MPC_STEER], steer_next[MPC_STEER]; /* the modules' angles [rad] */
@@ -63,6 +71,7 @@ struct mpc_tick {
   /* path mode: the planned progress; a tick solved again (mpc_tick_again) takes the last
    * round's plan unshifted, with the last command and memory from before the tick */
   double progress[MPC_PROGRESS > 0 ? MPC_PROGRESS : 1];
+  double feedforward[MPC_FF > 0 ? MPC_FF : 1]; /* a motor model's (MPC_FF numbers) */
   int again;
   double last_before[3], memory_before[2];
   DAQPProblem qp;
@@ -122,7 +131,7 @@ mpc_tick* mpc_tick_init(int max_iter, int budgeted, double rebuild_drift) {
     return NULL;
   }
   t->work.settings->iter_limit = max_iter;
-#if MPC_MOVING_ROWS
+#if MPC_MOVING_ROWS && MPC_ROW_STATE
   {
     static const double start[MPC_ROW_STATE] = MPC_ROW_STATE_START;
     memcpy(t->state, start, sizeof(t->state));
@@ -206,7 +215,7 @@ static const int rows_colind[MPC_NV + 1] = MPC_ROWS_COLIND;
 static const int rows_row[MPC_MOVING_ROWS] = MPC_ROWS_ROW;
 static const unsigned char rows_move[MPC_M] = MPC_ROWS_MOVE;
 
-/* Swerve's rows in whitened steps, A L^{-T} row-major as daqp reads them, from A's
+/* The moving rows in whitened steps (swerve's, a motor model's), A L^{-T} row-major as daqp reads them, from A's
  * nonzeros (``values``, column by column: prepare's ``rows``) and L^{-1} (packed column by
  * column): mpc_tick_whiten_rows' arithmetic, each entry summed in the same order, as
  * axpys along L^{-1}'s columns; every row (``every``: a new L^{-1}) or only the rows that
@@ -266,7 +275,11 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
   t->out[4] = t->terms;
   t->out[5] = &t->drift;
 #if MPC_MOVING_ROWS
+#if MPC_STEER
   t->arg[7] = t->steer;
+#else
+  t->arg[7] = 0; /* (no steer angles: an empty input) */
+#endif
   t->arg[8] = t->state;
   t->out[6] = t->row_values;
   t->out[7] = t->state_next;
@@ -400,6 +413,8 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   t->out[7] = t->steer_next;
 #elif MPC_PROGRESS > 0
   t->out[7] = t->progress;
+#elif MPC_FF > 0
+  t->out[7] = t->feedforward;
 #endif
   mpc_tick_finish(t->arg, t->out, t->iw, t->w, 0);
   t->warm = t->status == 0.0;
@@ -423,6 +438,9 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
   memcpy(out + MPC_OUT_POSES, t->poses, sizeof(t->poses));
 #if MPC_PROGRESS > 0
   memcpy(out + MPC_OUT_PROGRESS, t->progress, sizeof(double) * MPC_PROGRESS);
+#endif
+#if MPC_FF > 0
+  memcpy(out + MPC_OUT_FEEDFORWARD, t->feedforward, sizeof(double) * MPC_FF);
 #endif
   return (int)t->status;
 }

@@ -208,11 +208,20 @@ def _sag_fraction(forces: ForceMap, volts: tuple[FloatArray, FloatArray],
     return low
 
 
+#: A row whose change over the whole step is below this (in units of its bound) does not
+#: move: rounding, not a direction (a wheel held at its speed limit keeps its voltage row
+#: where it is). Taken as a direction, a row already beyond its bound stopped the whole step
+#: or not by the sign of that rounding (mpc.tick's compiled clamp and this one disagreed).
+STILL_SLOPE = 1e-12
+
+
 def _linear_fraction(start: FloatArray, slope: FloatArray) -> float:
     """Largest f in [0, 1] with ``|start + f slope| <= 1`` for every entry; an entry already
-    beyond it may not go further out (then 0), only back in."""
+    beyond it may not go further out (then 0), only back in; an entry the step does not
+    move (:data:`STILL_SLOPE`) does not limit it."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        reach = (np.copysign(1.0, slope) - np.where(slope == 0.0, 0.0, start)) / slope
+        reach = np.where(np.abs(slope) <= STILL_SLOPE, np.inf,
+                         (np.copysign(1.0, slope) - start) / slope)
     return float(min(1.0, max(0.0, reach.min())))
 
 
