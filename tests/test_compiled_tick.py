@@ -290,8 +290,8 @@ def test_perf_shows_the_compiled_tick_beside_the_others(tmp_path: Path,
     quick build)."""
     monkeypatch.setattr(perf, "REFERENCE_HORIZON", HORIZON)
     assert main(["perf", "--sections", "compiled", "--layouts", "mecanum,mpo700",
-                 "--modes", "time", "--speeds", "beyond", "--ipopt-ticks", "20", "--peer-rounds", "1",
-                 "--out", str(tmp_path)]) == 0
+                 "--modes", "time", "--speeds", "beyond", "--ipopt-ticks", "20",
+                 "--peer-rounds", "1", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert ("mpo700   time  beyond  not supported: compiled tick: robot 'mpo700' (swerve "
             "with axle") in out

@@ -27,11 +27,11 @@ from mpc.errors import ControllerError
 from mpc.model.jit import JitError
 from mpc.model.tracking import TrackingModel
 from mpc.plausibility import check_heading
-from mpc.robots.base import Robot
+from mpc.robots.base import Robot, ScalarWheels
 from mpc.solvers import TrackingSolver
 from mpc.tick import reuse
 from mpc.tick.build import compiled_library
-from mpc.tick.graphs import UNPLANNED, build_graphs
+from mpc.tick.graphs import UNPLANNED, TickGraphs, build_graphs
 from mpc.tick.path import build_path_graphs
 from mpc.tick.path_edge import PathReference
 from mpc.tick.runners import (
@@ -111,8 +111,12 @@ class CompiledTick:
                                  controller.polygon_sides)
         self._controller = controller
         path_mode = controller.mode == "path"
-        graphs = (build_path_graphs(controller.model, wheels, controller.dt) if path_mode
-                  else build_graphs(controller.model, wheels, controller.dt))
+        graphs: TickGraphs
+        if path_mode:  # (check_supported refuses path mode on swerve)
+            assert isinstance(wheels, ScalarWheels)
+            graphs = build_path_graphs(controller.model, wheels, controller.dt)
+        else:
+            graphs = build_graphs(controller.model, wheels, controller.dt)
         #: Path mode's reference at the edge (:mod:`mpc.tick.path_edge`), else None.
         self._path: PathReference | None = (
             PathReference(controller.trajectory, controller.model) if path_mode else None)
