@@ -192,9 +192,11 @@ def test_the_axle_offset_clamp_goes_as_far_as_a_brute_force_scan_of_the_way() ->
         assert _within_on_the_way(robot, last, target, steer, dt, fraction)
         if fraction < 1.0:
             searched += 1
-            fits = np.array([_within_on_the_way(robot, last, target, steer, dt, g)
-                             for g in scan])
-            longest = scan[np.argmin(fits) - 1] if not fits.all() else 1.0
+            # the scan's first point off limits ends the stretch: nothing after it counts
+            first_off = next((i for i, g in enumerate(scan)
+                              if not _within_on_the_way(robot, last, target, steer, dt, g)),
+                             None)
+            longest = 1.0 if first_off is None else scan[first_off - 1]
             assert longest - 1e-3 <= fraction <= longest + 1e-3
     assert searched >= 10
 
