@@ -32,11 +32,15 @@ def brute_force(robot: SwerveRobot, last: np.ndarray, target: np.ndarray,
     if np.all(turns(robot, robot.wheel_blocks @ target, angles) <= reach):
         return 1.0
     grid = np.linspace(0.0, 1.0, 20001)
-    for k, fraction in enumerate(grid):
-        velocities = robot.wheel_blocks @ (last + fraction * (target - last))
-        if np.any(turns(robot, velocities, angles) > reach):
-            return float(grid[k - 1]) if k else 0.0
-    return 1.0
+    # every grid point's module velocities at once, (points, modules, 2), as one (n, 2) batch
+    twists = last + grid[:, np.newaxis] * (target - last)
+    velocities = np.einsum("ndj,mj->mnd", robot.wheel_blocks, twists)
+    turned = turns(robot, velocities.reshape(-1, 2), np.tile(angles, grid.size))
+    off = np.any(turned.reshape(grid.size, -1) > reach, axis=1)
+    if not off.any():
+        return 1.0
+    k = int(np.argmax(off))  # the first point where a module would turn too far
+    return float(grid[k - 1]) if k else 0.0
 
 
 @pytest.mark.parametrize("seed", range(40))
