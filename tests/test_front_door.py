@@ -668,19 +668,28 @@ def test_plot_run_label_and_report_folder_are_checked(short_run: Any, tmp_path: 
         mpc.plot.report(short_run, a_file)
 
 
+@pytest.fixture(scope="module")
+def short_run_results(short_run: Any, tmp_path_factory: pytest.TempPathFactory) -> str:
+    """The results.json that mpc.plot.report writes for the short run (drawn once)."""
+    import mpc.plot
+
+    folder = tmp_path_factory.mktemp("rep")
+    mpc.plot.report(short_run, folder)
+    return (folder / "results.json").read_text()
+
+
 @pytest.mark.parametrize(("field", "value", "name"), [
     ("pose", 1e308, "'pose'"), ("status", 5, "'status'"),
 ])
-def test_damaged_results_files_are_refused_naming_the_field(short_run: Any, tmp_path: Path,
-                                                            field: str, value: Any,
-                                                            name: str) -> None:
+def test_damaged_results_files_are_refused_naming_the_field(short_run_results: str,
+                                                            tmp_path: Path, field: str,
+                                                            value: Any, name: str) -> None:
     import json
 
     import mpc.plot
     from mpc.errors import ReportError
 
-    mpc.plot.report(short_run, tmp_path / "rep")
-    document = json.loads((tmp_path / "rep" / "results.json").read_text())
+    document = json.loads(short_run_results)
     series = document["runs"][0]["series"]
     if field == "pose":
         series["pose"][1][0] = value

@@ -263,10 +263,17 @@ def test_report_rejects_other_inputs(tmp_path: Path) -> None:
         mpc.plot.report({"mpc": 3.0}, tmp_path)  # type: ignore[dict-item]
 
 
-def test_report_of_one_run(simulated: SimResult, tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def one_run_report(simulated: SimResult, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The report of the simulated run (its ``index.html``); read, never written to."""
+    return mpc.plot.report(simulated, tmp_path_factory.mktemp("one"), skip=SKIP)
+
+
+def test_report_of_one_run(simulated: SimResult, one_run_report: Path) -> None:
     """Phrased for one run: its labels in the title (no ``-``), its errors in the
     headline, no ranking, no terms for speeds or ties it does not have."""
-    index = mpc.plot.report(simulated, tmp_path, skip=SKIP)
+    index = one_run_report
+    tmp_path = index.parent
     page = index.read_text()
     metrics = simulated.metrics(skip=SKIP)
     assert "<h1>Tracking report: mpc on mecanum / circle</h1>" in page
@@ -368,10 +375,10 @@ def _png_size(path: Path) -> tuple[int, int]:
 
 
 @pytest.mark.skipif(find_browser() is None, reason="no Chromium-like browser on PATH")
-def test_screenshot_of_the_first_screen(simulated: SimResult, tmp_path: Path) -> None:
+def test_screenshot_of_the_first_screen(one_run_report: Path, tmp_path: Path) -> None:
     """The headline, the settings with units and a path plot show without scrolling, for
     one run and for several controllers in several scenarios."""
-    index = mpc.plot.report({"mpc": simulated}, tmp_path / "one", skip=SKIP)
+    index = one_run_report
     shot = screenshot(index, tmp_path / "first.png")
     assert _png_size(shot) == (1400, 1000)
     assert shot.stat().st_size > 20_000  # text and figures, not a blank page

@@ -322,9 +322,11 @@ def test_benchmark_runs_jetauto(tmp_path: Path) -> None:
     from benchmarks.cli import main
 
     out = tmp_path / "out"
+    # in this process: two short runs take less than starting worker processes (the
+    # process pool has tests of its own: test_executor.py, test_cli.py's Choreo run)
     assert main(["--layouts", "jetauto", "--trajectories", "figure8", "--speeds", "beyond",
                  "--controllers", "mpc-daqp,ff-p-clip", "--duration", "3", "--no-report",
-                 "--out", str(out)]) == 0
+                 "--workers", "1", "--out", str(out)]) == 0
     runs = json.loads((out / "results.json").read_text())["runs"]
     assert {run["layout"] for run in runs} == {"jetauto"}
     assert {run["controller"] for run in runs} == {"mpc-daqp", "ff-p-clip"}
