@@ -34,6 +34,7 @@ from mpc.control.command import Command, Status
 from mpc.control.lookahead import Lookahead
 from mpc.errors import MpcError
 from mpc.model.jit import cache_folder
+from mpc.tick.build import keep_whole
 from trajectories import TrajectoryError
 
 #: The exported library's status codes (``mpc_tick.h``), in order.
@@ -200,7 +201,7 @@ class ExportedTick:
                 self.program = cached
             else:
                 built = _build(work)
-                if cached is not None and _keep(built, cached):
+                if cached is not None and keep_whole(built, cached, 0o755):
                     self.program = cached
                 else:  # no cache: a private copy that outlives the build folder
                     handle, name = tempfile.mkstemp(prefix="mpc_export_timed-")
@@ -323,21 +324,3 @@ def _build(work: Path) -> Path:
     if not program.is_file():
         raise ExportBuildError("building the exported library wrote no program")
     return program
-
-
-def _keep(program: Path, cached: Path) -> bool:
-    """``program`` copied to ``cached``, whole or not at all; whether it is there now."""
-    try:
-        handle, name = tempfile.mkstemp(dir=cached.parent, suffix=".part")
-    except OSError:
-        return False
-    os.close(handle)
-    partial = Path(name)
-    try:
-        shutil.copyfile(program, partial)
-        partial.chmod(0o755)
-        os.replace(partial, cached)
-    except OSError:
-        partial.unlink(missing_ok=True)
-        return False
-    return True

@@ -13,6 +13,7 @@ import numpy as np
 
 import mpc.solvers.dense as dense
 import mpc.tick.reuse as reuse
+from benchmarks.export_check import compiled_reuse_rule as same_reuse_rule
 from mpc import Command, Controller
 from mpc.robots import preset
 from trajectories import FigureEight, Trajectory, TrajectoryError
@@ -22,16 +23,6 @@ TICKS = 240
 DT = 0.05
 
 
-@contextmanager
-def same_reuse_rule() -> Iterator[None]:
-    """The Python tick rebuilding its Hessian at once when it drifted beyond
-    :data:`~mpc.tick.reuse.REBUILD_DRIFT` (no staged rebuild): the compiled tick's rule."""
-    saved = dense.REBUILD_NOW, dense.REBUILD_EARLY
-    dense.REBUILD_NOW = dense.REBUILD_EARLY = reuse.REBUILD_DRIFT
-    try:
-        yield
-    finally:
-        dense.REBUILD_NOW, dense.REBUILD_EARLY = saved
 
 
 @contextmanager

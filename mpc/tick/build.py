@@ -111,7 +111,7 @@ def compiled_library(graphs: TickGraphs) -> tuple[Path, bool]:
             return cached, False
         library = build / "mpc_tick.so"
         _compile(compiler, sources, build, library)
-        if cached is not None and _keep(library, cached):
+        if cached is not None and keep_whole(library, cached):
             return cached, False
         # no cache (or it cannot be written): a private copy that outlives the build
         handle, name = tempfile.mkstemp(prefix="mpc_tick-", suffix=".so")
@@ -161,9 +161,9 @@ def _run(command: list[str], compiler: str) -> None:
                        + " / ".join(words))
 
 
-def _keep(library: Path, cached: Path) -> bool:
-    """``library`` copied to ``cached``, whole or not at all (a copy renamed into place);
-    whether it is there now."""
+def keep_whole(library: Path, cached: Path, mode: int = 0o644) -> bool:
+    """``library`` copied to ``cached`` (permissions ``mode``), whole or not at all (a copy
+    renamed into place); whether it is there now."""
     try:
         handle, name = tempfile.mkstemp(dir=cached.parent, suffix=".part")
     except OSError:
@@ -172,7 +172,7 @@ def _keep(library: Path, cached: Path) -> bool:
     partial = Path(name)
     try:
         shutil.copyfile(library, partial)
-        partial.chmod(0o644)
+        partial.chmod(mode)
         os.replace(partial, cached)
     except OSError:
         partial.unlink(missing_ok=True)
