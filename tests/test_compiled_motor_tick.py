@@ -17,7 +17,15 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 import pytest
-from tick_loop import DT, HORIZON, Broken, plant_step, same_reuse_rule
+from tick_loop import (
+    DT,
+    HORIZON,
+    Broken,
+    cmake_example,
+    example_input,
+    plant_step,
+    same_reuse_rule,
+)
 
 import mpc
 import mpc.solvers.row_screen as row_screen
@@ -260,18 +268,12 @@ def test_the_exported_motor_library_gives_the_python_commands(tmp_path: Path) ->
                             compiled="virtual-machine")
     source = mpc.export_c(controller, tmp_path / "src")
     assert "#define MPC_FF 20" in (source / "mpc_tick_config.h").read_text()
-    build = tmp_path / "build"
-    subprocess.run(["cmake", "-S", str(source), "-B", str(build)], check=True,
-                   capture_output=True)
-    subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True)
+    program = cmake_example(source, tmp_path / "build")
     ahead = Lookahead(LOOP, controller.model.offsets, DT)
-    lines = []
-    for k, pose in enumerate(poses):
-        window, velocities = ahead.window(k * DT)
-        numbers = np.concatenate([pose, window.ravel(), velocities.ravel()])
-        lines.append(" ".join(repr(float(value)) for value in numbers))
-    done = subprocess.run([str(build / "mpc_tick_example")], input="\n".join(lines) + "\n",
-                          check=True, capture_output=True, text=True)
+    done = subprocess.run(
+        [str(program)], input=example_input(poses, [ahead.window(k * DT)
+                                                    for k in range(len(poses))]),
+        check=True, capture_output=True, text=True)
     rows = [np.array(line.split(), dtype=float) for line in done.stdout.splitlines()]
     assert len(rows) == len(expected)
     statuses = (Status.SOLVED, Status.PREVIOUS_PLAN, Status.FEEDFORWARD, Status.STOPPING)

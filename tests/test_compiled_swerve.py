@@ -29,7 +29,17 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 import pytest
-from tick_loop import DT, HORIZON, TICKS, Broken, plant_step, same_reuse_rule
+from tick_loop import (
+    DT,
+    HORIZON,
+    TICKS,
+    Broken,
+    cmake_example,
+    example_input,
+    plant_step,
+    same_reuse_rule,
+    sanitized_example,
+)
 
 import mpc
 import mpc.robots.wheels.swerve.limits as swerve_limits
@@ -272,18 +282,11 @@ def test_the_exported_swerve_library_gives_the_compiled_ticks_commands(tmp_path:
     poses, expected = record(trajectory)
     compiled = Controller(preset("swerve"), trajectory, horizon=HORIZON, dt=DT, compiled=True)
     source = mpc.export_c(compiled, tmp_path / "src")
-    build = tmp_path / "build"
-    subprocess.run(["cmake", "-S", str(source), "-B", str(build)], check=True,
-                   capture_output=True)
-    subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True)
+    program = cmake_example(source, tmp_path / "build")
     ahead = Lookahead(trajectory, compiled.model.offsets, DT)
-    lines = []
-    for k, pose in enumerate(poses):
-        window, velocities = ahead.window(k * DT)
-        numbers = np.concatenate([pose, window.ravel(), velocities.ravel()])
-        lines.append(" ".join(repr(float(value)) for value in numbers))
-    done = subprocess.run([str(build / "mpc_tick_example")], input="\n".join(lines) + "\n",
-                          check=True, capture_output=True, text=True)
+    text = example_input(poses, [ahead.window(k * DT) for k in range(len(poses))])
+    done = subprocess.run([str(program)], input=text, check=True, capture_output=True,
+                          text=True)
     rows = np.array([line.split() for line in done.stdout.splitlines()], dtype=float)
     got = [compiled.step(pose, k * DT) for k, pose in enumerate(poses)]
     assert rows.shape == (len(poses), 1 + 3 + 4 + 4)
@@ -294,17 +297,8 @@ def test_the_exported_swerve_library_gives_the_compiled_ticks_commands(tmp_path:
         np.testing.assert_allclose(row[1:], values, rtol=0, atol=1e-9, err_msg=str(tick))
         np.testing.assert_allclose(row[4:8], reference.wheel_speeds, rtol=0,
                                    atol=LIBRARY_TOLERANCE)
-    casadi = Path(mpc.tick.build.casadi_folder())
-    sanitized = tmp_path / "sanitized"
-    built = subprocess.run(
-        ["gcc", "-g", "-O0", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
-         *(str(source / name) for name in ("main.c", "tick.c", "mpc_tick_graphs.c")),
-         f"-I{source}", f"-I{casadi / 'include'}", f"-L{casadi}", "-l:libdaqpstat.a", "-lm",
-         "-o", str(sanitized)], capture_output=True, text=True)
-    if built.returncode != 0:
-        pytest.skip(f"no sanitizer runtime here: {built.stderr.strip()[-200:]}")
-    done = subprocess.run([str(sanitized)], input="\n".join(lines) + "\n",
-                          capture_output=True, text=True)
+    sanitized = sanitized_example(source, tmp_path / "sanitized")
+    done = subprocess.run([str(sanitized)], input=text, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "runtime error" not in done.stderr
     again = np.array([line.split() for line in done.stdout.splitlines()], dtype=float)

@@ -11,7 +11,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tick_loop import DT, HORIZON, Broken, record
+from tick_loop import (
+    DT,
+    HORIZON,
+    Broken,
+    cmake_example,
+    example_input,
+    record,
+    sanitized_example,
+)
 
 import mpc
 import mpc.tick.build
@@ -35,11 +43,7 @@ def program(tmp_path_factory: pytest.TempPathFactory) -> Path:
     for name in ("mpc_tick.h", "mpc_tick_graphs.c", "tick.c", "CMakeLists.txt", "README.md",
                  "main.c"):
         assert (source / name).is_file(), name
-    build = folder / "build"
-    subprocess.run(["cmake", "-S", str(source), "-B", str(build)], check=True,
-                   capture_output=True)
-    subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True)
-    return build / "mpc_tick_example"
+    return cmake_example(source, folder / "build")
 
 
 def _windows(trajectory: Trajectory, ticks: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -63,13 +67,9 @@ def _windows(trajectory: Trajectory, ticks: int) -> list[tuple[np.ndarray, np.nd
 def test_the_exported_library_gives_the_python_commands(trajectory: Trajectory,
                                                          program: Path) -> None:
     poses, expected = record("mecanum", trajectory)
-    lines = []
-    for pose, (window, velocities) in zip(poses, _windows(trajectory, len(poses)),
-                                          strict=True):
-        numbers = np.concatenate([pose, window.ravel(), velocities.ravel()])
-        lines.append(" ".join(repr(float(value)) for value in numbers))
-    done = subprocess.run([str(program)], input="\n".join(lines) + "\n", check=True,
-                          capture_output=True, text=True)
+    done = subprocess.run([str(program)],
+                          input=example_input(poses, _windows(trajectory, len(poses))),
+                          check=True, capture_output=True, text=True)
     rows = [np.array(line.split(), dtype=float) for line in done.stdout.splitlines()]
     assert len(rows) == len(expected)
     statuses = (Status.SOLVED, Status.PREVIOUS_PLAN, Status.FEEDFORWARD, Status.STOPPING)
@@ -93,21 +93,10 @@ def test_the_exported_library_runs_clean_under_the_sanitizers(tmp_path: Path) ->
     controller = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
                             compiled="virtual-machine")
     source = mpc.export_c(controller, tmp_path / "src")
-    casadi = Path(mpc.tick.build.casadi_folder())
-    program = tmp_path / "sanitized"
-    built = subprocess.run(
-        ["gcc", "-g", "-O0", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
-         *(str(source / name) for name in ("main.c", "tick.c", "mpc_tick_graphs.c")),
-         f"-I{source}", f"-I{casadi / 'include'}", f"-L{casadi}", "-l:libdaqpstat.a", "-lm",
-         "-o", str(program)], capture_output=True, text=True)
-    if built.returncode != 0:
-        pytest.skip(f"no sanitizer runtime here: {built.stderr.strip()[-200:]}")
+    program = sanitized_example(source, tmp_path / "sanitized")
     windows = _windows(trajectory, 200)
     pose = trajectory.sample(0.0).pose + np.array([0.1, 0.0, 0.1])
-    lines = [" ".join(repr(float(value)) for value in
-                      np.concatenate([pose, window.ravel(), velocities.ravel()]))
-             for window, velocities in windows]
-    done = subprocess.run([str(program)], input="\n".join(lines) + "\n", capture_output=True,
-                          text=True)
+    done = subprocess.run([str(program)], input=example_input([pose] * len(windows), windows),
+                          capture_output=True, text=True)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "runtime error" not in done.stderr and len(done.stdout.splitlines()) == 200

@@ -6,12 +6,16 @@ differs from the model, and a reference that fails for a second."""
 from __future__ import annotations
 
 import math
+import subprocess
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
+import pytest
 
 import mpc.solvers.dense as dense
+import mpc.tick.build
 import mpc.tick.reuse as reuse
 from benchmarks.export_check import compiled_reuse_rule as same_reuse_rule
 from mpc import Command, Controller
@@ -76,3 +80,34 @@ class Broken(FigureEight):
         if np.any((times >= 3.0) & (times < 4.0)):
             raise TrajectoryError("no reference between 3 and 4 s")
         return super().sample(t)  # type: ignore[arg-type]
+
+
+def cmake_example(source: Path, build: Path) -> Path:
+    """The exported library's example program, built with its own ``CMakeLists.txt``."""
+    subprocess.run(["cmake", "-S", str(source), "-B", str(build)], check=True,
+                   capture_output=True)
+    subprocess.run(["cmake", "--build", str(build)], check=True, capture_output=True)
+    return build / "mpc_tick_example"
+
+
+def sanitized_example(source: Path, program: Path) -> Path:
+    """The exported example built with AddressSanitizer and UndefinedBehaviorSanitizer (any
+    report fatal), or the test skipped where the sanitizer runtime is missing."""
+    casadi = Path(mpc.tick.build.casadi_folder())
+    built = subprocess.run(
+        ["gcc", "-g", "-O0", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
+         *(str(source / name) for name in ("main.c", "tick.c", "mpc_tick_graphs.c")),
+         f"-I{source}", f"-I{casadi / 'include'}", f"-L{casadi}", "-l:libdaqpstat.a", "-lm",
+         "-o", str(program)], capture_output=True, text=True)
+    if built.returncode != 0:
+        pytest.skip(f"no sanitizer runtime here: {built.stderr.strip()[-200:]}")
+    return program
+
+
+def example_input(poses: list[np.ndarray], windows: list[tuple[np.ndarray, np.ndarray]]
+                  ) -> str:
+    """The example program's input: a line per tick, the pose, then the reference window's
+    poses and velocities (``mpc_tick_step``'s arguments)."""
+    return "".join(" ".join(repr(float(value)) for value in
+                            np.concatenate([pose, window.ravel(), velocities.ravel()])) + "\n"
+                   for pose, (window, velocities) in zip(poses, windows, strict=True))
