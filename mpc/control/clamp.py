@@ -208,6 +208,8 @@ def _limit_step(robot: Robot, safe: FloatArray, last: FloatArray, dt: float,
             safe = last + fraction * (safe - last)
     if steer_angles is not None:
         fraction = robot.steering_fraction(last, safe, steer_angles, dt)
+        if robot.dynamics is not None:  # the wheel loops ramp the step over the tick
+            fraction = min(fraction, robot.ramp_turn_fraction(last, safe, dt))
         if fraction < 1.0:
             safe = _turn_step(robot, last, safe, fraction, steer_angles, dt)
     return safe
