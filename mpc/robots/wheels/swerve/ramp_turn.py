@@ -17,8 +17,6 @@ line.
 
 from __future__ import annotations
 
-import math
-
 from mpc.arrays import FloatArray
 from mpc.robots.wheels.swerve.modules import SwerveModules
 

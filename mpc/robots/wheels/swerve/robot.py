@@ -79,8 +79,8 @@ from mpc.robots.wheels.swerve.ranges import (
     ranged_commands,
     settled_angles,
 )
-from mpc.robots.wheels.swerve.steer_rows import update_steering_rows, with_steering_rows
 from mpc.robots.wheels.swerve.states import aimed_angles, module_states
+from mpc.robots.wheels.swerve.steer_rows import update_steering_rows, with_steering_rows
 from mpc.validation import body_points, checked_arguments, metres, positive, shown
 
 __all__ = ["SwerveRobot", "swerve", "wrap_angle"]
