@@ -17,6 +17,7 @@ from mpc.robots.wheels.swerve.steer_rows import ROWS_PER_MODULE
 from mpc.sim import MotorPlant, MotorPlantConfig
 
 DT = 0.05
+RATE = 12.0  # [rad/s] the swerve preset's steering rate
 
 
 def command(robot: Robot, twist: np.ndarray, angles: np.ndarray | None) -> Command:
@@ -84,6 +85,7 @@ def test_the_ramp_fraction_by_hand() -> None:
     way, so the fraction f solves 0.3 f = 12 * 0.05 ((1 - 0.4 f)^2 + 0.09 f^2):
     0.15 f^2 - 0.78 f + 0.6 = 0."""
     robot = motor_preset("swerve")
+    np.testing.assert_array_equal(robot.max_steer_rates, RATE)
     last, target = np.array([1.0, 0.0, 0.0]), np.array([0.6, 0.3, 0.0])
     by_hand = (0.78 - math.sqrt(0.78**2 - 4 * 0.15 * 0.6)) / (2 * 0.15)
     fraction = robot.ramp_turn_fraction(last, target, DT)
@@ -107,7 +109,7 @@ def condition(robot: Robot, b_twist: np.ndarray, e_twist: np.ndarray, h: float,
                         bounds=(0.0, 1.0), method="bounded",
                         options={"xatol": 1e-12}).fun for i in range(len(b))])
     cross = b[:, 0] * e[:, 1] - b[:, 1] * e[:, 0]
-    return sign * cross - float(robot.max_steer_rates[0]) * h * closest
+    return sign * cross - RATE * h * closest
 
 
 def test_the_steering_rows_linearise_the_ramp_condition() -> None:
