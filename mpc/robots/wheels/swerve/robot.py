@@ -313,7 +313,9 @@ class SwerveRobot(Robot):
         ``polygon_sides`` the constant polygon of :meth:`qp_speed_rows`. Always the
         polygon with an axle offset, and with a motor model: there the linearised disks'
         bolder plans took a motor over its current limit on the motor plant
-        (docs/design/swerve-motors-polygon.md)."""
+        (docs/design/swerve-motors-polygon.md). With a motor model, followed by each
+        module's steering rate along each stage's ramp
+        (:mod:`~mpc.robots.wheels.swerve.steer_rows`)."""
         if polygon_sides is None and not self.axle_offset and self.dynamics is None:
             return linearised_stage_limits(self, change_times)
         limits = super().stage_limits(change_times, polygon_sides)
