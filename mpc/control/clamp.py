@@ -41,7 +41,9 @@ def clamp_command(
     4. Steering (steered wheels, given their present ``steer_angles``): step from
        ``last`` only as far as no wheel turns faster than its steering rate
        (:meth:`~mpc.robots.Robot.steering_fraction`); a wheel that must turn
-       before it can drive waits at rest while it turns.
+       before it can drive waits at rest while it turns. Robots with dynamics, whose
+       wheel loops ramp the step over the tick, also no faster anywhere along that ramp
+       (:meth:`~mpc.robots.Robot.ramp_turn_fraction`).
 
     Robots whose limits depend on measured steer angles (casters) clamp at those angles
     themselves (:meth:`~mpc.robots.Robot.clamp_joints`) instead of steps 1-3. Robots with
@@ -208,6 +210,8 @@ def _limit_step(robot: Robot, safe: FloatArray, last: FloatArray, dt: float,
             safe = last + fraction * (safe - last)
     if steer_angles is not None:
         fraction = robot.steering_fraction(last, safe, steer_angles, dt)
+        if robot.dynamics is not None:  # the wheel loops ramp the step over the tick
+            fraction = min(fraction, robot.ramp_turn_fraction(last, safe, dt))
         if fraction < 1.0:
             safe = _turn_step(robot, last, safe, fraction, steer_angles, dt)
     return safe

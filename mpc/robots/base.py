@@ -342,6 +342,13 @@ class Robot(SpeedLimitChecks, SteerStateJoints, abc.ABC):
         Default (no steered wheels): 1."""
         return 1.0
 
+    def ramp_turn_fraction(self, last: FloatArray, target: FloatArray, dt: float) -> float:
+        """The largest fraction of the step from ``last`` towards ``target`` (twists) along
+        whose ramp over ``dt`` (the wheel velocities moving in a straight line, as a motor
+        robot plans a stage) no steered wheel's direction turns faster than its steering
+        rate. Default (no steered wheels): 1."""
+        return 1.0
+
     @abc.abstractmethod
     def commands_from_velocities(self, velocities: FloatArray,
                                  steer_angles: FloatArray | None) -> WheelCommands:

@@ -71,6 +71,7 @@ from mpc.robots.wheels.swerve.limits import (
     steering_fraction,
     update_linearised,
 )
+from mpc.robots.wheels.swerve.ramp_turn import ramp_turn_fraction
 from mpc.robots.wheels.swerve.ranges import (
     check_steer_plan,
     check_steer_range,
@@ -79,6 +80,7 @@ from mpc.robots.wheels.swerve.ranges import (
     settled_angles,
 )
 from mpc.robots.wheels.swerve.states import aimed_angles, module_states
+from mpc.robots.wheels.swerve.steer_rows import update_steering_rows, with_steering_rows
 from mpc.validation import body_points, checked_arguments, metres, positive, shown
 
 __all__ = ["SwerveRobot", "swerve", "wrap_angle"]
@@ -311,14 +313,21 @@ class SwerveRobot(Robot):
         ``polygon_sides`` the constant polygon of :meth:`qp_speed_rows`. Always the
         polygon with an axle offset, and with a motor model: there the linearised disks'
         bolder plans took a motor over its current limit on the motor plant
-        (docs/design/swerve-motors-polygon.md)."""
+        (docs/design/swerve-motors-polygon.md). With a motor model, followed by each
+        module's steering rate along each stage's ramp
+        (:mod:`~mpc.robots.wheels.swerve.steer_rows`)."""
         if polygon_sides is None and not self.axle_offset and self.dynamics is None:
             return linearised_stage_limits(self, change_times)
-        return super().stage_limits(change_times, polygon_sides)
+        limits = super().stage_limits(change_times, polygon_sides)
+        if self.dynamics is not None:  # its stages ramp: the steering rate along them
+            return with_steering_rows(self, limits)
+        return limits
 
     def update_stage_limits(self, limits: StageLimits, guess: FloatArray, last: FloatArray,
                             steer_angles: FloatArray | None) -> None:
-        if not limits.constant:
+        if "steer_first" in limits.memory:
+            update_steering_rows(self, limits, guess, last)
+        elif not limits.constant:
             update_linearised(self, limits, guess, last)
 
     def qp_speed_rows(self, polygon_sides: int) -> SpeedRows:
@@ -340,6 +349,9 @@ class SwerveRobot(Robot):
         if self.steer_range is not None:
             steer_angles = settled_angles(self, last, steer_angles, dt)
         return steering_fraction(self, last, target, steer_angles, dt)
+
+    def ramp_turn_fraction(self, last: FloatArray, target: FloatArray, dt: float) -> float:
+        return ramp_turn_fraction(self, last, target, dt)
 
     def wheel_commands(self, twist: FloatArray, steer_angles: FloatArray | None,
                        aim: FloatArray | None = None, dt: float | None = None) -> WheelCommands:
