@@ -7,11 +7,13 @@ from mpc.robots.base import PlanarModules, Robot, ScalarWheels
 from mpc.robots.wheels.constant_jacobian import ConstantJacobianRobot
 from mpc.robots.wheels.swerve.robot import SwerveRobot
 from mpc.tick.motors import motor_wheels
+from mpc.tick.offset import axle_modules
 
 #: What the compiled tick supports, for the error that refuses the rest.
 SUPPORTED = ("constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with no failed "
-             "wheel, with or without a motor model, and swerve robots with no axle offset, "
-             "steering range, failed module or motor model; solver='daqp', mode='time' (or "
+             "wheel, with or without a motor model, and swerve robots (axle-offset modules "
+             "included, the mpo700 preset) with no steering range, failed module or motor "
+             "model; solver='daqp', mode='time' (or "
              "'path' on constant-Jacobian robots with no motor model), delay_ticks=0, "
              "command_ramp=False, time_limit=0")
 
@@ -36,6 +38,8 @@ def check_supported(robot: Robot, solver: str, mode: str, delay_ticks: int,
         wheels = robot.scalar_wheels
     elif isinstance(robot, SwerveRobot):
         wheels = robot.planar_modules
+        if wheels is None and _axle_only(robot):  # (mpc.tick.offset)
+            wheels = axle_modules(robot)
     if wheels is None:
         problems.append(f"robot {robot.name!r} ({robot.kind}{_why(robot)})")
     if solver != "daqp":
@@ -68,12 +72,17 @@ def _motor_aware(robot: Robot) -> bool:
             and robot.wheel_dim == 1 and robot.rest_projector is None)
 
 
+def _axle_only(robot: SwerveRobot) -> bool:
+    """Axle-offset modules and nothing else the compiled tick does not cover."""
+    return bool(robot.axle_offset and robot.steer_range is None and robot.dynamics is None
+                and robot.rest_projector is None)
+
+
 def _why(robot: Robot) -> str:
     """What of a swerve robot the compiled tick does not cover, for the refusal."""
     if not isinstance(robot, SwerveRobot):
         return ""
     parts = [name for name, present in (
-        (f"axle offset {robot.axle_offset:g} m", robot.axle_offset),
         ("a steering range", robot.steer_range is not None),
         ("a motor model", robot.dynamics is not None),
         ("a failed module", robot.rest_projector is not None)) if present]
