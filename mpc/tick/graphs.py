@@ -212,8 +212,10 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
                         / tolerance)
     rows: ca.DM | ca.SX = ca.DM(condenser.constraints)
     moving: list[ca.SX] = []
-    if faces:  # the faces turned to the guess (mpc.tick.steered)
-        rows, next_state = steering.rows(condenser.constraints, row_state, guess)
+    if faces:  # the faces turned to the guess (mpc.tick.steered); casters' rows at the
+        # angles along it from the measured ones (mpc.tick.casters)
+        measured = (steer,) if getattr(steering, "measured", False) else ()
+        rows, next_state = steering.rows(condenser.constraints, row_state, guess, *measured)
         moving = [rows, next_state]
     first = condenser.first_row
     at_guess = rows @ ca.vec(guess)

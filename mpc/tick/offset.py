@@ -40,7 +40,9 @@ from mpc.robots.wheels.swerve.limits import (
     MOVING_MODULE_SPEED,
     STOPPED_MODULE_SPEED,
 )
+from mpc.robots.wheels.caster.robot import CasterRobot
 from mpc.robots.wheels.swerve.robot import SwerveRobot
+from mpc.tick.casters import CasterSteering
 from mpc.tick.steered import _HALF, Steering, _all, _any, flip_turn, wrapped
 
 
@@ -290,8 +292,11 @@ def _cholesky_solve(a: list[list[ca.SX]], b: list[ca.SX]) -> ca.SX:
 
 def steering_for(robot: object, modules: PlanarModules, change_times: FloatArray,
                  dt: float) -> Steering:
-    """The swerve parts of the tick's graphs: :class:`AxleSteering` for axle-offset modules,
-    else :class:`~mpc.tick.steered.Steering`."""
+    """The steered parts of the tick's graphs: :class:`AxleSteering` for axle-offset
+    modules, :class:`~mpc.tick.casters.CasterSteering` for casters, else
+    :class:`~mpc.tick.steered.Steering`."""
+    if isinstance(robot, CasterRobot):
+        return CasterSteering(robot, modules, change_times, dt)  # type: ignore[return-value]
     if isinstance(robot, SwerveRobot) and robot.axle_offset:
         return AxleSteering(robot, modules, change_times, dt)
     return Steering(robot, modules, change_times, dt)  # type: ignore[arg-type]
