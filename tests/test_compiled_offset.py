@@ -1,15 +1,17 @@
 """The compiled tick for axle-offset swerve modules (:mod:`mpc.tick.offset`, the ``mpo700``
-preset) and for powered casters (:mod:`mpc.tick.casters`, the ``caster4`` preset): their graph forms of the steering fraction's search, the clamp and the module
-commands against the Python functions on seeded random cases; the compiled library, its
-virtual machine and the Python tick over recorded closed loops (the plant with 3 % slip)
-inside and beyond the limits and through a reference that fails; the exported library.
+preset) and for powered casters (:mod:`mpc.tick.casters`, the ``caster4`` preset): their
+graph forms of the clamp (the axle offset's steering-fraction search) and of the commands
+against the Python functions on seeded random cases; the compiled library, its virtual
+machine and the Python tick over recorded closed loops (a plant that differs from the
+model) inside and beyond the limits and through a reference that fails; the exported
+libraries; the refusals.
 
 The virtual machine solves with the Python tick's daqp (the module, 0.11) and gives its
 commands to 1e-9. The compiled library links the casadi wheel's daqp (0.5.1): where a row
 sits within daqp's ``primal_tol`` of its bound the two releases may end on different
-active sets (tests/test_compiled_swerve.py), hence :data:`LIBRARY_TOLERANCE`. The library
-is compiled once for the module (the library cache keeps it; every controller of the same
-set-up loads it).
+active sets (tests/test_compiled_swerve.py), hence :data:`LIBRARY_TOLERANCE` (and
+:data:`CASTER_LIBRARY_TOLERANCE`). Each robot's library is compiled once for the module
+(the library cache keeps it; every controller of the same set-up loads it).
 """
 
 from __future__ import annotations
@@ -344,7 +346,6 @@ def test_the_compiled_casters_track_as_the_python_tick() -> None:
         reference = np.array([trajectory.sample(k * DT).pose[:2] for k in range(TICKS)])
         gap = np.array(poses)[TICKS // 4:, :2] - reference[TICKS // 4:]
         errors.append(float(np.sqrt(np.mean(np.sum(gap**2, axis=1)))))
-    print("RMS", errors)
     assert errors[1] == pytest.approx(errors[0], rel=0.02), errors
 
 

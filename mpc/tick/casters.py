@@ -110,7 +110,7 @@ class CasterSteering:
         casters through from the measured ``steer`` [rad] (every row's three entries
         structural), and the (empty) next state; checked against ``template`` (the rows at
         zero angles) when built."""
-        n, wheels, m = self.horizon, self.wheels, self.limits.rows
+        n, wheels = self.horizon, self.wheels
         if self._along is None:
             angles = ca.reshape(steer, wheels, 1)
         else:

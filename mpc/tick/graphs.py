@@ -73,8 +73,8 @@ from mpc.tick.motors import (
     motor_feedforward,
     motor_graphs,
 )
-from mpc.tick.reuse import isotropic_cost, reuse_terms, terms_size
 from mpc.tick.offset import steering_for
+from mpc.tick.reuse import isotropic_cost, reuse_terms, terms_size
 from mpc.tick.steered import Steering
 
 #: ``prepare``'s guess modes: the reference's feedforward (no plan kept), the last plan
@@ -215,7 +215,8 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
     if faces:  # the faces turned to the guess (mpc.tick.steered); casters' rows at the
         # angles along it from the measured ones (mpc.tick.casters)
         measured = (steer,) if getattr(steering, "measured", False) else ()
-        rows, next_state = steering.rows(condenser.constraints, row_state, guess, *measured)
+        rows, next_state = steering.rows(  # type: ignore[union-attr]
+            condenser.constraints, row_state, guess, *measured)
         moving = [rows, next_state]
     first = condenser.first_row
     at_guess = rows @ ca.vec(guess)

@@ -34,13 +34,13 @@ import numpy as np
 from mpc.arrays import FloatArray
 from mpc.robots.base import SPEED_SLACK, PlanarModules
 from mpc.robots.limits import StageLimits
+from mpc.robots.wheels.caster.robot import CasterRobot
 from mpc.robots.wheels.swerve.limits import (
     _SEARCH_GRID,
     _SEARCH_ROUNDS,
     MOVING_MODULE_SPEED,
     STOPPED_MODULE_SPEED,
 )
-from mpc.robots.wheels.caster.robot import CasterRobot
 from mpc.robots.wheels.swerve.robot import SwerveRobot
 from mpc.tick.casters import CasterSteering
 from mpc.tick.steered import _HALF, Steering, _all, _any, flip_turn, wrapped

@@ -7,8 +7,8 @@ from mpc.robots.base import PlanarModules, Robot, ScalarWheels
 from mpc.robots.wheels.caster.robot import CasterRobot
 from mpc.robots.wheels.constant_jacobian import ConstantJacobianRobot
 from mpc.robots.wheels.swerve.robot import SwerveRobot
-from mpc.tick.motors import motor_wheels
 from mpc.tick.casters import caster_modules
+from mpc.tick.motors import motor_wheels
 from mpc.tick.offset import axle_modules
 
 #: What the compiled tick supports, for the error that refuses the rest.
