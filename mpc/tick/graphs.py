@@ -39,8 +39,10 @@ expressions.
 
 Scope of this slice: constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with
 no failed wheel, with or without a motor model (its rows, clamp and feedforward from
-:mod:`mpc.tick.motors`), and swerve robots without axle offset, steering range, failed
-module or motor model (their rows, clamp and commands from :mod:`mpc.tick.steered`), time
+:mod:`mpc.tick.motors`), swerve robots without steering range, failed module or motor
+model (their rows, clamp and commands from :mod:`mpc.tick.steered`; axle-offset modules'
+from :mod:`mpc.tick.offset`, their rows constant) and powered casters (their rows at the
+measured angles' prediction, clamp and joint rates from :mod:`mpc.tick.casters`), time
 mode (:mod:`mpc.tick.support`; path mode: :mod:`mpc.tick.path`).
 
 Rows that move every tick (swerve's speed faces, a motor model's rows) are one mechanism:
