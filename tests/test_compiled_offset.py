@@ -33,6 +33,7 @@ from tick_loop import (
     example_input,
     plant_step,
     same_reuse_rule,
+    sanitized_example,
 )
 
 import mpc
@@ -207,7 +208,9 @@ def test_axle_offsets_with_what_it_does_not_cover_are_refused_by_name(
 def test_the_exported_mpo700_library_gives_the_compiled_ticks_commands(tmp_path: Path) -> None:
     """``mpc.export_c`` of an mpo700 controller, built with CMake: its example program, fed
     the recorded ticks beyond the limits, gives the compiled tick's statuses, twists, wheel
-    speeds and steer angles to 1e-9, the Python tick's to :data:`LIBRARY_TOLERANCE`."""
+    speeds and steer angles to 1e-9, the Python tick's to :data:`LIBRARY_TOLERANCE`; built
+    with AddressSanitizer and UndefinedBehaviorSanitizer (any report fatal), it runs the
+    same ticks clean and gives the same commands."""
     trajectory = FigureEight(1.0, 6.0, heading="tangent")
     poses, expected = record(trajectory)
     compiled = Controller(preset("mpo700"), trajectory, horizon=HORIZON, dt=DT, compiled=True)
@@ -227,6 +230,13 @@ def test_the_exported_mpo700_library_gives_the_compiled_ticks_commands(tmp_path:
         np.testing.assert_allclose(row[1:], values, rtol=0, atol=1e-9, err_msg=str(tick))
         np.testing.assert_allclose(row[4:8], reference.wheel_speeds, rtol=0,
                                    atol=LIBRARY_TOLERANCE)
+    # (tick.c's constant-rows path with steer angles: built with the sanitizers too)
+    sanitized = sanitized_example(source, tmp_path / "sanitized")
+    done = subprocess.run([str(sanitized)], input=text, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "runtime error" not in done.stderr
+    again = np.array([line.split() for line in done.stdout.splitlines()], dtype=float)
+    np.testing.assert_allclose(again, rows, rtol=0, atol=1e-9)
 
 
 # -- powered casters (mpc.tick.casters, the caster4 preset) --------------------------------

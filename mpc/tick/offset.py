@@ -137,9 +137,23 @@ class AxleSteering(Steering):
 
     def _fits_at(self, last: ca.SX, step: tuple[ca.SX, ca.SX, ca.SX], part: ca.SX,
                  steer: ca.SX) -> ca.SX:
-        """:meth:`_drives_fit` at ``last + part * step`` (as ``within`` forms the points)."""
-        return self._drives_fit(tuple(last[c] + part * step[c] for c in range(3)),  # type: ignore[arg-type]
-                                steer)
+        """:meth:`_drives_fit` at ``last + part * step`` (as ``within`` forms the points),
+        through :attr:`_fit`: one small function called at each of the search's points
+        (not inlined: the library compiles in a fraction of the time)."""
+        point = ca.vertcat(*[last[c] + part * step[c] for c in range(3)])
+        return self._fit(point, steer)
+
+    @property
+    def _fit(self) -> ca.Function:
+        """:meth:`_drives_fit` as a function ``(twist 3, steer n) -> fits``, built once."""
+        fit = getattr(self, "_fit_function", None)
+        if fit is None:
+            twist, steer = ca.SX.sym("twist", 3), ca.SX.sym("steer", self.wheels)
+            fit = ca.Function("mpc_tick_drives_fit", [twist, steer],
+                              [self._drives_fit((twist[0], twist[1], twist[2]), steer)],
+                              {"never_inline": True, "cse": True})
+            self._fit_function = fit
+        return fit
 
     def steering_fraction(self, last: ca.SX, target: ca.SX, steer: ca.SX) -> ca.SX:
         """:func:`~mpc.robots.wheels.swerve.limits.steering_fraction` with an axle offset."""
