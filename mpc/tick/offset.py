@@ -15,7 +15,8 @@ constant-rows one; the steer angles are state as for centred modules
   and then, where the drives' limit with the steering term ``L turn / (r dt)`` breaks at it,
   the Python search: the first round's 41 points over [0, fraction], then two more rounds of
   40 inside the first interval where a point fails, the earliest such interval taken (a
-  reverse scan with flags instead of NumPy's ``flatnonzero``).
+  reverse scan with flags instead of NumPy's ``flatnonzero``); the check at each point is
+  one small function called there, not inlined (the generated C compiles about 7x quicker).
 - The commands (``finish``): :meth:`SwerveRobot.wheel_commands
   <mpc.robots.wheels.swerve.robot.SwerveRobot.wheel_commands>` with an axle offset (the
   flip rule, modules at rest keep their angle, no aimed turn; the drive corrected by
