@@ -95,6 +95,9 @@ def check(robot_name: str, mode: str, ratio: float, ticks: int, horizon: int,
                               compiled="virtual-machine")
     except UnsupportedTickError as error:
         return {"supported": False, "reason": str(error)}
+    if robot.steer_states:  # (the loop and tick_inputs carry no measured steer angles)
+        return {"supported": False, "reason": f"robot {robot_name!r}: export-check does not "
+                "feed a caster robot's measured steer angles yet"}
     library = ExportedTick(exported)
     with compiled_reuse_rule():
         python = Controller(robot, trajectory, horizon=horizon, dt=dt, mode=mode)

@@ -188,6 +188,9 @@ class ExportedTick:
 
     def __init__(self, controller: Any) -> None:
         started = time.perf_counter()
+        if controller.robot.steer_states:  # (tick_inputs has no measured steer angles)
+            raise ExportBuildError("casters: the timing program is not fed measured steer "
+                                   "angles yet")
         compiled = controller._compiled  # (export_c refuses a controller without one)
         work = Path(tempfile.mkdtemp(prefix="mpc-export-"))
         self._private: Path | None = None  # a program outside the cache: removed with self

@@ -189,7 +189,7 @@ def test_reset_and_a_new_trajectory_start_over() -> None:
 
 
 @pytest.mark.parametrize("options, named", [
-    ({"robot": "mpo700"}, "mpo700"),
+    ({"robot": "swerve-cable"}, "swerve with a steering range"),
     ({"robot": "swerve", "mode": "path"}, "mode='path' on a swerve robot"),
     ({"solver": "osqp"}, "solver='osqp'"),
     ({"delay_ticks": 1}, "delay_ticks=1"),
@@ -285,16 +285,15 @@ def test_perf_shows_the_compiled_tick_beside_the_others(tmp_path: Path,
                                                         ) -> None:
     """``mpc-bench perf --sections compiled``: rows of the compiled tick, the Python tick,
     the virtual machine, the compiled tick rebuilding its Hessian every tick and the IPOPT
-    path on the same ticks, with their ratios; a layout
-    it does not cover (axle-offset swerve) says why in one line (at N = 8 here, for a
-    quick build)."""
+    path on the same ticks, with their ratios; a layout it does not cover (swerve with a
+    steering range) says why in one line (at N = 8 here, for a quick build)."""
     monkeypatch.setattr(perf, "REFERENCE_HORIZON", HORIZON)
-    assert main(["perf", "--sections", "compiled", "--layouts", "mecanum,mpo700",
+    assert main(["perf", "--sections", "compiled", "--layouts", "mecanum,swerve-cable",
                  "--modes", "time", "--speeds", "beyond", "--ipopt-ticks", "20",
                  "--peer-rounds", "1", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert ("mpo700   time  beyond  not supported: compiled tick: robot 'mpo700' (swerve "
-            "with axle") in out
+    assert ("swerve-cable time  beyond  not supported: compiled tick: robot 'swerve-cable' "
+            "(swerve with a steering range") in out
     rows = [row for row in json.loads((tmp_path / "perf.json").read_text())["rows"]
             if row["section"] == "compiled"]
     assert {row["solver"] for row in rows} == {"compiled", "compiled-rebuild", "python",

@@ -100,9 +100,10 @@ def test_export_refuses_to_overwrite_and_names_what_it_covers(
     assert "--force" in capsys.readouterr().err
     assert main([*arguments, "--force"]) == 0
     capsys.readouterr()
-    assert main(["export", "mpo700", "--out", str(tmp_path / "mpo700"),
+    assert main(["export", "swerve-cable", "--out", str(tmp_path / "swerve-cable"),
                  "--horizon", str(HORIZON)]) == 2
     error = capsys.readouterr().err
-    assert "robot 'mpo700'" in error and "axle offset" in error and "supports " in error
+    assert ("robot 'swerve-cable'" in error and "steering range" in error
+            and "supports " in error)
     assert main(["export", "nonesuch", "--out", str(tmp_path / "x")]) == 2
     assert "unknown robot preset 'nonesuch'" in capsys.readouterr().err

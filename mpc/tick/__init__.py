@@ -9,6 +9,8 @@ part (daqp's workspace kept between ticks, the dense Cholesky factor),
 :mod:`mpc.tick.path` and :mod:`mpc.tick.path_edge` path mode's graphs and its reference
 at the edge, :mod:`mpc.tick.steered` swerve's rows, clamp and module commands,
 :mod:`mpc.tick.motors` a motor model's rows, clamp and feedforward,
+:mod:`mpc.tick.offset` axle-offset swerve modules' clamp and commands,
+:mod:`mpc.tick.casters` powered casters' rows, clamp and joint rates,
 :mod:`mpc.tick.build` the compiler and the cache, :mod:`mpc.tick.runners` the two ways to
 run it, :mod:`mpc.tick.edge` the Python around it, :mod:`mpc.tick.support` what it covers.
 """

@@ -150,11 +150,13 @@ class CompiledTick:
         self._runner: TickRunner = runner or VirtualTick(graphs, iterations, budgeted,
                                                          self.rebuild_drift)
         self._wheels = graphs.wheels
+        self._dt = float(controller.dt)
         self._horizon = graphs.horizon
         self._trajectory: Trajectory | None = None
         self._lookahead: Lookahead | None = None
         self._first_tick = True
         self._failures = 0
+        self._measured: FloatArray | None = None  # casters: this tick's measured angles
 
     @property
     def path(self) -> str:
@@ -194,7 +196,10 @@ class CompiledTick:
         controller = self._controller
         measured = check_pose(pose, controller.allow_unusual)
         t_now = check_time(t)
-        check_steer_angles(controller.robot, steer_angles)
+        measured_steer = check_steer_angles(controller.robot, steer_angles)
+        if measured_steer is not None:  # casters: the tick starts from the measured angles
+            self._runner.set_steer(measured_steer)
+        self._measured = measured_steer
         if self._path is not None:
             return self._path_step(measured, t_now, start)
         poses, velocities, failure = self._window(t_now)
@@ -257,6 +262,9 @@ class CompiledTick:
         feedforward = steer + self.graphs.steer + int(getattr(self.graphs, "progress", 0))
         forces, torques, currents, vectors = self._feedforward(
             out[feedforward:feedforward + self.graphs.feedforward])
+        steer_rates = None  # casters: the rates that turn the measured angles to the sent
+        if self._measured is not None:
+            steer_rates = (out[steer:steer + self.graphs.steer] - self._measured) / self._dt
         return Command(
             wheel_speeds=out[speeds:poses].copy(), twist=out[TWIST:speeds].copy(),
             steer_angles=out[steer:steer + self.graphs.steer].copy() if self.graphs.steer
@@ -269,7 +277,7 @@ class CompiledTick:
             iterations=iterations, consecutive_failures=failures,
             clamped=bool(out[CLAMPED]), reference_time=reference_time,
             lag=t_now - reference_time, wheel_forces=forces, motor_torques=torques,
-            motor_currents=currents, contact_forces=vectors)
+            motor_currents=currents, contact_forces=vectors, steer_rates=steer_rates)
 
     def _feedforward(self, values: FloatArray) -> tuple[FloatArray | None, ...]:
         """``Command``'s motor feedforward fields (wheel forces, motor torques and currents,

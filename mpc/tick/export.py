@@ -54,11 +54,13 @@ def export_c(controller: Exportable, folder: str | Path) -> Path:
     casadi = casadi_folder()
     (out / "CMakeLists.txt").write_text(_CMAKE.replace("@CASADI_DIR@", casadi.as_posix()))
     (out / "daqp.cmake").write_text(_DAQP_CMAKE.replace("@DAQP_RELEASE@", DAQP_RELEASE))
-    (out / "main.c").write_text(_MAIN.replace(
-        "mpc_tick_init(1000, 0, 1.0)",
-        f"mpc_tick_init({compiled.max_iter}, {int(compiled.budgeted)}, "
-        f"{compiled.rebuild_drift!r})"))
     robot = controller.robot
+    main = _MAIN.replace("mpc_tick_init(1000, 0, 1.0)",
+                         f"mpc_tick_init({compiled.max_iter}, {int(compiled.budgeted)}, "
+                         f"{compiled.rebuild_drift!r})")
+    if robot.steer_states:  # casters: each line ends with the measured steer angles
+        main = main.replace("#define MPC_MEASURED_STEER 0", "#define MPC_MEASURED_STEER 1")
+    (out / "main.c").write_text(main)
     (out / "README.md").write_text(_README.format(
         robot=robot.name, kind=robot.kind, wheels=robot.n_wheels, horizon=graphs.horizon,
         dt=graphs.tick, offsets=", ".join(f"{value:g}" for value in graphs.offsets),
@@ -145,12 +147,16 @@ _MAIN = """\
  * and world velocities at the stage times (3 (MPC_N + 1) numbers each, a stage's three
  * together). Each line of stdout: the status, the twist (3), the wheel speeds and (swerve)
  * the steer angles. Swerve modules start straight ahead; each step starts from the angles
- * the last commanded (mpc_tick_set_steer_angles sets measured ones). */
+ * the last commanded (mpc_tick_set_steer_angles sets measured ones). Casters
+ * (MPC_MEASURED_STEER 1): each input line ends with the measured steer angles (MPC_STEER),
+ * set before the step; the steer angles printed are the measured ones plus the steer rates
+ * to send times MPC_DT. */
 #include <stdio.h>
 
 #include "mpc_tick.h"
 
-#define INPUTS (3 + 6 * (MPC_N + 1))
+#define MPC_MEASURED_STEER 0
+#define INPUTS (3 + 6 * (MPC_N + 1) + MPC_MEASURED_STEER * MPC_STEER)
 
 int main(void) {
   static double line[INPUTS], out[MPC_OUT_SIZE];
@@ -165,6 +171,9 @@ int main(void) {
         mpc_tick_free(tick);
         return 0;
       }
+#if MPC_MEASURED_STEER
+    mpc_tick_set_steer_angles(tick, line + 3 + 6 * (MPC_N + 1));
+#endif
     mpc_tick_step(tick, line, line + 3, line + 3 + 3 * (MPC_N + 1), out);
     printf("%d", (int)out[MPC_OUT_STATUS]);
     for (i = 0; i < 3 + MPC_W; i++) printf(" %.17g", out[MPC_OUT_TWIST + i]);
@@ -228,4 +237,7 @@ voltage, current and traction limits).
 Swerve (`MPC_STEER` > 0): each step starts from the steer angles the last one commanded
 (straight ahead after `mpc_tick_init`); `void mpc_tick_set_steer_angles(mpc_tick*, const
 double angles[MPC_STEER])` sets them before a step (measured angles, or after a reset).
+Powered casters: their steer angles are the robot's state, so set the measured ones before
+every step; `MPC_OUT_STEER` then has the measured angles plus the steer rates to send
+times `MPC_DT` (the rates: the difference over `MPC_DT`), `MPC_OUT_SPEEDS` the drive rates.
 """

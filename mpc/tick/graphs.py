@@ -39,8 +39,10 @@ expressions.
 
 Scope of this slice: constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with
 no failed wheel, with or without a motor model (its rows, clamp and feedforward from
-:mod:`mpc.tick.motors`), and swerve robots without axle offset, steering range, failed
-module or motor model (their rows, clamp and commands from :mod:`mpc.tick.steered`), time
+:mod:`mpc.tick.motors`), swerve robots without steering range, failed module or motor
+model (their rows, clamp and commands from :mod:`mpc.tick.steered`; axle-offset modules'
+from :mod:`mpc.tick.offset`, their rows constant) and powered casters (their rows at the
+measured angles' prediction, clamp and joint rates from :mod:`mpc.tick.casters`), time
 mode (:mod:`mpc.tick.support`; path mode: :mod:`mpc.tick.path`).
 
 Rows that move every tick (swerve's speed faces, a motor model's rows) are one mechanism:
@@ -73,6 +75,7 @@ from mpc.tick.motors import (
     motor_feedforward,
     motor_graphs,
 )
+from mpc.tick.offset import steering_for
 from mpc.tick.reuse import isotropic_cost, reuse_terms, terms_size
 from mpc.tick.steered import Steering
 
@@ -154,8 +157,10 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
     swerve robot with :class:`PlanarModules`: checked by
     :func:`mpc.tick.support.check_supported`), control tick ``tick`` [s]."""
     n = model.horizon
-    steering = (Steering(model.robot, wheels, model.change_times, tick)  # type: ignore[arg-type]
+    steering = (steering_for(model.robot, wheels, model.change_times, tick)
                 if isinstance(wheels, PlanarModules) else None)
+    # (swerve's faces move with the guess; axle-offset modules' polygon does not)
+    faces = steering is not None and getattr(steering, "moves", True)
     limits = (steering.limits if steering is not None
               else stage_limits(model.robot, model.change_times, None))
     motor = (motor_graphs(model.robot, limits) if isinstance(limits, MotorStageLimits)
@@ -209,8 +214,11 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
                         / tolerance)
     rows: ca.DM | ca.SX = ca.DM(condenser.constraints)
     moving: list[ca.SX] = []
-    if steering is not None:  # the faces turned to the guess (mpc.tick.steered)
-        rows, next_state = steering.rows(condenser.constraints, row_state, guess)
+    if faces:  # the faces turned to the guess (mpc.tick.steered); casters' rows at the
+        # angles along it from the measured ones (mpc.tick.casters)
+        measured = (steer,) if getattr(steering, "measured", False) else ()
+        rows, next_state = steering.rows(  # type: ignore[union-attr]
+            condenser.constraints, row_state, guess, *measured)
         moving = [rows, next_state]
     first = condenser.first_row
     at_guess = rows @ ca.vec(guess)
@@ -224,8 +232,10 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
                        *([] if cost_values is None else [cost_values]))
     # (a motor model: motor.prepare adds the rows, every one turned to the guess, and an
     # empty next state)
-    moves = steering is not None or motor is not None
-    extra_in, extra_names = ([steer, row_state], ["steer", "state"]) if moves else ([], [])
+    moves = faces or motor is not None
+    # (axle-offset modules, mpc.tick.offset: the steer angles in, the rows constant)
+    extra_in, extra_names = (([steer, row_state], ["steer", "state"])
+                             if moves or steering is not None else ([], []))
     prepare = ca.Function(
         "mpc_tick_prepare" if motor is None else "mpc_tick_prepare_terms",
         [pose, ref_poses, ref_velocities, last, plan, mode, kept, *extra_in],
@@ -260,7 +270,7 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
                            [ca.densify((y.T @ inverse).T)], ["inverse", "y"], ["step"])
 
     finish = _finish(model, wheels, tick, size, carry.shape[0], steering, motor)
-    rows_move = (steering.rows_move(m) if steering is not None
+    rows_move = (steering.rows_move(m) if faces and steering is not None
                  else (True,) * m if motor is not None else ())
     return TickGraphs(prepare, hessian, whiten, whiten_rows, unwhiten, finish, n, size, m,
                       len(wheels.limits), carry.shape[0], int(kept.shape[0]),

@@ -71,7 +71,9 @@ int mpc_tick_step(mpc_tick* tick, const double* pose, const double* ref_poses,
                   const double* ref_velocities, double* out);
 int mpc_tick_output_size(void);
 /* Swerve (MPC_STEER > 0): the modules' steer angles now [rad] (MPC_STEER), e.g. measured;
- * each step starts from the angles the last one commanded unless set here. */
+ * each step starts from the angles the last one commanded unless set here. Powered
+ * casters: the measured angles, set before every step (their angles are the robot's state;
+ * out[MPC_OUT_STEER] is them plus the steer rates to send times MPC_DT). */
 void mpc_tick_set_steer_angles(mpc_tick* tick, const double* angles);
 /* Path mode's warm-up: solve the tick just stepped again (its plan, unshifted, is the
  * guess; the last command and the fallback's memory as before it). */

@@ -171,7 +171,8 @@ class VirtualTick:
         self._state = np.array(graphs.row_state, dtype=float)
         self._next_state = np.zeros(len(graphs.row_state))
         self._row_values = np.zeros(graphs.moving_rows)
-        extra_in = [self._steer, self._state] if self._moving else []
+        # (axle-offset swerve: the steer angles in, the rows constant)
+        extra_in = [self._steer, self._state] if self._moving or graphs.steer else []
         extra_out = [self._row_values, self._next_state] if self._moving else []
         self._hessian, self._gradient = np.zeros((nv, nv)), np.zeros(nv)
         self._inverse = np.zeros(nv * (nv + 1) // 2)  # L^{-1}'s lower triangle, packed

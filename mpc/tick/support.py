@@ -4,14 +4,19 @@ from __future__ import annotations
 
 from mpc.errors import ControllerError
 from mpc.robots.base import PlanarModules, Robot, ScalarWheels
+from mpc.robots.wheels.caster.robot import CasterRobot
 from mpc.robots.wheels.constant_jacobian import ConstantJacobianRobot
 from mpc.robots.wheels.swerve.robot import SwerveRobot
+from mpc.tick.casters import caster_modules
 from mpc.tick.motors import motor_wheels
+from mpc.tick.offset import axle_modules
 
 #: What the compiled tick supports, for the error that refuses the rest.
 SUPPORTED = ("constant-Jacobian robots (Swedish, Mecanum, omni, ball wheels) with no failed "
-             "wheel, with or without a motor model, and swerve robots with no axle offset, "
-             "steering range, failed module or motor model; solver='daqp', mode='time' (or "
+             "wheel, with or without a motor model, and swerve robots (axle-offset modules "
+             "included, the mpo700 preset) with no steering range, failed module or motor "
+             "model, and powered casters (the caster4 preset) with no acceleration limit, "
+             "failed caster or motor model; solver='daqp', mode='time' (or "
              "'path' on constant-Jacobian robots with no motor model), delay_ticks=0, "
              "command_ramp=False, time_limit=0")
 
@@ -36,6 +41,10 @@ def check_supported(robot: Robot, solver: str, mode: str, delay_ticks: int,
         wheels = robot.scalar_wheels
     elif isinstance(robot, SwerveRobot):
         wheels = robot.planar_modules
+        if wheels is None and _axle_only(robot):  # (mpc.tick.offset)
+            wheels = axle_modules(robot)
+    elif isinstance(robot, CasterRobot) and _casters_covered(robot):  # (mpc.tick.casters)
+        wheels = caster_modules(robot)
     if wheels is None:
         problems.append(f"robot {robot.name!r} ({robot.kind}{_why(robot)})")
     if solver != "daqp":
@@ -44,6 +53,8 @@ def check_supported(robot: Robot, solver: str, mode: str, delay_ticks: int,
         problems.append(f"mode={mode!r}")
     elif mode == "path" and isinstance(robot, SwerveRobot):
         problems.append("mode='path' on a swerve robot")
+    elif mode == "path" and isinstance(robot, CasterRobot):
+        problems.append("mode='path' on a caster robot")
     elif mode == "path" and motors:
         problems.append("mode='path' on a robot with a motor model")
     if delay_ticks:
@@ -68,12 +79,29 @@ def _motor_aware(robot: Robot) -> bool:
             and robot.wheel_dim == 1 and robot.rest_projector is None)
 
 
+def _casters_covered(robot: CasterRobot) -> bool:
+    """Casters with no acceleration limit, motor model or failed caster."""
+    return (robot.max_wheel_accel is None and robot.dynamics is None
+            and robot.rest_projector is None)
+
+
+def _axle_only(robot: SwerveRobot) -> bool:
+    """Axle-offset modules and nothing else the compiled tick does not cover."""
+    return bool(robot.axle_offset and robot.steer_range is None and robot.dynamics is None
+                and robot.rest_projector is None)
+
+
 def _why(robot: Robot) -> str:
     """What of a swerve robot the compiled tick does not cover, for the refusal."""
+    if isinstance(robot, CasterRobot):
+        parts = [name for name, present in (
+            ("an acceleration limit", robot.max_wheel_accel is not None),
+            ("a motor model", robot.dynamics is not None),
+            ("a failed caster", robot.rest_projector is not None)) if present]
+        return f" with {' and '.join(parts)}" if parts else ""
     if not isinstance(robot, SwerveRobot):
         return ""
     parts = [name for name, present in (
-        (f"axle offset {robot.axle_offset:g} m", robot.axle_offset),
         ("a steering range", robot.steer_range is not None),
         ("a motor model", robot.dynamics is not None),
         ("a failed module", robot.rest_projector is not None)) if present]

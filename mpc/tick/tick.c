@@ -283,6 +283,9 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
   t->arg[8] = t->state;
   t->out[6] = t->row_values;
   t->out[7] = t->state_next;
+#elif MPC_STEER
+  t->arg[7] = t->steer; /* axle-offset modules (mpc/tick/offset.py): constant rows */
+  t->arg[8] = 0;        /* (no rows' state: an empty input) */
 #endif
   mpc_tick_prepare(t->arg, t->out, t->iw, t->w, 0);
 #if MPC_MOVING_ROWS
