@@ -74,6 +74,7 @@ from mpc.tick.motors import (
     motor_graphs,
 )
 from mpc.tick.reuse import isotropic_cost, reuse_terms, terms_size
+from mpc.tick.screen import screened_places
 from mpc.tick.steered import Steering
 
 #: ``prepare``'s guess modes: the reference's feedforward (no plan kept), the last plan
@@ -146,6 +147,9 @@ class TickGraphs:
     #: Motor-aware robots: numbers of ``finish``'s ``feedforward`` output
     #: (:func:`mpc.tick.motors.motor_feedforward`: 5 w), else 0.
     feedforward: int = 0
+    #: Rows a stage the row screen covers (:func:`mpc.tick.screen.screened_places`; 0: no
+    #: screen, every row in daqp's problem).
+    screen_rows: int = 0
 
 
 def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
@@ -268,7 +272,8 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
                       prepare.nnz_out("rows") if moves else 0,
                       () if steering is None else steering.state,
                       0 if steering is None else steering.wheels, rows_move,
-                      0 if motor is None else feedforward_size(model.robot))
+                      0 if motor is None else feedforward_size(model.robot),
+                      screened_places(limits, motor is not None))
 
 
 def _moving_cost(model: TrackingModel, p_data: ca.SX, inputs: ca.SX) -> ca.SX:

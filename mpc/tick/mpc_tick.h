@@ -73,6 +73,11 @@ int mpc_tick_output_size(void);
 /* Swerve (MPC_STEER > 0): the modules' steer angles now [rad] (MPC_STEER), e.g. measured;
  * each step starts from the angles the last one commanded unless set here. */
 void mpc_tick_set_steer_angles(mpc_tick* tick, const double* angles);
+/* The row screen (a tick built with one, MPC_SCREEN_ROWS > 0, e.g. a motor model's rows):
+ * rows no plan has had active for ``after`` ticks leave daqp's problem, checked after each
+ * solve and solved again with those a plan breaks (the same optimum); 0: every row in
+ * daqp's problem. mpc_tick_init sets MPC_SCREEN_AFTER. Forgets the plan's active set. */
+void mpc_tick_set_screen(mpc_tick* tick, int after);
 /* Path mode's warm-up: solve the tick just stepped again (its plan, unshifted, is the
  * guess; the last command and the fallback's memory as before it). */
 void mpc_tick_again(mpc_tick* tick);
