@@ -131,7 +131,7 @@ class CompiledTick:
         self.rebuild_drift = float(reuse.REBUILD_DRIFT)
         #: The compiled library's row screen (:mod:`mpc.tick.screen`: rows left out of
         #: daqp's problem after this many ticks unneeded; 0: none).
-        self.screen_after = screen.screen_after(graphs.screen_rows)
+        self.screen_after = screen.screen_after(graphs.screen_places)
         #: Hessians built so far (for benchmarks: the rest of the ticks kept one).
         self.rebuilds = 0
         runner: TickRunner | None = None

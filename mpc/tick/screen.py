@@ -21,6 +21,7 @@ the same run (``mpc-bench perf --sections compiled --motors``, row
 from __future__ import annotations
 
 from mpc.robots.limits import StageLimits
+from mpc.robots.wheels.swerve.limits import FACES, GUARD_FACES
 from mpc.solvers import row_screen
 
 #: Ticks without a plan that has a row active before it leaves daqp's problem (the
@@ -32,19 +33,36 @@ SCREEN_AFTER = row_screen.SCREEN_AFTER
 #: a constant, so that changing :data:`SCREEN_AFTER` does not compile another library.
 LIBRARY_AFTER = 50
 
-#: Rows a stage from which the screen runs (fewer: every row in daqp's problem).
-SCREEN_FROM_ROWS = 1
+#: Rows a stage from which a motor model's rows are screened (fewer: every row in daqp's
+#: problem; omni-3's 21 gained nothing, Mecanum's and omni-4's 28 did).
+SCREEN_FROM_ROWS = 24
+
+#: A place's kind (``MPC_SCREEN_PLACES``): always in daqp's problem, in until unneeded, out
+#: until a plan breaks it (swerve's guard faces).
+ALWAYS, UNTIL_UNNEEDED, GUARD = 0, 1, 2
+
+#: Whether swerve's guard faces (:data:`~mpc.robots.wheels.swerve.limits.GUARD_FACES`) start
+#: out of daqp's problem in the compiled tick.
+SWERVE_GUARDS = True
 
 
-def screened_places(limits: StageLimits, rows_move: bool) -> int:
-    """Rows a stage the screen covers (``MPC_SCREEN_ROWS``: every row of a stage, by its
-    place), or 0 for no screen: ``limits`` marked ``screened``, its rows moving with the
-    plan (``rows_move``) and at least :data:`SCREEN_FROM_ROWS` a stage."""
-    if not (limits.screened and rows_move) or limits.rows < SCREEN_FROM_ROWS:
-        return 0
-    return int(limits.rows)
+def screened_places(limits: StageLimits, motor: bool, faces: int) -> tuple[int, ...]:
+    """The screen's places (``MPC_SCREEN_PLACES``: each of a stage's rows by kind), or
+    ``()`` for no screen. A motor model's rows (``motor``: ``limits`` marked ``screened``,
+    every row moving with the plan) where a stage has at least :data:`SCREEN_FROM_ROWS`:
+    every place in until unneeded. Swerve (``faces``: a stage's speed faces, first in its
+    rows, :data:`FACES` a module, from :class:`mpc.tick.steered.Steering`; 0 for other
+    robots) with :data:`SWERVE_GUARDS`: the guard faces out until a plan breaks one, the
+    rest always in."""
+    if motor and limits.screened and limits.rows >= SCREEN_FROM_ROWS:
+        return (UNTIL_UNNEEDED,) * int(limits.rows)
+    if faces and SWERVE_GUARDS:
+        guards = {FACES * module + face for module in range(faces // FACES)
+                  for face in GUARD_FACES}
+        return tuple(GUARD if place in guards else ALWAYS for place in range(int(limits.rows)))
+    return ()
 
 
-def screen_after(places: int) -> int:
-    """The screen's ``after`` for a tick with ``places`` screened rows a stage (0: off)."""
-    return int(SCREEN_AFTER) if places > 0 and SCREEN_AFTER > 0 else 0
+def screen_after(places: tuple[int, ...]) -> int:
+    """The screen's ``after`` for a tick with screen ``places`` (0: off, every row in)."""
+    return int(SCREEN_AFTER) if places and SCREEN_AFTER > 0 else 0

@@ -44,7 +44,8 @@
  * plan has had them active for ``after`` ticks; a plan is checked against the rows left
  * out and solved again with those it breaks (every row after MPC_SCREEN_ROUNDS rounds), so
  * the optimum is the same. daqp gets only the rows in play (its own m set to their count:
- * its buffers were sized for every row). */
+ * its buffers were sized for every row). MPC_SCREEN_PLACES: each place's kind, 0 always
+ * in play, 1 in play until unneeded, 2 out until a plan breaks it (swerve's guard faces). */
 #define MPC_SCREEN_ROUNDS 2
 #define MPC_SCREEN_ROUNDING 1e-9 /* as mpc.robots.limits.ROUNDING */
 struct mpc_screen {
@@ -329,11 +330,14 @@ static void screen_index(struct mpc_screen* s) {
     }
 }
 
-/* Every place back in play, needed as of now (a reset, a failed tick). */
+/* Every place back where it starts (in play; a guard out), needed as of now (a reset, a
+ * failed tick). */
+static const unsigned char screen_kind[MPC_SCREEN_ROWS] = MPC_SCREEN_PLACES;
+
 static void screen_reset(struct mpc_screen* s) {
   int p;
   for (p = 0; p < MPC_SCREEN_ROWS; p++) {
-    s->in_play[p] = 1;
+    s->in_play[p] = screen_kind[p] != 2;
     s->needed_at[p] = s->ticks;
   }
   memset(s->flags, 0, sizeof(s->flags));
@@ -372,10 +376,28 @@ static void screen_pick(mpc_tick* t) {
     s->picked[j] = r;
     s->lower[j] = t->lower[r];
     s->upper[j] = t->upper[r];
-    s->sense[j] = s->flags[r];
     j++;
   }
   s->count = j;
+}
+
+/* The rows of place ``p`` (out of play) put in play, after daqp's rows (the rows already
+ * there stay whitened). */
+static void screen_admit(mpc_tick* t, int p) {
+  struct mpc_screen* s = &t->screen;
+  int k;
+  s->in_play[p] = 1;
+  s->needed_at[p] = s->ticks;
+  for (k = 0; k < MPC_N; k++) {
+    const int r = k * MPC_SCREEN_ROWS + p, j = s->count++;
+    if (rows_move[r])
+      whiten_row(s, t->inverse, t->row_values, r, s->rows + j * MPC_NV);
+    else
+      memcpy(s->rows + j * MPC_NV, t->rows + r * MPC_NV, sizeof(double) * MPC_NV);
+    s->picked[j] = r;
+    s->lower[j] = t->lower[r];
+    s->upper[j] = t->upper[r];
+  }
 }
 
 /* The places out of play whose rows the step ``t->step`` breaks at some stage beyond
@@ -415,7 +437,7 @@ static void screen_retire(mpc_tick* t) {
   unsigned char stale[MPC_SCREEN_ROWS];
   int p, k, left = 0, any = 0, keep = -1;
   for (p = 0; p < MPC_SCREEN_ROWS; p++) {
-    stale[p] = s->in_play[p] && s->ticks - s->needed_at[p] >= s->after;
+    stale[p] = s->in_play[p] && screen_kind[p] && s->ticks - s->needed_at[p] >= s->after;
     for (k = 0; k < MPC_N && stale[p]; k++)
       if (t->lower[k * MPC_SCREEN_ROWS + p] == t->upper[k * MPC_SCREEN_ROWS + p]) stale[p] = 0;
     any += stale[p];
@@ -584,6 +606,7 @@ static int solve_picked(mpc_tick* t, int limit, double* iterations, double* seco
   t->qp.bupper = s->upper;
   t->qp.sense = s->sense;
   for (i = 0; i < s->count; i++) {
+    s->sense[i] = s->flags[s->picked[i]];
     if (s->lower[i] == s->upper[i]) {
       s->sense[i] = MPC_EQUALITY;
       equalities = 1;
@@ -645,11 +668,7 @@ static int solve_screened(mpc_tick* t, double* iterations, double* seconds) {
     if (!screen_broken(t, broken)) break;
     rounds++;
     for (p = 0; p < MPC_SCREEN_ROWS; p++)
-      if (broken[p] || rounds > MPC_SCREEN_ROUNDS) {
-        s->in_play[p] = 1;
-        s->needed_at[p] = s->ticks;
-      }
-    screen_pick(t);
+      if (!s->in_play[p] && (broken[p] || rounds > MPC_SCREEN_ROUNDS)) screen_admit(t, p);
   }
   t->work.settings->iter_limit = t->max_iter;
   if (flag > 0) screen_retire(t);
