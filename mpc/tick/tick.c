@@ -646,9 +646,6 @@ static int solve_screened(mpc_tick* t, double* iterations, double* seconds) {
   unsigned char broken[MPC_SCREEN_ROWS];
   int flag, rounds = 0, i, p;
   if (t->qp_cold) memset(s->flags, 0, sizeof(s->flags));
-  else if (t->mode == MPC_WARM) /* the guess is the last plan moved on a stage: its rows' */
-    memmove(s->flags, s->flags + MPC_SCREEN_ROWS, /* flags too (the last stage's kept) */
-            sizeof(int) * (MPC_SCREENED_ROWS - MPC_SCREEN_ROWS));
   s->ticks++;
   screen_pick(t);
   for (;;) {
