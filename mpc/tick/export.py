@@ -18,6 +18,7 @@ from mpc.robots.base import Robot
 from mpc.tick.build import casadi_folder, write_sources
 from mpc.tick.edge import CompiledTick
 from mpc.tick.path import PathGraphs
+from mpc.tick.screen import LIBRARY_AFTER
 
 
 class Exportable(Protocol):
@@ -54,10 +55,14 @@ def export_c(controller: Exportable, folder: str | Path) -> Path:
     casadi = casadi_folder()
     (out / "CMakeLists.txt").write_text(_CMAKE.replace("@CASADI_DIR@", casadi.as_posix()))
     (out / "daqp.cmake").write_text(_DAQP_CMAKE.replace("@DAQP_RELEASE@", DAQP_RELEASE))
-    (out / "main.c").write_text(_MAIN.replace(
-        "mpc_tick_init(1000, 0, 1.0)",
-        f"mpc_tick_init({compiled.max_iter}, {int(compiled.budgeted)}, "
-        f"{compiled.rebuild_drift!r})"))
+    main = _MAIN.replace("mpc_tick_init(1000, 0, 1.0)",
+                         f"mpc_tick_init({compiled.max_iter}, {int(compiled.budgeted)}, "
+                         f"{compiled.rebuild_drift!r})")
+    if graphs.screen_places and compiled.screen_after != LIBRARY_AFTER:  # as the controller
+        main = main.replace("  mpc_tick_reset(tick, rest);",
+                            f"  mpc_tick_set_screen(tick, {compiled.screen_after});\n"
+                            "  mpc_tick_reset(tick, rest);")
+    (out / "main.c").write_text(main)
     robot = controller.robot
     (out / "README.md").write_text(_README.format(
         robot=robot.name, kind=robot.kind, wheels=robot.n_wheels, horizon=graphs.horizon,

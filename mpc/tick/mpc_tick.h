@@ -78,6 +78,8 @@ void mpc_tick_set_steer_angles(mpc_tick* tick, const double* angles);
  * solve and solved again with those a plan breaks (the same optimum); 0: every row in
  * daqp's problem. mpc_tick_init sets MPC_SCREEN_AFTER. Forgets the plan's active set. */
 void mpc_tick_set_screen(mpc_tick* tick, int after);
+/* The row screen's counts (2): rows in daqp's last problem, solves again so far. */
+void mpc_tick_screen_counts(const mpc_tick* tick, long* counts);
 /* Path mode's warm-up: solve the tick just stepped again (its plan, unshifted, is the
  * guess; the last command and the fallback's memory as before it). */
 void mpc_tick_again(mpc_tick* tick);

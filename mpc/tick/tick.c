@@ -51,6 +51,7 @@
 struct mpc_screen {
   int after;                             /* ticks unneeded before a row leaves; 0: off */
   long ticks;                            /* ticks solved so far */
+  long again;                            /* solves again with rows a plan broke, so far */
   long needed_at[MPC_SCREEN_ROWS];       /* the tick a plan last had the place active */
   unsigned char in_play[MPC_SCREEN_ROWS];
   int picked[MPC_M], count;              /* daqp's rows (the solver's row numbers) */
@@ -209,6 +210,19 @@ void mpc_tick_set_screen(mpc_tick* t, int after) {
 #else
   (void)t;
   (void)after;
+#endif
+}
+
+/* The row screen's counts: rows in daqp's last problem, solves again with rows a plan broke
+ * so far (every row and 0 with no screen). */
+void mpc_tick_screen_counts(const mpc_tick* t, long* counts) {
+#if MPC_SCREEN_ROWS
+  counts[0] = t->screen.after > 0 ? t->screen.count : MPC_M;
+  counts[1] = t->screen.again;
+#else
+  (void)t;
+  counts[0] = MPC_M;
+  counts[1] = 0;
 #endif
 }
 
@@ -664,6 +678,7 @@ static int solve_screened(mpc_tick* t, double* iterations, double* seconds) {
         s->needed_at[s->picked[i] % MPC_SCREEN_ROWS] = s->ticks;
     if (!screen_broken(t, broken)) break;
     rounds++;
+    s->again++;
     for (p = 0; p < MPC_SCREEN_ROWS; p++)
       if (!s->in_play[p] && (broken[p] || rounds > MPC_SCREEN_ROUNDS)) screen_admit(t, p);
   }
