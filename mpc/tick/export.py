@@ -233,4 +233,11 @@ voltage, current and traction limits).
 Swerve (`MPC_STEER` > 0): each step starts from the steer angles the last one commanded
 (straight ahead after `mpc_tick_init`); `void mpc_tick_set_steer_angles(mpc_tick*, const
 double angles[MPC_STEER])` sets them before a step (measured angles, or after a reset).
+
+Row screen (`MPC_SCREEN_ROWS` > 0: a motor model's rows, swerve's guard faces): rows no
+plan has needed for `MPC_SCREEN_AFTER` ticks leave daqp's problem, each plan is checked
+against them and solved again with those it breaks (the same optimum; with a budget the
+solves share `max_iter`); `void mpc_tick_set_screen(mpc_tick*, int after)` changes the
+ticks (0: every row in daqp's problem) and `mpc_tick_screen_counts` reports rows in daqp's
+last problem and the solves again so far.
 """
