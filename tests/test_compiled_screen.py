@@ -6,16 +6,20 @@ which robots get a screen."""
 
 from __future__ import annotations
 
+import subprocess
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
 import pytest
-from tick_loop import DT, HORIZON, plant_step, same_reuse_rule
+from tick_loop import DT, HORIZON, example_input, plant_step, same_reuse_rule, sanitized_example
 
+import mpc
 import mpc.solvers.row_screen as row_screen
 import mpc.tick.screen as screen
 from mpc import Command, Controller, Status
+from mpc.control.lookahead import Lookahead
 from mpc.robots import motor_preset, preset
 from mpc.robots.drive.motor_limits import stage_limits
 from mpc.robots.wheels.swerve.limits import FACES, GUARD_FACES
@@ -187,3 +191,33 @@ def test_no_screen_means_every_row(after: int) -> None:
         controller = Controller(motor_preset("mecanum"), LOOP, horizon=4, dt=DT,
                                 compiled="virtual-machine")
     assert controller._compiled.screen_after == 0  # type: ignore[union-attr]
+
+
+def test_the_screened_export_runs_clean_under_the_sanitizers(tmp_path: Path) -> None:
+    """The exported Mecanum motor library with rows leaving after 5 ticks (its main.c sets
+    the controller's screen), built with AddressSanitizer and UndefinedBehaviorSanitizer
+    (any report fatal), replays the motor loop clean and gives the compiled tick's
+    commands (solves again included)."""
+    poses, _ = _motor_loop()
+    with same_reuse_rule(), screen_after(5):
+        controller = Controller(motor_preset("mecanum"), LOOP, horizon=HORIZON, dt=DT,
+                                compiled=True)
+    source = mpc.export_c(controller, tmp_path / "src")
+    assert "mpc_tick_set_screen(tick, 5);" in (source / "main.c").read_text()
+    program = sanitized_example(source, tmp_path / "sanitized")
+    ahead = Lookahead(LOOP, controller.model.offsets, DT)
+    windows = [ahead.window(k * DT) for k in range(len(poses))]
+    expected = [controller.step(pose, k * DT) for k, pose in enumerate(poses)]
+    assert _runner(controller).screen_counts()[1] >= 1
+    done = subprocess.run([str(program)], input=example_input(poses, windows),
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "runtime error" not in done.stderr
+    lines = done.stdout.splitlines()
+    assert len(lines) == len(poses)
+    statuses = (Status.SOLVED, Status.PREVIOUS_PLAN, Status.FEEDFORWARD, Status.STOPPING)
+    for tick, (line, command) in enumerate(zip(lines, expected, strict=True)):
+        row = np.array(line.split(), dtype=float)
+        assert statuses[int(row[0])] is command.status, tick
+        np.testing.assert_allclose(row[1:4], command.twist, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(row[4:], command.wheel_speeds, rtol=0, atol=1e-9)
