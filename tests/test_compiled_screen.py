@@ -168,7 +168,7 @@ def test_the_rule_says_which_ticks_get_a_screen() -> None:
     """A motor model with at least SCREEN_FROM_ROWS rows a stage: every place, in until
     unneeded; fewer (omni-3's 21), a robot without a motor model: none; swerve: its guard
     faces, each module's FACES faces first."""
-    times = [DT] * 4
+    times = np.full(4, DT)
     mecanum = stage_limits(motor_preset("mecanum"), times, None)
     assert mecanum.rows >= screen.SCREEN_FROM_ROWS
     assert screen.screened_places(mecanum, True, 0) == (screen.UNTIL_UNNEEDED,) * mecanum.rows

@@ -17,7 +17,9 @@
  * Rows that move every tick (MPC_MOVING_ROWS > 0: swerve's speed faces, a motor model's
  * rows, mpc/tick/steered.py and motors.py): prepare gives their nonzeros, whitened every
  * tick with the kept L^{-1} and handed to daqp every tick. A motor model (MPC_FF > 0):
- * finish also gives the feedforward. */
+ * finish also gives the feedforward. A row screen (MPC_SCREEN_ROWS > 0, mpc/tick/screen.py:
+ * a motor model's rows, swerve's guard faces): daqp gets only the rows in play, each plan
+ * checked against the rest and solved again with those it breaks. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -131,7 +133,7 @@ static void qp_cold(mpc_tick* t) {
 }
 
 /* The active set and the kept Hessian dropped (the Python tick's solver.reset()); every
- * screened row back in play. */
+ * screened place back where it starts. */
 static void forget(mpc_tick* t) {
   qp_cold(t);
   t->kept = 0;
