@@ -15,7 +15,9 @@ more, rows appear with no change here. Each robot's library is compiled once (th
 scenario that needs it; later ones load it from the cache), and so is its exported program.
 ``motors`` (``mpc-bench perf --motors``): the layouts' motor presets
 (:func:`~mpc.robots.motor_preset`) instead, the Python tick with its motor rows screened as
-it ships (:mod:`mpc.solvers.row_screen`).
+it ships (:mod:`mpc.solvers.row_screen`). Where the compiled tick runs a row screen
+(:mod:`mpc.tick.screen`: a motor model's rows, swerve's guard faces), one more row,
+``compiled-unscreened``: the same library with every row in daqp's problem.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from typing import Any
 import numpy as np
 
 import mpc.tick.reuse as reuse
+import mpc.tick.screen as screen
 from benchmarks.exported import ExportBuildError, ExportedTick, differences, tick_inputs
 from benchmarks.scenarios import ScenarioError
 from mpc import Controller, ControllerError
@@ -40,9 +43,13 @@ CONTROLLERS: dict[str, dict[str, Any]] = {
     "python": {"solver": "daqp"},
     "compiled": {"solver": "daqp", "compiled": True},
     "compiled-rebuild": {"solver": "daqp", "compiled": True},
+    "compiled-unscreened": {"solver": "daqp", "compiled": True},
     "virtual-machine": {"solver": "daqp", "compiled": "virtual-machine"},
     "ipopt": {"solver": "ipopt"},
 }
+#: The row of the compiled tick with its row screen off (every row in daqp's problem,
+#: :data:`mpc.tick.screen.SCREEN_AFTER` 0): only where the compiled tick has a screen.
+UNSCREENED = "compiled-unscreened"
 #: The row of the exported C library's tick (timed in C, on the compiled tick's ticks).
 EXPORTED = "exported"
 #: The path column of the exported library's row.
@@ -119,6 +126,8 @@ def compiled_section(layouts: list[str], modes: list[str], speeds: dict[str, flo
                         f"{built['compiled'][1]:.1f} s")
                 try:
                     for name in CONTROLLERS:
+                        if name == UNSCREENED and not _screened(compiled):
+                            continue  # (no screen: the compiled row is this row)
                         if name not in built:
                             started = time.perf_counter()
                             control = _built(name, robot, trajectory, horizon, dt, mode)
@@ -135,7 +144,8 @@ def compiled_section(layouts: list[str], modes: list[str], speeds: dict[str, flo
                                   ticks, rounds, run, row, settle, say, motors)
     say("/compiled: the row's tick p50 over the compiled tick's; path: what ran the tick "
         "(the compiled tick runs the virtual machine where no compiler works); "
-        "compiled-rebuild: the compiled tick with its Hessian rebuilt every tick; exported: "
+        "compiled-rebuild: the compiled tick with its Hessian rebuilt every tick; "
+        "compiled-unscreened: with its row screen off (where it has one); exported: "
         "the library mpc.export_c writes, built with CMake, each mpc_tick_step timed in C "
         "on the compiled tick's recorded ticks (its errors are that run's)")
     for note in notes:
@@ -203,7 +213,10 @@ def _scenario(built: dict[str, tuple[TrackingController, float]],
         f"{own['tick_p99'] / compiled:.2f} x its p50 (process CPU: p99 "
         f"{own['cpu_p99'] * 1e3:.3f} ms = {own['cpu_p99'] / own['cpu_p50']:.2f} x its p50); "
         f"Hessians built: "
-        f"{own['hessian_builds']} compiled, {items['python']['hessian_builds']} python")
+        f"{own['hessian_builds']} compiled, {items['python']['hessian_builds']} python"
+        + (f"; row screen: every row / compiled {items[UNSCREENED]['tick_p50'] / compiled:.2f}"
+           f" (CPU p99 {items[UNSCREENED]['cpu_p99'] * 1e3:.3f} ms)"
+           if UNSCREENED in items else ""))
     if EXPORTED in items:
         export = items[EXPORTED]
         say(f"{label} exported library against the compiled tick on its ticks: largest "
@@ -255,15 +268,24 @@ def _exported_row(replays: list[Any], recorded: Any, exported: ExportedTick,
 def _built(name: str, robot: Any, trajectory: Trajectory, horizon: int, dt: float,
            mode: str) -> Controller:
     """The section's controller ``name`` (``compiled-rebuild``: built with no Hessian
-    reuse, :data:`mpc.tick.reuse.REBUILD_DRIFT` below 0)."""
-    saved = reuse.REBUILD_DRIFT
+    reuse, :data:`mpc.tick.reuse.REBUILD_DRIFT` below 0; ``compiled-unscreened``: with no
+    row screen, :data:`mpc.tick.screen.SCREEN_AFTER` 0)."""
+    saved, after = reuse.REBUILD_DRIFT, screen.SCREEN_AFTER
     if name == "compiled-rebuild":
         reuse.REBUILD_DRIFT = -1.0
+    if name == UNSCREENED:
+        screen.SCREEN_AFTER = 0
     try:
         return Controller(robot, trajectory, horizon=horizon, dt=dt, mode=mode,
                           **CONTROLLERS[name])
     finally:
-        reuse.REBUILD_DRIFT = saved
+        reuse.REBUILD_DRIFT, screen.SCREEN_AFTER = saved, after
+
+
+def _screened(control: Any) -> bool:
+    """Whether the compiled controller runs a row screen (:mod:`mpc.tick.screen`)."""
+    compiled = getattr(control, "_compiled", None)
+    return compiled is not None and compiled.screen_after > 0 and compiled.path == "compiled"
 
 
 def _builds(control: Any) -> int | None:

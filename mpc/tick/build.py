@@ -22,6 +22,7 @@ from pathlib import Path
 import casadi as ca
 
 from mpc.model.jit import JitError, cache_folder
+from mpc.tick import screen
 from mpc.tick.graphs import TickGraphs
 
 #: The hand-written C around the graphs, and its header (the interface).
@@ -68,6 +69,8 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
         # directions), the steer angles; 0 for other robots
         "MPC_MOVING_ROWS": graphs.moving_rows, "MPC_ROW_STATE": len(graphs.row_state),
         "MPC_STEER": graphs.steer,
+        # the row screen (mpc/tick/screen.py): rows a stage it covers (0: none), its default
+        "MPC_SCREEN_ROWS": len(graphs.screen_places), "MPC_SCREEN_AFTER": screen.LIBRARY_AFTER,
     }
     config = getattr(graphs, "config", None)  # path mode's sizes (mpc.tick.path)
     if config is not None:
@@ -86,7 +89,9 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
               f"#define MPC_DT {graphs.tick!r}",
               f"#define MPC_STAGE_OFFSETS {{{offsets}}}",
               *([f"#define MPC_ROW_STATE_START {{{', '.join(map(repr, graphs.row_state))}}}"]
-                if graphs.row_state else []), *moving, "#endif", ""]
+                if graphs.row_state else []), *moving,
+              *([f"#define MPC_SCREEN_PLACES {{{', '.join(map(str, graphs.screen_places))}}}"]
+                if graphs.screen_places else []), "#endif", ""]
     (folder / "mpc_tick_config.h").write_text("\n".join(config))
     shutil.copyfile(TICK_SOURCE, folder / "tick.c")
     shutil.copyfile(TICK_HEADER, folder / "mpc_tick.h")

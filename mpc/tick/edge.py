@@ -29,7 +29,7 @@ from mpc.model.tracking import TrackingModel
 from mpc.plausibility import check_heading
 from mpc.robots.base import Robot, ScalarWheels
 from mpc.solvers import TrackingSolver
-from mpc.tick import reuse
+from mpc.tick import reuse, screen
 from mpc.tick.build import compiled_library
 from mpc.tick.graphs import UNPLANNED, TickGraphs, build_graphs
 from mpc.tick.path import build_path_graphs
@@ -129,6 +129,9 @@ class CompiledTick:
         #: The Hessian is rebuilt when the linearisation drifted beyond this
         #: (:data:`mpc.tick.reuse.REBUILD_DRIFT` when the controller was built).
         self.rebuild_drift = float(reuse.REBUILD_DRIFT)
+        #: The compiled library's row screen (:mod:`mpc.tick.screen`: rows left out of
+        #: daqp's problem after this many ticks unneeded; 0: none).
+        self.screen_after = screen.screen_after(graphs.screen_places)
         #: Hessians built so far (for benchmarks: the rest of the ticks kept one).
         self.rebuilds = 0
         runner: TickRunner | None = None
@@ -139,7 +142,7 @@ class CompiledTick:
                 library, private = compiled_library(graphs)
                 try:
                     runner = NativeTick(library, graphs, iterations, budgeted,
-                                        self.rebuild_drift)
+                                        self.rebuild_drift, self.screen_after)
                 finally:
                     if private:  # (loaded: the file is no longer needed)
                         library.unlink(missing_ok=True)

@@ -18,6 +18,7 @@ from mpc.robots.base import Robot
 from mpc.tick.build import casadi_folder, write_sources
 from mpc.tick.edge import CompiledTick
 from mpc.tick.path import PathGraphs
+from mpc.tick.screen import LIBRARY_AFTER
 
 
 class Exportable(Protocol):
@@ -60,6 +61,10 @@ def export_c(controller: Exportable, folder: str | Path) -> Path:
                          f"{compiled.rebuild_drift!r})")
     if robot.steer_states:  # casters: each line ends with the measured steer angles
         main = main.replace("#define MPC_MEASURED_STEER 0", "#define MPC_MEASURED_STEER 1")
+    if graphs.screen_places and compiled.screen_after != LIBRARY_AFTER:  # as the controller
+        main = main.replace("  mpc_tick_reset(tick, rest);",
+                            f"  mpc_tick_set_screen(tick, {compiled.screen_after});\n"
+                            "  mpc_tick_reset(tick, rest);")
     (out / "main.c").write_text(main)
     (out / "README.md").write_text(_README.format(
         robot=robot.name, kind=robot.kind, wheels=robot.n_wheels, horizon=graphs.horizon,
@@ -240,4 +245,11 @@ double angles[MPC_STEER])` sets them before a step (measured angles, or after a 
 Powered casters: their steer angles are the robot's state, so set the measured ones before
 every step; `MPC_OUT_STEER` then has the measured angles plus the steer rates to send
 times `MPC_DT` (the rates: the difference over `MPC_DT`), `MPC_OUT_SPEEDS` the drive rates.
+
+Row screen (`MPC_SCREEN_ROWS` > 0: a motor model's rows, swerve's guard faces): rows no
+plan has needed for `MPC_SCREEN_AFTER` ticks leave daqp's problem, each plan is checked
+against them and solved again with those it breaks (the same optimum; with a budget the
+solves share `max_iter`); `void mpc_tick_set_screen(mpc_tick*, int after)` changes the
+ticks (0: every row in daqp's problem) and `mpc_tick_screen_counts` reports rows in daqp's
+last problem and the solves again so far.
 """

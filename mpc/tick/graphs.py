@@ -65,6 +65,7 @@ from mpc.model.grid import shift_maps
 from mpc.model.tracking import TrackingModel
 from mpc.robots.base import SPEED_SLACK, PlanarModules, ScalarWheels
 from mpc.robots.drive.motor_limits import MotorStageLimits, stage_limits
+from mpc.robots.wheels.swerve.limits import FACES
 from mpc.solvers.condensed import Condenser, plan_poses, tick_terms
 from mpc.solvers.hessian_reuse import COST_TOLERANCE
 from mpc.solvers.qp_structure import assemble_qp
@@ -77,6 +78,7 @@ from mpc.tick.motors import (
 )
 from mpc.tick.offset import steering_for
 from mpc.tick.reuse import isotropic_cost, reuse_terms, terms_size
+from mpc.tick.screen import screened_places
 from mpc.tick.steered import Steering
 
 #: ``prepare``'s guess modes: the reference's feedforward (no plan kept), the last plan
@@ -149,6 +151,9 @@ class TickGraphs:
     #: Motor-aware robots: numbers of ``finish``'s ``feedforward`` output
     #: (:func:`mpc.tick.motors.motor_feedforward`: 5 w), else 0.
     feedforward: int = 0
+    #: The row screen's places, a stage's rows by kind (:func:`mpc.tick.screen.
+    #: screened_places`; empty: no screen, every row in daqp's problem).
+    screen_places: tuple[int, ...] = ()
 
 
 def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
@@ -278,7 +283,9 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
                       prepare.nnz_out("rows") if moves else 0,
                       () if steering is None else steering.state,
                       0 if steering is None else steering.wheels, rows_move,
-                      0 if motor is None else feedforward_size(model.robot))
+                      0 if motor is None else feedforward_size(model.robot),
+                      screened_places(limits, motor is not None,
+                                      0 if steering is None else steering.wheels * FACES))
 
 
 def _moving_cost(model: TrackingModel, p_data: ca.SX, inputs: ca.SX) -> ca.SX:

@@ -21,11 +21,10 @@ passes of :func:`~mpc.robots.drive.motor_step.motor_step_fraction` (its bus-sag 
 and traction disks as expressions). The feedforward is
 :func:`~mpc.robots.drive.motor_step.first_step_feedforward`'s.
 
-The Python tick's shortcut of leaving seldom-needed motor rows out of daqp's problem
-(:mod:`mpc.solvers.row_screen`) saves daqp work re-checked in Python; the compiled tick
-hands daqp every row (the same optimum: a plan optimal without some rows and within them
-is optimal with them). Swerve's motor rows (drive directions along the plan) are not
-covered (:mod:`mpc.tick.support`).
+Rows no plan needs for a while leave daqp's problem in ``tick.c`` as they do in the Python
+tick (:mod:`mpc.tick.screen`, where a stage has enough of them: the same optimum, each plan
+checked against the rows left out); the virtual machine hands daqp every row. Swerve's
+motor rows (drive directions along the plan) are not covered (:mod:`mpc.tick.support`).
 """
 
 from __future__ import annotations

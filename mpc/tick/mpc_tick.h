@@ -75,6 +75,13 @@ int mpc_tick_output_size(void);
  * casters: the measured angles, set before every step (their angles are the robot's state;
  * out[MPC_OUT_STEER] is them plus the steer rates to send times MPC_DT). */
 void mpc_tick_set_steer_angles(mpc_tick* tick, const double* angles);
+/* The row screen (a tick built with one, MPC_SCREEN_ROWS > 0, e.g. a motor model's rows):
+ * rows no plan has had active for ``after`` ticks leave daqp's problem, checked after each
+ * solve and solved again with those a plan breaks (the same optimum); 0: every row in
+ * daqp's problem. mpc_tick_init sets MPC_SCREEN_AFTER. Forgets the plan's active set. */
+void mpc_tick_set_screen(mpc_tick* tick, int after);
+/* The row screen's counts (2): rows in daqp's last problem, solves again so far. */
+void mpc_tick_screen_counts(const mpc_tick* tick, long* counts);
 /* Path mode's warm-up: solve the tick just stepped again (its plan, unshifted, is the
  * guess; the last command and the fallback's memory as before it). */
 void mpc_tick_again(mpc_tick* tick);

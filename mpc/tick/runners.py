@@ -77,7 +77,7 @@ class NativeTick:
     path = "compiled"
 
     def __init__(self, library: Path, graphs: TickGraphs, max_iter: int,
-                 budgeted: bool, rebuild_drift: float) -> None:
+                 budgeted: bool, rebuild_drift: float, screen_after: int = 0) -> None:
         lib = ctypes.CDLL(str(library))
         lib.mpc_tick_init.restype = ctypes.c_void_p
         lib.mpc_tick_init.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_double]
@@ -88,12 +88,16 @@ class NativeTick:
         if graphs.steer:
             lib.mpc_tick_set_steer_angles.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
         lib.mpc_tick_again.argtypes = [ctypes.c_void_p]
+        lib.mpc_tick_set_screen.argtypes = [ctypes.c_void_p, ctypes.c_int]
+        lib.mpc_tick_screen_counts.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
         if lib.mpc_tick_output_size() != output_size(graphs):
             raise RuntimeError("the compiled tick's output layout differs from the graphs'")
         handle = lib.mpc_tick_init(int(max_iter), int(budgeted), float(rebuild_drift))
         if not handle:
             raise RuntimeError("the compiled tick could not set daqp up")
         self._lib, self._handle = lib, handle
+        # the row screen's ticks (mpc.tick.screen; 0: every row in daqp's problem)
+        lib.mpc_tick_set_screen(handle, int(screen_after))
         self._out = np.zeros(output_size(graphs))
         self._pose = np.zeros(3)
         self._step = lib.mpc_tick_step
@@ -104,6 +108,13 @@ class NativeTick:
         handle, self._handle = getattr(self, "_handle", None), None
         if handle:
             self._lib.mpc_tick_free(handle)
+
+    def screen_counts(self) -> tuple[int, int]:
+        """The row screen's counts (:mod:`mpc.tick.screen`): rows in daqp's last problem,
+        solves again with rows a plan broke so far."""
+        counts = (ctypes.c_long * 2)()
+        self._lib.mpc_tick_screen_counts(self._handle, counts)
+        return int(counts[0]), int(counts[1])
 
     def reset(self, last: FloatArray) -> None:
         twist = np.ascontiguousarray(last, dtype=float)

@@ -9,11 +9,11 @@ no steering range), time mode.
   :func:`~mpc.robots.wheels.swerve.limits.linearised_stage_limits`, turned to the direction
   of the module's velocity in the guess (:func:`~mpc.robots.wheels.swerve.limits.update_linearised`:
   a module too slow to give a direction keeps the one it had, so the directions are state
-  carried from tick to tick), its acceleration disk the constant polygon. Every face is in
-  daqp's problem: the Python tick's two shortcuts, guard faces solved only when a plan breaks
-  one and rows kept from the last tick while a plan stays inside the disks, are exact where
-  they hold (the same strictly convex QP, the same answer) and are left out here
-  (``guard_faces=()``).
+  carried from tick to tick), its acceleration disk the constant polygon. Every face is a
+  row of the graphs (``guard_faces=()``); ``tick.c`` leaves the guard faces out of daqp's
+  problem until a plan breaks one (:mod:`mpc.tick.screen`, the Python tick's guard faces
+  as a row screen); rows kept from the last tick while a plan stays inside the disks (the
+  Python tick's other shortcut) are not done here.
 - The clamp (``finish``): :func:`~mpc.control.clamp.clamp_command`'s steps for planar modules
   (``_clamp_planar``: the speed scaling, the acceleration step, the steering check) and, when a
   module would turn past its reach, :func:`~mpc.robots.wheels.swerve.limits.turn_fraction` and

@@ -17,7 +17,9 @@
  * Rows that move every tick (MPC_MOVING_ROWS > 0: swerve's speed faces, a motor model's
  * rows, mpc/tick/steered.py and motors.py): prepare gives their nonzeros, whitened every
  * tick with the kept L^{-1} and handed to daqp every tick. A motor model (MPC_FF > 0):
- * finish also gives the feedforward. */
+ * finish also gives the feedforward. A row screen (MPC_SCREEN_ROWS > 0, mpc/tick/screen.py:
+ * a motor model's rows, swerve's guard faces): daqp gets only the rows in play, each plan
+ * checked against the rest and solved again with those it breaks. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -34,6 +36,33 @@
 #define MPC_UNPLANNED (-1000.0)
 /* daqp's flag of an equality row (active, immutable): a row whose bounds are equal */
 #define MPC_EQUALITY 5
+
+#ifndef MPC_SCREEN_ROWS
+#define MPC_SCREEN_ROWS 0
+#endif
+#if MPC_SCREEN_ROWS
+/* The row screen (mpc/tick/screen.py): a stage's rows by their place in it (MPC_SCREEN_ROWS
+ * places, each stage alike: the plan shifts a stage a tick) leave daqp's problem once no
+ * plan has had them active for ``after`` ticks; a plan is checked against the rows left
+ * out and solved again with those it breaks (every row after MPC_SCREEN_ROUNDS rounds), so
+ * the optimum is the same. daqp gets only the rows in play (its own m set to their count:
+ * its buffers were sized for every row). MPC_SCREEN_PLACES: each place's kind, 0 always
+ * in play, 1 in play until unneeded, 2 out until a plan breaks it (swerve's guard faces). */
+#define MPC_SCREEN_ROUNDS 2
+#define MPC_SCREEN_ROUNDING 1e-9 /* as mpc.robots.limits.ROUNDING */
+struct mpc_screen {
+  int after;                             /* ticks unneeded before a row leaves; 0: off */
+  long ticks;                            /* ticks solved so far */
+  long again;                            /* solves again with rows a plan broke, so far */
+  long needed_at[MPC_SCREEN_ROWS];       /* the tick a plan last had the place active */
+  unsigned char in_play[MPC_SCREEN_ROWS];
+  int picked[MPC_M], count;              /* daqp's rows (the solver's row numbers) */
+  int flags[MPC_M];                      /* daqp's flags of every row between solves */
+  double rows[MPC_M * MPC_NV], lower[MPC_M], upper[MPC_M]; /* daqp's rows, whitened */
+  int sense[MPC_M];
+  int row_start[MPC_M + 1], row_column[MPC_MOVING_ROWS], row_entry[MPC_MOVING_ROWS];
+};
+#endif
 
 struct mpc_tick {
   /* state carried between ticks */
@@ -74,6 +103,9 @@ struct mpc_tick {
   double feedforward[MPC_FF > 0 ? MPC_FF : 1]; /* a motor model's (MPC_FF numbers) */
   int again;
   double last_before[3], memory_before[2];
+#if MPC_SCREEN_ROWS
+  struct mpc_screen screen; /* the rows out of daqp's problem (row screen, below) */
+#endif
   DAQPProblem qp;
   DAQPWorkspace work;
   DAQPResult res;
@@ -85,6 +117,13 @@ struct mpc_tick {
 };
 
 
+#if MPC_SCREEN_ROWS /* (below, with the moving rows) */
+static void screen_index(struct mpc_screen* s);
+static void screen_reset(struct mpc_screen* s);
+static void whiten_row(const struct mpc_screen* s, const double* inverse,
+                       const double* values, int row, double* out);
+#endif
+
 int mpc_tick_output_size(void) { return MPC_OUT_SIZE; }
 
 /* daqp with no active row: the next solve starts cold. */
@@ -93,10 +132,14 @@ static void qp_cold(mpc_tick* t) {
   t->qp_cold = 1;
 }
 
-/* The active set and the kept Hessian dropped (the Python tick's solver.reset()). */
+/* The active set and the kept Hessian dropped (the Python tick's solver.reset()); every
+ * screened place back where it starts. */
 static void forget(mpc_tick* t) {
   qp_cold(t);
   t->kept = 0;
+#if MPC_SCREEN_ROWS
+  screen_reset(&t->screen);
+#endif
 }
 
 mpc_tick* mpc_tick_init(int max_iter, int budgeted, double rebuild_drift) {
@@ -131,6 +174,10 @@ mpc_tick* mpc_tick_init(int max_iter, int budgeted, double rebuild_drift) {
     return NULL;
   }
   t->work.settings->iter_limit = max_iter;
+#if MPC_SCREEN_ROWS
+  screen_index(&t->screen);
+  t->screen.after = MPC_SCREEN_AFTER;
+#endif
 #if MPC_MOVING_ROWS && MPC_ROW_STATE
   {
     static const double start[MPC_ROW_STATE] = MPC_ROW_STATE_START;
@@ -147,6 +194,37 @@ void mpc_tick_set_steer_angles(mpc_tick* t, const double* angles) {
 #else
   (void)t;
   (void)angles;
+#endif
+}
+
+/* The row screen (MPC_SCREEN_ROWS > 0): rows leave daqp's problem after ``after`` ticks
+ * unneeded; 0 (or a tick with no screen): every row in daqp's problem. Set before the
+ * first step (or after a reset). */
+void mpc_tick_set_screen(mpc_tick* t, int after) {
+#if MPC_SCREEN_ROWS
+  t->screen.after = after > 0 ? after : 0;
+  forget(t);
+  t->qp.m = t->work.m = MPC_M; /* every row, as mpc_tick_init set daqp up */
+  t->qp.A = t->rows;
+  t->qp.blower = t->lower;
+  t->qp.bupper = t->upper;
+  t->qp.sense = t->sense;
+#else
+  (void)t;
+  (void)after;
+#endif
+}
+
+/* The row screen's counts: rows in daqp's last problem, solves again with rows a plan broke
+ * so far (every row and 0 with no screen). */
+void mpc_tick_screen_counts(const mpc_tick* t, long* counts) {
+#if MPC_SCREEN_ROWS
+  counts[0] = t->screen.after > 0 ? t->screen.count : MPC_M;
+  counts[1] = t->screen.again;
+#else
+  (void)t;
+  counts[0] = MPC_M;
+  counts[1] = 0;
 #endif
 }
 
@@ -245,6 +323,150 @@ void mpc_tick_whiten_moving(const double* inverse, const double* values, double*
 }
 #endif
 
+#if MPC_SCREEN_ROWS
+#if !MPC_MOVING_ROWS
+#error "the row screen takes the rows prepare gives (MPC_MOVING_ROWS)"
+#endif
+#define MPC_SCREENED_ROWS (MPC_N * MPC_SCREEN_ROWS) /* rows after these are always in */
+
+/* The rows' nonzeros by row (prepare gives them column by column), columns ascending in a
+ * row: a row whitened alone sums as mpc_tick_whiten_moving does. */
+static void screen_index(struct mpc_screen* s) {
+  int count[MPC_M + 1], c, k;
+  memset(count, 0, sizeof(count));
+  for (k = 0; k < MPC_MOVING_ROWS; k++) count[rows_row[k] + 1]++;
+  s->row_start[0] = 0;
+  for (k = 0; k < MPC_M; k++) s->row_start[k + 1] = s->row_start[k] + count[k + 1];
+  memcpy(count, s->row_start, sizeof(int) * MPC_M);
+  for (c = 0; c < MPC_NV; c++)
+    for (k = rows_colind[c]; k < rows_colind[c + 1]; k++) {
+      const int at = count[rows_row[k]]++;
+      s->row_column[at] = c;
+      s->row_entry[at] = k;
+    }
+}
+
+/* Every place back where it starts (in play; a guard out), needed as of now (a reset, a
+ * failed tick). */
+static const unsigned char screen_kind[MPC_SCREEN_ROWS] = MPC_SCREEN_PLACES;
+
+static void screen_reset(struct mpc_screen* s) {
+  int p;
+  for (p = 0; p < MPC_SCREEN_ROWS; p++) {
+    s->in_play[p] = screen_kind[p] != 2;
+    s->needed_at[p] = s->ticks;
+  }
+  memset(s->flags, 0, sizeof(s->flags));
+}
+
+/* Row ``row`` in whitened steps into ``out`` (MPC_NV numbers): its nonzeros ``values`` times
+ * L^{-1}'s columns (packed), as mpc_tick_whiten_moving sums them. */
+static void whiten_row(const struct mpc_screen* s, const double* inverse,
+                       const double* values, int row, double* out) {
+  int e, i;
+  memset(out, 0, sizeof(double) * MPC_NV);
+  for (e = s->row_start[row]; e < s->row_start[row + 1]; e++) {
+    const int c = s->row_column[e];
+    const double* column = inverse + c * MPC_NV - c * (c - 1) / 2; /* L^{-1}[c.., c] */
+    const double a = values[s->row_entry[e]];
+    double* to = out + c;
+    for (i = 0; i < MPC_NV - c; i++) to[i] += a * column[i];
+  }
+}
+
+static int in_play(const struct mpc_screen* s, int row) {
+  return row >= MPC_SCREENED_ROWS || s->in_play[row % MPC_SCREEN_ROWS];
+}
+
+/* daqp's rows: those in play, whitened (moving rows from this tick's values, the others
+ * from the kept whitened rows), their bounds and their flags from the last solve. */
+static void screen_pick(mpc_tick* t) {
+  struct mpc_screen* s = &t->screen;
+  int r, j = 0;
+  for (r = 0; r < MPC_M; r++) {
+    if (!in_play(s, r)) continue;
+    if (rows_move[r])
+      whiten_row(s, t->inverse, t->row_values, r, s->rows + j * MPC_NV);
+    else
+      memcpy(s->rows + j * MPC_NV, t->rows + r * MPC_NV, sizeof(double) * MPC_NV);
+    s->picked[j] = r;
+    s->lower[j] = t->lower[r];
+    s->upper[j] = t->upper[r];
+    j++;
+  }
+  s->count = j;
+}
+
+/* The rows of place ``p`` (out of play) put in play, after daqp's rows (the rows already
+ * there stay whitened). */
+static void screen_admit(mpc_tick* t, int p) {
+  struct mpc_screen* s = &t->screen;
+  int k;
+  s->in_play[p] = 1;
+  s->needed_at[p] = s->ticks;
+  for (k = 0; k < MPC_N; k++) {
+    const int r = k * MPC_SCREEN_ROWS + p, j = s->count++;
+    if (rows_move[r])
+      whiten_row(s, t->inverse, t->row_values, r, s->rows + j * MPC_NV);
+    else
+      memcpy(s->rows + j * MPC_NV, t->rows + r * MPC_NV, sizeof(double) * MPC_NV);
+    s->picked[j] = r;
+    s->lower[j] = t->lower[r];
+    s->upper[j] = t->upper[r];
+  }
+}
+
+/* The places out of play whose rows the step ``t->step`` breaks at some stage beyond
+ * rounding (marked in ``broken``); how many. */
+static int screen_broken(mpc_tick* t, unsigned char* broken) {
+  const struct mpc_screen* s = &t->screen;
+  double largest = 1.0, slack;
+  int p, k, e, found = 0;
+  for (p = 0; p < MPC_SCREEN_ROWS; p++) {
+    broken[p] = 0;
+    if (s->in_play[p]) continue;
+    for (k = 0; k < MPC_N; k++) {
+      const int r = k * MPC_SCREEN_ROWS + p;
+      if (isfinite(t->lower[r]) && fabs(t->lower[r]) > largest) largest = fabs(t->lower[r]);
+      if (isfinite(t->upper[r]) && fabs(t->upper[r]) > largest) largest = fabs(t->upper[r]);
+    }
+  }
+  slack = MPC_SCREEN_ROUNDING * largest;
+  for (p = 0; p < MPC_SCREEN_ROWS; p++) {
+    if (s->in_play[p]) continue;
+    for (k = 0; k < MPC_N && !broken[p]; k++) {
+      const int r = k * MPC_SCREEN_ROWS + p;
+      double value = 0.0;
+      for (e = s->row_start[r]; e < s->row_start[r + 1]; e++)
+        value += t->row_values[s->row_entry[e]] * t->step[s->row_column[e]];
+      if (value - t->upper[r] > slack || t->lower[r] - value > slack) broken[p] = 1;
+    }
+    found += broken[p];
+  }
+  return found;
+}
+
+/* Places no plan has needed for ``after`` ticks leave (never one with an equality row: every
+ * plan is on it; one stays if all would go). */
+static void screen_retire(mpc_tick* t) {
+  struct mpc_screen* s = &t->screen;
+  unsigned char stale[MPC_SCREEN_ROWS];
+  int p, k, left = 0, any = 0, keep = -1;
+  for (p = 0; p < MPC_SCREEN_ROWS; p++) {
+    stale[p] = s->in_play[p] && screen_kind[p] && s->ticks - s->needed_at[p] >= s->after;
+    for (k = 0; k < MPC_N && stale[p]; k++)
+      if (t->lower[k * MPC_SCREEN_ROWS + p] == t->upper[k * MPC_SCREEN_ROWS + p]) stale[p] = 0;
+    any += stale[p];
+    left += s->in_play[p] && !stale[p];
+    if (s->in_play[p] && (keep < 0 || s->needed_at[p] > s->needed_at[keep])) keep = p;
+  }
+  if (!any) return;
+  if (!left) stale[keep] = 0; /* daqp needs a row: the last one needed stays */
+  for (p = 0; p < MPC_SCREEN_ROWS; p++)
+    if (stale[p]) s->in_play[p] = 0;
+}
+#endif
+
 /* The factor, regularised as the Python path regularises a Hessian that is not positive
  * definite (1e-9 of its trace on the diagonal); NaN if that fails too (the QP fails). */
 static void cholesky(const double* h, double* l) {
@@ -305,7 +527,16 @@ static void prepare(mpc_tick* t, const double* pose, const double* ref_poses,
   }
   if (t->rebuilt || (MPC_MOVING_ROWS && planned)) { /* moving rows: every tick */
 #if MPC_MOVING_ROWS
-    mpc_tick_whiten_moving(t->inverse, t->row_values, t->rows, t->rebuilt);
+#if MPC_SCREEN_ROWS
+    if (t->screen.after > 0) { /* screen_pick whitens daqp's rows; here the fixed ones */
+      int r;
+      if (t->rebuilt)
+        for (r = 0; r < MPC_M; r++)
+          if (!rows_move[r])
+            whiten_row(&t->screen, t->inverse, t->row_values, r, t->rows + r * MPC_NV);
+    } else
+#endif
+      mpc_tick_whiten_moving(t->inverse, t->row_values, t->rows, t->rebuilt);
 #else
     t->arg[0] = t->inverse;
     t->out[0] = t->rows;
@@ -330,9 +561,16 @@ static int cold_sense(mpc_tick* t) {
   return count;
 }
 
+#if MPC_SCREEN_ROWS
+static int solve_screened(mpc_tick* t, double* iterations, double* seconds);
+#endif
+
 /* daqp on the rows prepare wrote: its exit flag (the step in t->y). */
 static int solve(mpc_tick* t, double* iterations, double* seconds) {
   int i, flag, mask = UPDATE_v + UPDATE_d, equalities = 0;
+#if MPC_SCREEN_ROWS
+  if (t->screen.after > 0) return solve_screened(t, iterations, seconds);
+#endif
   if (t->rebuilt || MPC_MOVING_ROWS) mask += UPDATE_M; /* new whitened rows */
   if (t->qp_cold) { /* sense from t->sense: all inactive but the equalities */
     mask += UPDATE_sense;
@@ -367,6 +605,94 @@ static int finite_vector(const double* x, int n) {
   return isfinite(sum);
 }
 
+/* The step d = L^{-T} y (unwhiten). */
+static void unwhiten(mpc_tick* t) {
+  t->arg[0] = t->inverse;
+  t->arg[1] = t->y;
+  t->out[0] = t->step;
+  mpc_tick_unwhiten(t->arg, t->out, t->iw, t->w, 0);
+}
+
+#if MPC_SCREEN_ROWS
+/* daqp on the rows in play (screen_pick), warm from their flags; its exit flag (the
+ * step in t->y), the flags of its rows saved. ``limit``: its iteration limit. */
+static int solve_picked(mpc_tick* t, int limit, double* iterations, double* seconds) {
+  struct mpc_screen* s = &t->screen;
+  int i, flag, mask = UPDATE_v + UPDATE_d + UPDATE_M + UPDATE_sense, warm = 0, equalities = 0;
+  t->qp.m = t->work.m = s->count;
+  t->qp.A = s->rows;
+  t->qp.blower = s->lower;
+  t->qp.bupper = s->upper;
+  t->qp.sense = s->sense;
+  for (i = 0; i < s->count; i++) {
+    s->sense[i] = s->flags[s->picked[i]];
+    if (s->lower[i] == s->upper[i]) {
+      s->sense[i] = MPC_EQUALITY;
+      equalities = 1;
+    }
+    warm |= s->sense[i] & ACTIVE;
+  }
+  t->work.settings->iter_limit = limit;
+  reset_daqp_workspace(&t->work);
+  flag = update_ldp(mask, &t->work);
+  if (flag >= 0 && warm && activate_constraints(&t->work) < 0) {
+    /* the kept active set does not fit the new rows: start cold */
+    for (i = 0; i < s->count; i++)
+      s->sense[i] = s->lower[i] == s->upper[i] ? MPC_EQUALITY : 0;
+    reset_daqp_workspace(&t->work);
+    flag = update_ldp(mask, &t->work);
+    if (flag >= 0 && equalities && activate_constraints(&t->work) < 0) flag = -1;
+  }
+  t->qp_cold = 0;
+  if (flag < 0) {
+    for (i = 0; i < MPC_NV; i++) t->y[i] = NAN;
+    return flag;
+  }
+  daqp_solve(&t->res, &t->work);
+  *iterations += t->res.iter;
+  *seconds += t->res.solve_time + t->res.setup_time;
+  for (i = 0; i < s->count; i++)
+    s->flags[s->picked[i]] = t->work.sense[i] & (ACTIVE | LOWER | IMMUTABLE);
+  return t->res.exitflag;
+}
+
+/* The tick solved with the rows in play, checked against the rows left out and solved
+ * again with those its plan breaks (every row after MPC_SCREEN_ROUNDS rounds); with a
+ * budget, the solves share its iterations. The places the plan has active are needed as
+ * of this tick; then the places unneeded for ``after`` ticks leave. The step in t->step. */
+static int solve_screened(mpc_tick* t, double* iterations, double* seconds) {
+  struct mpc_screen* s = &t->screen;
+  unsigned char broken[MPC_SCREEN_ROWS];
+  int flag, rounds = 0, i, p;
+  if (t->qp_cold) memset(s->flags, 0, sizeof(s->flags));
+  s->ticks++;
+  screen_pick(t);
+  for (;;) {
+    const int used = (int)*iterations;
+    const int limit = t->budgeted ? t->max_iter - used : t->max_iter;
+    if (limit <= 0) {
+      flag = EXIT_ITERLIMIT;
+      for (i = 0; i < MPC_NV; i++) t->y[i] = NAN;
+      break;
+    }
+    flag = solve_picked(t, limit, iterations, seconds);
+    unwhiten(t);
+    if (!(flag > 0 && finite_vector(t->step, MPC_NV))) break;
+    for (i = 0; i < s->count; i++)
+      if (s->picked[i] < MPC_SCREENED_ROWS && (t->work.sense[i] & ACTIVE))
+        s->needed_at[s->picked[i] % MPC_SCREEN_ROWS] = s->ticks;
+    if (!screen_broken(t, broken)) break;
+    rounds++;
+    s->again++;
+    for (p = 0; p < MPC_SCREEN_ROWS; p++)
+      if (!s->in_play[p] && (broken[p] || rounds > MPC_SCREEN_ROUNDS)) screen_admit(t, p);
+  }
+  t->work.settings->iter_limit = t->max_iter;
+  if (flag > 0) screen_retire(t);
+  return flag;
+}
+#endif
+
 /* One tick: from the measured pose and the reference window (poses and world velocities
  * at the stage times, 3 x (N+1) column-major: a stage's three numbers together) to the
  * command, the plan and the status (``out``, mpc_tick_output_size() numbers). */
@@ -394,10 +720,7 @@ int mpc_tick_step(mpc_tick* t, const double* pose, const double* ref_poses,
       flag = solve(t, &iterations, &seconds);
     }
   }
-  t->arg[0] = t->inverse;
-  t->arg[1] = t->y;
-  t->out[0] = t->step;
-  mpc_tick_unwhiten(t->arg, t->out, t->iw, t->w, 0);
+  unwhiten(t);
   t->arg[0] = t->step;
   t->arg[1] = &flag;
   t->arg[2] = t->carry;
