@@ -76,6 +76,26 @@ void mpc_tick_set_steer_angles(mpc_tick* tick, const double* angles);
 /* Path mode's warm-up: solve the tick just stepped again (its plan, unshifted, is the
  * guess; the last command and the fallback's memory as before it). */
 void mpc_tick_again(mpc_tick* tick);
+#if MPC_PROGRESS > 0
+/* Path mode (MPC_PROGRESS = N + 1), a tick in three calls: the reference is sampled where
+ * the progress is, which the last plan decides.
+ *   mpc_tick_path_times(tick, t, times);            the times [s] to sample at (N + 1)
+ *   (sample the reference's poses, world velocities and accelerations at those times)
+ *   mpc_tick_path_step(tick, pose, poses, velocities, accelerations, out);
+ *   while (mpc_tick_path_again(tick, times)) {      the warm-up after a start with no plan
+ *     (sample at the new times; if that fails, stop: the last step's command stands)
+ *     mpc_tick_path_step(tick, pose, poses, velocities, accelerations, out);
+ *   }
+ * then send out's command. t [s] is the tick's time; poses (x, y, theta) [m, m, rad],
+ * velocities (dx, dy, dtheta per second of the reference's own time) and accelerations
+ * (per second squared), world frame, 3 x (N + 1) each, a stage's three numbers together
+ * (NaN where it cannot be sampled: the fallback). out[MPC_OUT_PROGRESS] is the planned
+ * progress [s] (its first value: the reference time tracked now). No allocation. */
+void mpc_tick_path_times(mpc_tick* tick, double t, double* times);
+int mpc_tick_path_step(mpc_tick* tick, const double* pose, const double* poses,
+                       const double* velocities, const double* accelerations, double* out);
+int mpc_tick_path_again(mpc_tick* tick, double* times);
+#endif
 
 #ifdef __cplusplus
 }

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from mpc.control.timing import WARM_UP_ROUNDS
 from mpc.model.grid import shift_maps
 from mpc.model.tracking import TrackingModel
 from mpc.robots.base import ScalarWheels
@@ -50,6 +51,7 @@ from mpc.tick.graphs import (
     _condensed_hessian,
     _finish,
 )
+from mpc.tick.progress import progress_graphs
 from mpc.tick.reuse import reuse_terms, terms_size
 
 #: ``prepare``'s guess mode of a tick solved again (path mode's warm-up): the last
@@ -79,12 +81,17 @@ class PathGraphs(TickGraphs):
 
     progress: int = 0
     reference_size: int = 0
+    #: The progress arithmetic (:func:`mpc.tick.progress.progress_graphs`): ``times``,
+    #: ``reference``, ``refine``, generated beside the tick's graphs.
+    progress_graphs: tuple[ca.Function, ...] = ()
 
     def config(self) -> dict[str, int]:
-        """Sizes for ``mpc_tick_config.h``: the progress's, and what ``mpc_tick_step``'s
-        two reference arrays hold in path mode (the parameter vector, the bounds)."""
+        """Sizes for ``mpc_tick_config.h``: the progress's, what ``mpc_tick_step``'s
+        two reference arrays hold in path mode (the parameter vector, the bounds), and the
+        warm-up's rounds at most."""
         return {"MPC_PROGRESS": self.progress, "MPC_REF_SIZE": self.reference_size,
-                "MPC_REF2_SIZE": 2 * self.progress, "MPC_AGAIN_MODE": int(AGAIN)}
+                "MPC_REF2_SIZE": 2 * self.progress, "MPC_AGAIN_MODE": int(AGAIN),
+                "MPC_WARM_UP_ROUNDS": WARM_UP_ROUNDS}
 
 
 def build_path_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> PathGraphs:
@@ -163,7 +170,8 @@ def build_path_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -
     return PathGraphs(prepare, hessian, whiten, whiten_rows, unwhiten, finish, n, size, m,
                       len(wheels.limits), carry.shape[0], int(kept.shape[0]),
                       tuple(float(x) for x in model.offsets), float(tick), progress=n + 1,
-                      reference_size=parameters.size)
+                      reference_size=parameters.size,
+                      progress_graphs=progress_graphs(model))
 
 
 def _drift(model: TrackingModel, initial: np.ndarray, p_data: ca.SX, sensitivities: ca.SX,
