@@ -30,10 +30,9 @@ from tick_loop import (
     same_reuse_rule,
 )
 
-import mpc
 import mpc.solvers.dense as dense
 from benchmarks.scenarios import reference
-from mpc import Command, Controller, ControllerError, Status
+from mpc import Command, Controller, Status
 from mpc.robots import preset
 from mpc.sim import simulate
 from trajectories import FigureEight, TrajectoryError, time_optimal
@@ -191,9 +190,3 @@ def test_issue_9_lines_on_the_virtual_machine() -> None:
     assert metrics["lap_time"] / target <= 1.05
     assert metrics["max_cross_track_error"] <= 10e-3
     assert math.degrees(metrics["max_heading_error"]) <= 1.0
-
-
-def test_export_refuses_path_mode_by_name(tmp_path: object) -> None:
-    controller = compiled_loop("mecanum", FigureEight(1.0, 16.0), "virtual-machine")
-    with pytest.raises(ControllerError, match="mode='path'"):
-        mpc.export_c(controller, tmp_path)  # type: ignore[arg-type]

@@ -1,0 +1,107 @@
+"""``mpc.export_c`` in path mode: the exported library, built once with CMake and gcc, asks
+for the reference at the Python controller's times (its progress guess and warm-up rounds)
+and, fed the samples the Python controller took there, gives its commands, statuses and
+reference times (to 1e-9) over recorded closed loops inside and beyond the limits and
+through a reference that drops out; clean under the sanitizers."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_compiled_path import Flaky
+from tick_loop import DT, HORIZON, cmake_example, sanitized_example
+
+import mpc
+from benchmarks.export_check import compiled_reuse_rule, plant_step
+from benchmarks.exported import STATUSES, SampleLog, path_tick_inputs
+from mpc import Command, Controller, Status
+from mpc.robots import preset
+from trajectories import FigureEight, Trajectory
+
+pytestmark = pytest.mark.skipif(shutil.which("cmake") is None or shutil.which("gcc") is None,
+                                reason="needs cmake and gcc")
+
+TICKS = 300
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The exported path-mode Mecanum controller (its sources) and its example program,
+    built with CMake once (the reference is the caller's: every test's runs on it)."""
+    folder = tmp_path_factory.mktemp("export-path")
+    controller = Controller(preset("mecanum"), FigureEight(1.0, 16.0), horizon=HORIZON,
+                            dt=DT, mode="path", compiled="virtual-machine")
+    source = mpc.export_c(controller, folder / "src")
+    readme = (source / "README.md").read_text()
+    assert "mpc_tick_path_times" in readme and "path mode" in readme
+    return source, cmake_example(source, folder / "build")
+
+
+def recorded(trajectory: Trajectory, ticks: int = TICKS
+             ) -> tuple[str, list[Command], list[int]]:
+    """The Python controller's closed loop in path mode (its Hessian kept by the compiled
+    tick's rule) on a plant with slip: the example's input (the samples it took each
+    tick), its commands and the samples a tick."""
+    log = SampleLog(trajectory)
+    with compiled_reuse_rule(path=True):
+        controller = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
+                                mode="path")
+        pose = trajectory.sample(0.0).pose + np.array([0.15, -0.05, 0.2])
+        times, poses, commands, samples = [], [], [], []
+        for k in range(ticks):
+            log.take()
+            commands.append(controller.step(pose, k * DT))
+            times.append(k * DT)
+            poses.append(pose)
+            samples.append(log.take())
+            pose = plant_step(pose, commands[-1].twist, DT)
+    return path_tick_inputs(times, poses, samples), commands, [len(s) for s in samples]
+
+
+def run(program: Path, inputs: str) -> np.ndarray:
+    done = subprocess.run([str(program)], input=inputs, check=True, capture_output=True,
+                          text=True)
+    return np.array([line.split() for line in done.stdout.splitlines()], dtype=float)
+
+
+@pytest.mark.parametrize("trajectory", [FigureEight(1.0, 16.0, heading="tangent"),
+                                        FigureEight(1.0, 6.0, heading="tangent"),
+                                        Flaky(1.0, 16.0, heading="tangent")],
+                         ids=["inside", "beyond", "reference drops out"])
+def test_the_exported_path_library_gives_the_python_commands(
+        trajectory: Trajectory, exported: tuple[Path, Path]) -> None:
+    inputs, expected, samples = recorded(trajectory)
+    rows = run(exported[1], inputs)
+    assert rows.shape == (TICKS, 1 + 3 + 4 + 3)
+    for tick, (row, command) in enumerate(zip(rows, expected, strict=True)):
+        assert STATUSES[int(row[0])] is command.status, tick
+        np.testing.assert_allclose(row[1:4], command.twist, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(row[4:8], command.wheel_speeds, rtol=0, atol=1e-9)
+        assert row[8] == pytest.approx(command.reference_time, abs=1e-9), tick
+        assert row[9] <= 1e-9, tick  # the library asked for the recorded times
+    assert np.all(np.isfinite(rows))
+    statuses = [command.status for command in expected]
+    assert max(samples) > 1  # the warm-up's rounds happened (the first tick at least)
+    if isinstance(trajectory, Flaky):  # fallbacks, then solved again
+        assert {Status.PREVIOUS_PLAN, Status.STOPPING} <= set(statuses)
+        assert statuses[-1] is Status.SOLVED
+    else:
+        assert all(status is Status.SOLVED for status in statuses)
+
+
+def test_the_exported_path_library_runs_clean_under_the_sanitizers(
+        exported: tuple[Path, Path], tmp_path: Path) -> None:
+    """main.c, tick.c and the generated graphs with AddressSanitizer and
+    UndefinedBehaviorSanitizer (any report fatal): 200 ticks beyond the limits, a
+    reference that drops out among them, clean."""
+    program = sanitized_example(exported[0], tmp_path / "sanitized")
+    inputs, expected, _ = recorded(Flaky(1.0, 6.0, heading="tangent"), 200)
+    done = subprocess.run([str(program)], input=inputs, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "runtime error" not in done.stderr
+    rows = np.array([line.split() for line in done.stdout.splitlines()], dtype=float)
+    assert [STATUSES[int(code)] for code in rows[:, 0]] == [c.status for c in expected]
