@@ -2,7 +2,8 @@
 for the reference at the Python controller's times (its progress guess and warm-up rounds)
 and, fed the samples the Python controller took there, gives its commands, statuses and
 reference times (to 1e-9) over recorded closed loops inside and beyond the limits and
-through a reference that drops out; clean under the sanitizers."""
+through a reference that drops out; clean under the sanitizers; no allocation after
+``mpc_tick_init``."""
 
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from benchmarks.export_check import compiled_reuse_rule, plant_step
 from benchmarks.exported import STATUSES, SampleLog, path_tick_inputs
 from mpc import Command, Controller, Status
 from mpc.robots import preset
+from mpc.tick.build import casadi_folder
 from trajectories import FigureEight, Trajectory
 
 pytestmark = pytest.mark.skipif(shutil.which("cmake") is None or shutil.which("gcc") is None,
@@ -105,3 +107,81 @@ def test_the_exported_path_library_runs_clean_under_the_sanitizers(
     assert "runtime error" not in done.stderr
     rows = np.array([line.split() for line in done.stdout.splitlines()], dtype=float)
     assert [STATUSES[int(code)] for code in rows[:, 0]] == [c.status for c in expected]
+
+
+COUNTING = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "tick.c"
+static long allocations;
+static int counting;
+void* __real_malloc(size_t size);
+void* __real_calloc(size_t count, size_t size);
+void* __real_realloc(void* pointer, size_t size);
+void* __wrap_malloc(size_t size) { allocations += counting; return __real_malloc(size); }
+void* __wrap_calloc(size_t count, size_t size) {
+  allocations += counting; return __real_calloc(count, size);
+}
+void* __wrap_realloc(void* pointer, size_t size) {
+  allocations += counting; return __real_realloc(pointer, size);
+}
+/* a line at 0.4 m/s, its heading turning at 0.2 rad/s, sampled at the library's times */
+static void sample(const double* times, double* poses, double* velocities,
+                   double* accelerations) {
+  int i;
+  for (i = 0; i < MPC_PROGRESS; i++) {
+    poses[3 * i] = 0.4 * times[i]; poses[3 * i + 1] = 0.0; poses[3 * i + 2] = 0.2 * times[i];
+    velocities[3 * i] = 0.4; velocities[3 * i + 1] = 0.0; velocities[3 * i + 2] = 0.2;
+    accelerations[3 * i] = accelerations[3 * i + 1] = accelerations[3 * i + 2] = 0.0;
+  }
+}
+int main(void) {
+  double pose[3] = {0.05, -0.02, 0.1}, times[MPC_PROGRESS], poses[3 * MPC_PROGRESS];
+  double velocities[3 * MPC_PROGRESS], accelerations[3 * MPC_PROGRESS];
+  double last[3] = {0.0, 0.0, 0.0}, out[MPC_OUT_SIZE];
+  int k, solved = 0, steps = 0;
+  mpc_tick* tick = mpc_tick_init(1000, 0, 1.0);
+  if (!tick) return 2;
+  mpc_tick_reset(tick, last);
+  counting = 1;
+  for (k = 0; k < 200; k++) {
+    if (k == 100) mpc_tick_reset(tick, last); /* the warm-up again */
+    mpc_tick_path_times(tick, 0.05 * k, times);
+    sample(times, poses, velocities, accelerations);
+    mpc_tick_path_step(tick, pose, poses, velocities, accelerations, out);
+    steps++;
+    while (mpc_tick_path_again(tick, times)) {
+      sample(times, poses, velocities, accelerations);
+      mpc_tick_path_step(tick, pose, poses, velocities, accelerations, out);
+      steps++;
+    }
+    solved += out[MPC_OUT_STATUS] == 0.0;
+    pose[0] += 0.05 * out[MPC_OUT_TWIST]; pose[2] += 0.05 * out[MPC_OUT_TWIST + 2];
+  }
+  counting = 0;
+  mpc_tick_free(tick);
+  printf("%ld %d %d\n", allocations, solved, steps);
+  return 0;
+}
+"""
+
+
+def test_the_path_calls_allocate_nothing(exported: tuple[Path, Path],
+                                         tmp_path: Path) -> None:
+    """The exported sources and tick.c built with malloc, calloc and realloc wrapped (daqp's
+    static library included): 200 path-mode ticks (the three calls, a reset and its
+    warm-up among them) after mpc_tick_init allocate nothing."""
+    source = exported[0]
+    (tmp_path / "counting.c").write_text(COUNTING)
+    casadi = casadi_folder()
+    wraps = [f"-Wl,--wrap={name}" for name in ("malloc", "calloc", "realloc")]
+    subprocess.run(["gcc", "-O1", str(tmp_path / "counting.c"),
+                    str(source / "mpc_tick_graphs.c"), f"-I{source}",
+                    f"-I{casadi / 'include'}", f"-L{casadi}", "-l:libdaqpstat.a", "-lm",
+                    *wraps, "-o", str(tmp_path / "counting")], check=True, capture_output=True)
+    done = subprocess.run([str(tmp_path / "counting")], check=True, capture_output=True,
+                          text=True)
+    allocations, solved, steps = map(int, done.stdout.split())
+    assert allocations == 0
+    assert solved == 200
+    assert steps > 200  # (warm-up rounds at the start and after the reset)

@@ -4,8 +4,11 @@ interface and an example ``main.c``), daqp linked from the casadi wheel that gen
 (its ``include/daqp`` and ``libdaqpstat.a``) or, for another target, built from daqp's
 released source (``-DMPC_DAQP_SOURCE``, ``daqp.cmake``); none of daqp's code is copied.
 
-The reference is the caller's: each tick takes the reference's poses and world velocities
-at the stage times (``t + MPC_STAGE_OFFSETS``), as the controller samples them.
+The reference is the caller's: in time mode each tick takes the reference's poses and
+world velocities at the stage times (``t + MPC_STAGE_OFFSETS``), as the controller samples
+them; in path mode the library gives the times to sample at (the progress guess,
+``mpc_tick_path_times``; the warm-up's rounds, ``mpc_tick_path_again``) and each step takes
+the poses, world velocities and accelerations there (``mpc_tick_path_step``).
 """
 
 from __future__ import annotations
