@@ -3,7 +3,7 @@ for the reference at the Python controller's times (its progress guess and warm-
 and, fed the samples the Python controller took there, gives its commands, statuses and
 reference times (to 1e-9) over recorded closed loops inside and beyond the limits and
 through a reference that drops out; clean under the sanitizers; no allocation after
-``mpc_tick_init``."""
+``mpc_tick_init``; cross-built for armhf and aarch64, the same under qemu-user."""
 
 from __future__ import annotations
 
@@ -14,6 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from test_compiled_path import Flaky
+from test_export_cross import TARGETS, daqp_source  # noqa: F401 (a fixture)
+from test_export_cross import _build as cross_build
+from test_export_cross import _run as run_command
 from tick_loop import DT, HORIZON, cmake_example, sanitized_example
 
 import mpc
@@ -185,3 +188,30 @@ def test_the_path_calls_allocate_nothing(exported: tuple[Path, Path],
     assert allocations == 0
     assert solved == 200
     assert steps > 200  # (warm-up rounds at the start and after the reset)
+
+
+@pytest.mark.parametrize("target", sorted(TARGETS))
+def test_the_cross_built_path_library_gives_the_same_commands_under_qemu(
+        target: str, exported: tuple[Path, Path], request: pytest.FixtureRequest) -> None:
+    """Built for armhf and aarch64 with daqp from its released source (as
+    tests/test_export_cross.py builds time mode), statically linked, under qemu-user: the
+    Python controller's statuses, commands and reference times to 1e-9 beyond the limits,
+    and the recorded times asked for."""
+    compiler, qemu, processor = TARGETS[target]
+    missing = [tool for tool in (compiler, qemu) if shutil.which(tool) is None]
+    if missing:
+        pytest.skip(f"{target}: {' and '.join(missing)} not installed")
+    daqp: Path = request.getfixturevalue("daqp_source")
+    source = exported[0]
+    program = cross_build(source, source.parent / target, daqp,
+                          "-DCMAKE_SYSTEM_NAME=Linux", f"-DCMAKE_SYSTEM_PROCESSOR={processor}",
+                          f"-DCMAKE_C_COMPILER={compiler}", "-DCMAKE_EXE_LINKER_FLAGS=-static")
+    inputs, expected, _ = recorded(FigureEight(1.0, 6.0, heading="tangent"), 120)
+    rows = run_command([qemu, str(program)], inputs)
+    assert rows.shape == (120, 11)
+    for tick, (row, command) in enumerate(zip(rows, expected, strict=True)):
+        assert STATUSES[int(row[0])] is command.status, tick
+        np.testing.assert_allclose(row[1:4], command.twist, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(row[4:8], command.wheel_speeds, rtol=0, atol=1e-9)
+        assert row[8] == pytest.approx(command.reference_time, abs=1e-9), tick
+        assert row[9] <= 1e-9, tick
