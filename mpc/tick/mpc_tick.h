@@ -66,7 +66,9 @@ void mpc_tick_reset(mpc_tick* tick, const double* last);
 /* One tick: the measured pose (x, y, theta), the reference's poses and world velocities
  * (dx, dy, dtheta per second) at the stage times t + MPC_STAGE_OFFSETS, each 3 x
  * (MPC_N + 1) with a stage's three numbers together; writes out (MPC_OUT_SIZE numbers) and
- * returns the status. No allocation. */
+ * returns the status. No allocation. (Time mode; in path mode, mpc_tick_path_step calls it
+ * with the model's parameter vector and the progress bounds: use the mpc_tick_path_* calls
+ * below.) */
 int mpc_tick_step(mpc_tick* tick, const double* pose, const double* ref_poses,
                   const double* ref_velocities, double* out);
 int mpc_tick_output_size(void);
