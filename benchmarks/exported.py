@@ -9,7 +9,10 @@ exported sources, the harness and the compiler: the same controller exported aga
 it instead of building it. The program reads every tick from stdin first (the measured
 pose, then the reference's poses and world velocities at the stage times, as the exported
 ``main.c`` reads them), runs them ``rounds`` times from a reset and times each step in C
-(no Python, no ctypes): what an embedded caller of the library gets.
+(no Python, no ctypes): what an embedded caller of the library gets. A path-mode library
+(:data:`HARNESS_PATH`) reads the samples the Python controller took each tick
+(:class:`SampleLog`, :func:`path_tick_inputs`), runs its three calls a tick on them and
+also reports how far the times it asked for are from the recorded ones.
 """
 
 from __future__ import annotations
