@@ -85,13 +85,6 @@ REBUILD_NOW = 2.0
 #: reference (docs/design/hessian-reuse.md).
 COST_ONLY_DRIFT = 0.25
 
-#: daqp's primal tolerance (its default: 1e-6), in every tick that runs daqp (this one, the
-#: compiled tick's C and virtual machine: ``mpc_tick_config.h``'s ``MPC_PRIMAL_TOL``):
-#: with 1e-6 the casadi wheel's daqp (the C library's) and the daqp module (this tick's)
-#: ended on different active sets where a row was that close to its bound
-#: (docs/guide/compiled-tick.md, "Path mode in C").
-PRIMAL_TOL = 1e-9
-
 #: Row sets up to this many entries are multiplied dense, larger ones sparse
 #: (:class:`_FixedBounds`).
 _DENSE_ROWS = 20_000
@@ -203,8 +196,7 @@ class DenseSolver:
         self._p_moves = bool(ca.depends_on(structure.cost_terms(p)[0], p))
         self._p_settled = False
         self._isotropic = False  # whether the cost weighs positions alike in every direction
-        self._settings = {"iter_limit": int(max_iter), "time_limit": float(time_limit),
-                          "primal_tol": PRIMAL_TOL}
+        self._settings = {"iter_limit": int(max_iter), "time_limit": float(time_limit)}
         self._solver: daqp.Model | None = None
         # daqp gets the problem in whitened steps y = L' d (H = L L'), its Hessian the
         # identity: a new Hessian or new rows (swerve, motor limits) cost a Cholesky

@@ -22,7 +22,6 @@ from pathlib import Path
 import casadi as ca
 
 from mpc.model.jit import JitError, cache_folder
-from mpc.solvers.dense import PRIMAL_TOL
 from mpc.tick.graphs import TickGraphs
 
 #: The hand-written C around the graphs, and its header (the interface).
@@ -70,8 +69,6 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
         # directions), the steer angles; 0 for other robots
         "MPC_MOVING_ROWS": graphs.moving_rows, "MPC_ROW_STATE": len(graphs.row_state),
         "MPC_STEER": graphs.steer,
-        # daqp's primal tolerance, the Python tick's (mpc.solvers.dense.PRIMAL_TOL)
-        "MPC_PRIMAL_TOL": repr(PRIMAL_TOL),
     }
     config = getattr(graphs, "config", None)  # path mode's sizes (mpc.tick.path)
     if config is not None:

@@ -26,7 +26,6 @@ from scipy.linalg import lapack
 
 from mpc.arrays import FloatArray
 from mpc.buffered import BufferedFunction
-from mpc.solvers.dense import PRIMAL_TOL
 from mpc.tick.graphs import COLD, HOLD, SOLVED, UNPLANNED, WARM, TickGraphs
 from mpc.tick.path import AGAIN
 from mpc.tick.reuse import must_rebuild
@@ -156,7 +155,7 @@ class VirtualTick:
         self._kept = self._rebuilt = False  # a Hessian is kept; this tick rebuilt it
         self._kept_terms, self._terms = np.zeros(graphs.terms), np.zeros(graphs.terms)
         self._drift = np.zeros(1)
-        self._settings = {"iter_limit": int(max_iter), "primal_tol": PRIMAL_TOL}
+        self._settings = {"iter_limit": int(max_iter)}
         self._last, self._plan = np.zeros(3), np.zeros((n, 3))
         self._memory, self._warm = np.zeros(2), False
         # (the window's poses and velocities, (N+1, 3); path mode: the parameter vector

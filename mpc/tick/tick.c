@@ -142,7 +142,6 @@ mpc_tick* mpc_tick_init(int max_iter, int budgeted, double rebuild_drift) {
     return NULL;
   }
   t->work.settings->iter_limit = max_iter;
-  t->work.settings->primal_tol = MPC_PRIMAL_TOL; /* every tick's (mpc/solvers/dense.py) */
 #if MPC_MOVING_ROWS && MPC_ROW_STATE
   {
     static const double start[MPC_ROW_STATE] = MPC_ROW_STATE_START;
