@@ -13,11 +13,12 @@ difference of a commanded twist component or wheel speed, and the ticks whose st
 differs. Path mode: the samples the Python controller took each tick (its progress guess
 and warm-up rounds, :class:`~benchmarks.exported.SampleLog`) are fed to the library's
 three calls, and the line also reports how far the times the library asked for, and the
-reference time it tracked, are from the Python controller's. The Python tick keeps its Hessian by the compiled tick's rule for this (rebuilt at
-once when it drifted beyond :data:`mpc.tick.reuse.REBUILD_DRIFT`, never staged: a kept
-Hessian changes a step by far more than rounding, docs/guide/compiled-tick.md). A preset
-or mode the compiled tick does not cover is a line with its reason. Exit code 1 if any
-difference exceeds ``--tolerance`` or any status differs.
+reference time it tracked, are from the Python controller's. The Python tick keeps its
+Hessian by the compiled tick's rule for this (rebuilt at once when it drifted beyond
+:data:`mpc.tick.reuse.REBUILD_DRIFT`, never staged: a kept Hessian changes a step by far
+more than rounding, docs/guide/compiled-tick.md). A preset or mode the compiled tick does
+not cover is a line with its reason. Exit code 1 if any difference exceeds
+``--tolerance`` or any status differs.
 """
 
 from __future__ import annotations

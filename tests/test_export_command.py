@@ -111,7 +111,7 @@ def test_export_refuses_to_overwrite_and_names_what_it_covers(
 def test_export_writes_path_mode_with_its_three_calls(tmp_path: Path) -> None:
     out = tmp_path / "path"
     assert main(["export", "omni4", "--out", str(out), "--horizon", str(HORIZON), "--dt",
-                 str(DT), "--mode", "path"]) == 0
+                 str(DT), "--path"]) == 0
     controller = Controller(preset("omni4"), FigureEight(0.5, 20.0), horizon=HORIZON,
                             dt=DT, mode="path", compiled="virtual-machine")
     expected = mpc.export_c(controller, tmp_path / "direct")
