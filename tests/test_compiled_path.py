@@ -201,7 +201,8 @@ def test_a_new_trajectory_and_a_reset_start_the_progress_over() -> None:
     def run(controller: Controller, poses: list[np.ndarray] | None) -> tuple[
             list[np.ndarray], list[Command]]:
         pose = first.sample(0.0).pose + np.array([0.15, -0.05, 0.2])
-        seen, commands = [], []
+        seen: list[np.ndarray] = []
+        commands: list[Command] = []
         for k in range(120):
             if k == 40:
                 controller.trajectory = second

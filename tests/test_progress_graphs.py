@@ -8,12 +8,14 @@ from __future__ import annotations
 
 import math
 
+import casadi as ca
 import numpy as np
 import pytest
 
 from mpc import Controller
 from mpc.control.timing import PathProgress, ReferenceWindow
 from mpc.model.layout import TickInput
+from mpc.model.tracking import TrackingModel
 from mpc.robots import preset
 from mpc.tick.progress import progress_graphs
 from trajectories import FigureEight
@@ -22,18 +24,22 @@ HORIZON = 6
 DT = 0.05
 
 
+Setup = tuple[TrackingModel, tuple[ca.Function, ca.Function, ca.Function], FigureEight]
+
+
 @pytest.fixture(scope="module")
-def setup() -> tuple[object, object, FigureEight]:
+def setup() -> Setup:
     trajectory = FigureEight(1.0, 8.0, heading="tangent")
     model = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
                        mode="path").model
     return model, progress_graphs(model), trajectory
 
 
-def _python(model: object, trajectory: FigureEight) -> tuple[PathProgress, TickInput]:
-    tick = TickInput(model.layouts)  # type: ignore[attr-defined]
-    window = ReferenceWindow(trajectory, model, tick, grid=False)  # type: ignore[arg-type]
-    return PathProgress(window, model), tick  # type: ignore[arg-type]
+def _python(model: TrackingModel, trajectory: FigureEight
+            ) -> tuple[PathProgress, TickInput]:
+    tick = TickInput(model.layouts)
+    window = ReferenceWindow(trajectory, model, tick, grid=False)
+    return PathProgress(window, model), tick
 
 
 def _plan(rng: np.random.Generator, start: float) -> np.ndarray:
@@ -42,13 +48,14 @@ def _plan(rng: np.random.Generator, start: float) -> np.ndarray:
     return start + np.concatenate([[0.0], np.cumsum(steps)])
 
 
-def test_the_graphs_give_path_progress_numbers(setup: tuple[object, object, FigureEight]
-                                               ) -> None:
+def test_the_graphs_give_path_progress_numbers(setup: Setup) -> None:
     model, (times_graph, reference_graph, refine_graph), trajectory = setup
     rng = np.random.default_rng(37)
     standing = known_cases = 0
     for case in range(300):
         timing, tick = _python(model, trajectory)
+        path = tick.path
+        assert path is not None
         t = float(rng.uniform(0.5, 6.0))
         previous = t - float(rng.choice([DT, 0.5 * DT, 2 * DT, 3 * DT, -DT, 0.0]))
         plan = _plan(rng, previous - float(rng.uniform(0.0, 0.3)))
@@ -60,30 +67,29 @@ def test_the_graphs_give_path_progress_numbers(setup: tuple[object, object, Figu
         timing._settled = False
         start = timing.fill(t, t, heading)
         times = np.array(times_graph(t, previous, plan, 1.0 if known else 0.0)).ravel()
-        np.testing.assert_allclose(times, tick.path.progress_guess, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(times, path.progress_guess, rtol=0, atol=1e-12)
         assert times[0] == pytest.approx(start, abs=1e-12)
         sample = trajectory.sample(times)
         pose = np.array([0.0, 0.0, heading])
         reference, bounds = (np.array(x) for x in reference_graph(
             pose, times, t, sample.pose.T, sample.velocity.T, sample.acceleration.T))
         np.testing.assert_allclose(reference.ravel(), tick.parameters, rtol=0, atol=1e-9)
-        np.testing.assert_allclose(bounds[0], tick.path.lower, rtol=0, atol=1e-12)
-        np.testing.assert_allclose(bounds[1], tick.path.upper, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(bounds[0], path.lower, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(bounds[1], path.upper, rtol=0, atol=1e-12)
         standing += int(np.any(np.diff(times) <= 1e-9 * DT))
         # the warm-up: a planned progress near or far from where it was sampled
         progress = times + rng.normal(0.0, float(rng.choice([1e-4, 3e-2])), times.size)
-        guess = tick.path.progress_guess.copy()
+        guess = path.progress_guess.copy()
         again = timing.refine(progress, heading)
         settled, following = (np.array(x).ravel() for x in refine_graph(progress, guess, t))
         assert bool(settled[0]) is not again
         if again:
-            np.testing.assert_allclose(following, tick.path.progress_guess, rtol=0,
+            np.testing.assert_allclose(following, path.progress_guess, rtol=0,
                                        atol=1e-12)
     assert standing >= 20 and known_cases >= 200  # (both branches met)
 
 
-def test_a_heading_whole_turns_away_is_unwrapped(setup: tuple[object, object, FigureEight]
-                                                 ) -> None:
+def test_a_heading_whole_turns_away_is_unwrapped(setup: Setup) -> None:
     model, (times_graph, reference_graph, _), trajectory = setup
     times = np.array(times_graph(1.0, 0.0, np.zeros(HORIZON + 1), 0.0)).ravel()
     sample = trajectory.sample(times)
