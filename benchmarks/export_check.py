@@ -10,11 +10,15 @@ exactly), from a start
 library :func:`mpc.export_c` writes for the same controller, built with gcc from its
 ``CMakeLists.txt`` (:mod:`benchmarks.exported`); the command reports the largest
 difference of a commanded twist component or wheel speed, and the ticks whose status
-differs. The Python tick keeps its Hessian by the compiled tick's rule for this (rebuilt at
-once when it drifted beyond :data:`mpc.tick.reuse.REBUILD_DRIFT`, never staged: a kept
-Hessian changes a step by far more than rounding, docs/guide/compiled-tick.md). A preset
-or mode the compiled tick does not cover is a line with its reason. Exit code 1 if any
-difference exceeds ``--tolerance`` or any status differs.
+differs. Path mode: the samples the Python controller took each tick (its progress guess
+and warm-up rounds, :class:`~benchmarks.exported.SampleLog`) are fed to the library's
+three calls, and the line also reports how far the times the library asked for, and the
+reference time it tracked, are from the Python controller's. The Python tick keeps its
+Hessian by the compiled tick's rule for this (rebuilt at once when it drifted beyond
+:data:`mpc.tick.reuse.REBUILD_DRIFT`, never staged: a kept Hessian changes a step by far
+more than rounding, docs/guide/compiled-tick.md). A preset or mode the compiled tick does
+not cover is a line with its reason. Exit code 1 if any difference exceeds
+``--tolerance`` or any status differs.
 """
 
 from __future__ import annotations
@@ -29,7 +33,14 @@ import numpy as np
 
 import mpc.solvers.dense as dense
 import mpc.tick.reuse as reuse
-from benchmarks.exported import ExportBuildError, ExportedTick, command_differences, tick_inputs
+from benchmarks.exported import (
+    ExportBuildError,
+    ExportedTick,
+    SampleLog,
+    command_differences,
+    path_tick_inputs,
+    tick_inputs,
+)
 from benchmarks.options import add_list_option
 from benchmarks.scenarios import Parser, ScenarioError, choose, parse_speeds, reference
 from mpc import Command, Controller, Status
@@ -45,16 +56,20 @@ TOLERANCE = 1e-9  # the largest command difference accepted [m/s, rad/s]
 
 
 @contextmanager
-def compiled_reuse_rule() -> Iterator[None]:
+def compiled_reuse_rule(path: bool = False) -> Iterator[None]:
     """The Python tick rebuilding its Hessian at once when it drifted beyond
     :data:`~mpc.tick.reuse.REBUILD_DRIFT` (no staged rebuild): the compiled tick's rule
-    (as tests/tick_loop.py's ``same_reuse_rule``)."""
-    saved = dense.REBUILD_NOW, dense.REBUILD_EARLY
+    (as tests/tick_loop.py's ``same_reuse_rule``); ``path``: and never with the last
+    build's sensitivities (``COST_ONLY_DRIFT``; tests/test_compiled_path.py's
+    ``path_reuse_rule``)."""
+    saved = dense.REBUILD_NOW, dense.REBUILD_EARLY, dense.COST_ONLY_DRIFT
     dense.REBUILD_NOW = dense.REBUILD_EARLY = reuse.REBUILD_DRIFT
+    if path:
+        dense.COST_ONLY_DRIFT = -1.0
     try:
         yield
     finally:
-        dense.REBUILD_NOW, dense.REBUILD_EARLY = saved
+        dense.REBUILD_NOW, dense.REBUILD_EARLY, dense.COST_ONLY_DRIFT = saved
 
 
 def plant_step(pose: np.ndarray, twist: np.ndarray, dt: float) -> np.ndarray:
@@ -68,20 +83,24 @@ def plant_step(pose: np.ndarray, twist: np.ndarray, dt: float) -> np.ndarray:
     return pose
 
 
-def record(controller: Controller, ticks: int) -> tuple[list[float], list[np.ndarray],
-                                                         list[Command]]:
+def record(controller: Controller, ticks: int, log: SampleLog | None = None
+           ) -> tuple[list[float], list[np.ndarray], list[Command], list[Any]]:
     """``controller``'s closed loop on the plant (:func:`plant_step`): each tick's time
-    [s], the measured pose and the command."""
+    [s], the measured pose, the command and (with ``log``, path mode) the reference's
+    samples the tick took."""
     dt = controller.dt
     pose = controller.trajectory.sample(0.0).pose + np.array(START_OFFSET)
-    times, poses, commands = [], [], []
+    times, poses, commands, samples = [], [], [], []
     for k in range(ticks):
+        if log is not None:
+            log.take()
         command = controller.step(pose, k * dt)
         times.append(k * dt)
         poses.append(pose)
         commands.append(command)
+        samples.append(log.take() if log is not None else None)
         pose = plant_step(pose, command.twist, dt)
-    return times, poses, commands
+    return times, poses, commands, samples
 
 
 def check(robot_name: str, mode: str, ratio: float, ticks: int, horizon: int,
@@ -99,13 +118,22 @@ def check(robot_name: str, mode: str, ratio: float, ticks: int, horizon: int,
         return {"supported": False, "reason": f"robot {robot_name!r}: export-check does not "
                 "feed a caster robot's measured steer angles yet"}
     library = ExportedTick(exported)
-    with compiled_reuse_rule():
+    path = mode == "path"  # (the reference sampled where the library says: recorded)
+    log = SampleLog(trajectory) if path else None
+    with compiled_reuse_rule(path):
         python = Controller(robot, trajectory, horizon=horizon, dt=dt, mode=mode)
-        times, poses, commands = record(python, ticks)
-    replay = library.replay(tick_inputs(python, times, poses))
+        times, poses, commands, samples = record(python, ticks, log)
+    replay = library.replay(path_tick_inputs(times, poses, samples) if path
+                            else tick_inputs(python, times, poses))
     difference, mismatches = command_differences(replay, commands)
+    progress = {}
+    if path:  # where the library sampled, and the reference time it tracked
+        assert replay.time_gap is not None and replay.reference_time is not None
+        progress = {"time_gap": float(replay.time_gap.max(initial=0.0)),
+                    "reference_time_difference": float(np.abs(
+                        replay.reference_time - [c.reference_time for c in commands]).max())}
     return {"supported": True, "max_difference": difference, "status_mismatches": mismatches,
-            "ticks": len(commands),
+            **progress, "ticks": len(commands),
             "fallbacks": sum(command.status is not Status.SOLVED for command in commands),
             "hessians_built": int(replay.rebuilt.sum()), "build_s": library.build_time,
             "cached": library.cached}
@@ -164,17 +192,23 @@ def main(argv: list[str]) -> int:
                     print(f"{label} not supported: {reason}", flush=True)
                     continue
                 checked += 1
+                progress = max(item.get("time_gap", 0.0),
+                               item.get("reference_time_difference", 0.0))
                 bad = (item["max_difference"] > args.tolerance
-                       or item["status_mismatches"] > 0)
+                       or item["status_mismatches"] > 0 or not progress <= args.tolerance)
                 failed += bad
                 print(f"{label} {item['ticks']:6d} {item['max_difference']:9.2g} "
                       f"{item['status_mismatches']:6d} {item['fallbacks']:6d} "
                       f"{item['hessians_built']:6d} {item['build_s']:7.1f}"
+                      + (f"  times {progress:.2g}" if "time_gap" in item else "")
                       + ("  BEYOND TOLERANCE" if bad else ""), flush=True)
     for supported in notes:
         print(f"(the compiled tick supports {supported})")
     print(f"max diff: the largest |twist or wheel-speed difference| [m/s, rad/s] over the "
           f"ticks; status: ticks whose status differs; fallbk: the Python controller's "
-          f"fallback ticks; builds: Hessians the library built; {checked} checked, "
+          f"fallback ticks; builds: Hessians the library built; times (path mode): the "
+          f"largest difference [s] of the times the library sampled the reference at, or "
+          f"of the reference time it tracked, from the Python controller's; {checked} "
+          f"checked, "
           f"{failed} failed, {time.perf_counter() - started:.0f} s")
     return 1 if failed else 0

@@ -9,7 +9,10 @@ exported sources, the harness and the compiler: the same controller exported aga
 it instead of building it. The program reads every tick from stdin first (the measured
 pose, then the reference's poses and world velocities at the stage times, as the exported
 ``main.c`` reads them), runs them ``rounds`` times from a reset and times each step in C
-(no Python, no ctypes): what an embedded caller of the library gets.
+(no Python, no ctypes): what an embedded caller of the library gets. A path-mode library
+(:data:`HARNESS_PATH`) reads the samples the Python controller took each tick
+(:class:`SampleLog`, :func:`path_tick_inputs`), runs its three calls a tick on them and
+also reports how far the times it asked for are from the recorded ones.
 """
 
 from __future__ import annotations
@@ -135,6 +138,158 @@ int main(int argc, char** argv) {
 }
 """
 
+#: The timing program of a path-mode library: the same, each tick the library's three
+#: calls (mpc_tick_path_times, _step, _again) on the recorded samples (the exported
+#: main.c's input, benchmarks/exported.py: path_tick_inputs), timed together.
+HARNESS_PATH = """\
+/* Times the exported path-mode tick (holonomic-mpc benchmarks/exported.py). Usage:
+ *   mpc_tick_timed MAX_ITER BUDGETED REBUILD_DRIFT ROUNDS < ticks
+ * Reads every tick first (t, the pose (3), R, then R blocks: ok, the times sampled at,
+ * the reference's poses, velocities and accelerations there, as main.c), then runs them
+ * ROUNDS times, each from mpc_tick_reset at rest, timing each tick's calls together. Prints
+ * the first round's outputs, a line a tick:
+ *   C status flag iterations solve_time failures rebuilt twist(3) speeds(MPC_W)
+ *   P reference_time time_gap steps
+ * (time_gap: the largest |library's times - recorded|, inf where the rounds differ), then
+ * every tick's times [s]: T round tick wall cpu */
+#define _POSIX_C_SOURCE 199309L
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "mpc_tick.h"
+
+#define BLOCK (1 + 10 * MPC_PROGRESS)
+
+static double now(clockid_t clock) {
+  struct timespec at;
+  clock_gettime(clock, &at);
+  return (double)at.tv_sec + 1e-9 * (double)at.tv_nsec;
+}
+
+/* One tick (``in``: t, pose, R, R blocks); its gap and steps. */
+static void run(mpc_tick* tick, const double* in, double* out, double* reference,
+                double* gap, int* steps) {
+  static double times[MPC_PROGRESS];
+  int r, i, rounds = (int)in[4], stepping = 1;
+  const double* block;
+  *gap = 0.0;
+  *steps = 0;
+  mpc_tick_path_times(tick, in[0], times);
+  *reference = times[0];
+  for (r = 0; r < rounds && stepping; r++) {
+    block = in + 5 + r * BLOCK;
+    if (r > 0 && !mpc_tick_path_again(tick, times)) {
+      *gap = INFINITY;
+      break;
+    }
+    for (i = 0; i < MPC_PROGRESS; i++)
+      if (fabs(times[i] - block[1 + i]) > *gap) *gap = fabs(times[i] - block[1 + i]);
+    if (block[0] == 0.0) {
+      if (r > 0) break;
+      *reference = in[0];
+    }
+    mpc_tick_path_step(tick, in + 1, block + 1 + MPC_PROGRESS, block + 1 + 4 * MPC_PROGRESS,
+                       block + 1 + 7 * MPC_PROGRESS, out);
+    (*steps)++;
+  }
+  if (*steps == rounds && mpc_tick_path_again(tick, times)) *gap = INFINITY;
+}
+
+int main(int argc, char** argv) {
+  static const double rest[3] = {0.0, 0.0, 0.0};
+  static double out[MPC_OUT_SIZE];
+  size_t capacity = 1 << 16, used = 0, count = 0, k, ticks_capacity = 256;
+  int rounds, round, i, r, steps;
+  double *data, *outputs, *wall, *cpu, *extra, gap, reference;
+  size_t* starts;
+  mpc_tick* tick;
+  if (argc != 5) {
+    fprintf(stderr, "usage: %s MAX_ITER BUDGETED REBUILD_DRIFT ROUNDS < ticks\\n", argv[0]);
+    return 2;
+  }
+  rounds = atoi(argv[4]);
+  data = malloc(capacity * sizeof(double));
+  starts = malloc(ticks_capacity * sizeof(size_t));
+  if (!data || !starts || rounds < 1) return 2;
+  for (;;) {
+    double head[5];
+    size_t need;
+    for (i = 0; i < 5; i++)
+      if (scanf("%lf", &head[i]) != 1) break;
+    if (i == 0) break;
+    if (i != 5 || head[4] < 1) {
+      fprintf(stderr, "tick %lu: a bad head\\n", (unsigned long)count);
+      return 2;
+    }
+    need = 5 + (size_t)head[4] * BLOCK;
+    while (used + need > capacity) {
+      capacity *= 2;
+      data = realloc(data, capacity * sizeof(double));
+      if (!data) return 2;
+    }
+    if (count == ticks_capacity) {
+      ticks_capacity *= 2;
+      starts = realloc(starts, ticks_capacity * sizeof(size_t));
+      if (!starts) return 2;
+    }
+    starts[count++] = used;
+    memcpy(data + used, head, sizeof(head));
+    for (k = 5; k < need; k++)
+      if (scanf("%lf", &data[used + k]) != 1) {
+        fprintf(stderr, "tick %lu: %lu numbers, expected %lu\\n", (unsigned long)(count - 1),
+                (unsigned long)k, (unsigned long)need);
+        return 2;
+      }
+    used += need;
+  }
+  outputs = malloc((count ? count : 1) * MPC_OUT_SIZE * sizeof(double));
+  extra = malloc((count ? count : 1) * 3 * sizeof(double));
+  wall = malloc((count ? count : 1) * (size_t)rounds * sizeof(double));
+  cpu = malloc((count ? count : 1) * (size_t)rounds * sizeof(double));
+  tick = mpc_tick_init(atoi(argv[1]), atoi(argv[2]), atof(argv[3]));
+  if (!outputs || !extra || !wall || !cpu || !tick) return 3;
+  for (round = 0; round < rounds; round++) {
+    mpc_tick_reset(tick, rest);
+    for (k = 0; k < count; k++) {
+      double w = now(CLOCK_MONOTONIC), c = now(CLOCK_THREAD_CPUTIME_ID);
+      run(tick, data + starts[k], out, &reference, &gap, &steps);
+      cpu[round * count + k] = now(CLOCK_THREAD_CPUTIME_ID) - c;
+      wall[round * count + k] = now(CLOCK_MONOTONIC) - w;
+      if (round == 0) {
+        memcpy(outputs + k * MPC_OUT_SIZE, out, sizeof(out));
+        extra[3 * k] = reference;
+        extra[3 * k + 1] = gap;
+        extra[3 * k + 2] = steps;
+      }
+    }
+  }
+  for (k = 0; k < count; k++) {
+    const double* o = outputs + k * MPC_OUT_SIZE;
+    printf("C %d %d %d %.17g %d %d", (int)o[MPC_OUT_STATUS], (int)o[MPC_OUT_FLAG],
+           (int)o[MPC_OUT_ITERATIONS], o[MPC_OUT_SOLVE_TIME], (int)o[MPC_OUT_FAILURES],
+           (int)o[MPC_OUT_REBUILT]);
+    for (i = 0; i < 3 + MPC_W; i++) printf(" %.17g", o[MPC_OUT_TWIST + i]);
+    printf("\\nP %.17g %.17g %d\\n", extra[3 * k], extra[3 * k + 1], (int)extra[3 * k + 2]);
+  }
+  for (round = 0; round < rounds; round++)
+    for (k = 0; k < count; k++)
+      printf("T %d %lu %.9e %.9e\\n", round, (unsigned long)k, wall[round * count + k],
+             cpu[round * count + k]);
+  (void)r;
+  mpc_tick_free(tick);
+  free(data);
+  free(starts);
+  free(outputs);
+  free(extra);
+  free(wall);
+  free(cpu);
+  return 0;
+}
+"""
+
 #: The timing program's project: the exported library from its own CMakeLists.txt.
 _PROJECT = """\
 cmake_minimum_required(VERSION 3.13)
@@ -171,6 +326,12 @@ class Replay:
     speeds: FloatArray
     wall: FloatArray
     cpu: FloatArray
+    #: Path mode: each tick's reference time tracked [s], the largest difference between
+    #: the times the library asked to sample at and the recorded ones [s] (inf where they
+    #: took a different number of warm-up rounds), and the steps made (K,) each.
+    reference_time: FloatArray | None = None
+    time_gap: FloatArray | None = None
+    steps: np.ndarray | None = None
 
 
 class ExportedTick:
@@ -192,18 +353,21 @@ class ExportedTick:
             raise ExportBuildError("casters: the timing program is not fed measured steer "
                                    "angles yet")
         compiled = controller._compiled  # (export_c refuses a controller without one)
+        #: Path mode: the library's three calls a tick, fed :func:`path_tick_inputs`.
+        self.path = getattr(controller, "mode", "time") == "path"
+        self._harness = HARNESS_PATH if self.path else HARNESS
         work = Path(tempfile.mkdtemp(prefix="mpc-export-"))
         self._private: Path | None = None  # a program outside the cache: removed with self
         try:
             mpc.export_c(controller, work / "src")
-            key = _key(work / "src")
+            key = _key(work / "src", self._harness)
             folder = cache_folder()
             cached = None if folder is None else folder / f"mpc_export_timed-{key}"
             self.cached = cached is not None and cached.is_file()
             if cached is not None and self.cached:
                 self.program = cached
             else:
-                built = _build(work)
+                built = _build(work, self._harness)
                 if cached is not None and keep_whole(built, cached, 0o755):
                     self.program = cached
                 else:  # no cache: a private copy that outlives the build folder
@@ -234,12 +398,14 @@ class ExportedTick:
         if done.returncode != 0:
             raise ExportBuildError(f"the exported library's program failed (exit "
                                    f"{done.returncode}): {done.stderr.strip()[-300:]}")
-        outputs, times = [], []
+        outputs, times, progress = [], [], []
         for line in done.stdout.splitlines():
             if line.startswith("C "):
                 outputs.append([float(word) for word in line.split()[1:]])
             elif line.startswith("T "):
                 times.append([float(word) for word in line.split()[1:]])
+            elif line.startswith("P "):
+                progress.append([float(word) for word in line.split()[1:]])
         count = len(outputs)
         if count == 0 or len(times) != rounds * count:
             raise ExportBuildError(f"the exported library's program printed {count} ticks "
@@ -250,7 +416,8 @@ class ExportedTick:
                       failures=out[:, 4].astype(int), rebuilt=out[:, 5].astype(int),
                       twist=out[:, 6:9], speeds=out[:, 9:9 + self.wheels],
                       wall=timing[:, 2].reshape(rounds, count),
-                      cpu=timing[:, 3].reshape(rounds, count))
+                      cpu=timing[:, 3].reshape(rounds, count),
+                      **(_path_fields(np.array(progress), count) if self.path else {}))
 
 
 def tick_inputs(controller: Any, times: Sequence[float], poses: Sequence[Any]) -> str:
@@ -268,6 +435,62 @@ def tick_inputs(controller: Any, times: Sequence[float], poses: Sequence[Any]) -
         numbers = np.concatenate([np.asarray(pose, dtype=float), np.ravel(window),
                                   np.ravel(velocities)])
         lines.append(" ".join(repr(float(value)) for value in numbers))
+    return "\n".join(lines) + "\n"
+
+
+def _path_fields(progress: np.ndarray, count: int) -> dict[str, Any]:
+    """A path-mode replay's ``P`` lines as :class:`Replay`'s path fields."""
+    if progress.shape != (count, 3):
+        raise ExportBuildError(f"the exported library's program printed {len(progress)} "
+                               f"path lines for {count} ticks")
+    return {"reference_time": progress[:, 0], "time_gap": progress[:, 1],
+            "steps": progress[:, 2].astype(int)}
+
+
+class SampleLog:
+    """Every sample a trajectory gives (path mode's recording): its ``sample`` wrapped on
+    the instance. ``calls``: (times, sample or None where it raised) in order."""
+
+    def __init__(self, trajectory: Any) -> None:
+        self.calls: list[tuple[np.ndarray, Any]] = []
+        original = trajectory.sample
+
+        def sample(t: Any) -> Any:
+            times = np.array(t, dtype=float)
+            try:
+                result = original(t)
+            except TrajectoryError:
+                self.calls.append((times, None))
+                raise
+            self.calls.append((times, result))
+            return result
+
+        object.__setattr__(trajectory, "sample", sample)
+
+    def take(self) -> list[tuple[np.ndarray, Any]]:
+        """The calls since the last take."""
+        calls, self.calls = self.calls, []
+        return calls
+
+
+def path_tick_inputs(times: Sequence[float], poses: Sequence[Any],
+                     samples: Sequence[Sequence[tuple[np.ndarray, Any]]]) -> str:
+    """A path-mode program's stdin (the exported ``main.c``'s and :data:`HARNESS_PATH`'s):
+    each tick's time [s], measured pose, and the reference's samples the Python controller
+    took that tick (:class:`SampleLog`: the progress guess, then each warm-up round; NaN
+    where the trajectory raised)."""
+    lines = []
+    for t, pose, calls in zip(times, poses, samples, strict=True):
+        numbers = [float(t), *np.asarray(pose, dtype=float).tolist(), float(len(calls))]
+        for at, sample in calls:
+            stages = at.size
+            if sample is None:
+                values = np.full(9 * stages, math.nan)
+            else:
+                values = np.concatenate([np.ravel(sample.pose), np.ravel(sample.velocity),
+                                         np.ravel(sample.acceleration)])
+            numbers += [0.0 if sample is None else 1.0, *at.tolist(), *values.tolist()]
+        lines.append(" ".join(repr(value) for value in numbers))
     return "\n".join(lines) + "\n"
 
 
@@ -293,20 +516,20 @@ def command_differences(replay: Replay, commands: Sequence[Command]) -> tuple[fl
                        [command.status for command in commands])
 
 
-def _key(source: Path) -> str:
+def _key(source: Path, harness: str = HARNESS) -> str:
     """What the timing program depends on, hashed: the exported files, the harness, the
     compiler and cmake."""
     digest = hashlib.sha256()
     for name in sorted(os.listdir(source)):
         digest.update(name.encode())
         digest.update((source / name).read_bytes())
-    digest.update(HARNESS.encode())
+    digest.update(harness.encode())
     digest.update(_PROJECT.encode())
     digest.update((os.environ.get("CC") or "cc").encode())
     return digest.hexdigest()[:32]
 
 
-def _build(work: Path) -> Path:
+def _build(work: Path, harness: str = HARNESS) -> Path:
     """The timing program built in ``work`` (the export in ``work/src``) with CMake."""
     cmake = shutil.which("cmake")
     if cmake is None:
@@ -314,7 +537,7 @@ def _build(work: Path) -> Path:
     project = work / "timing"
     project.mkdir()
     (project / "CMakeLists.txt").write_text(_PROJECT)
-    (project / "timed.c").write_text(HARNESS)
+    (project / "timed.c").write_text(harness)
     build = work / "build"
     for command in ([cmake, "-S", str(project), "-B", str(build)],
                     [cmake, "--build", str(build)]):

@@ -30,10 +30,9 @@ from tick_loop import (
     same_reuse_rule,
 )
 
-import mpc
 import mpc.solvers.dense as dense
 from benchmarks.scenarios import reference
-from mpc import Command, Controller, ControllerError, Status
+from mpc import Command, Controller, Status
 from mpc.robots import preset
 from mpc.sim import simulate
 from trajectories import FigureEight, TrajectoryError, time_optimal
@@ -193,7 +192,33 @@ def test_issue_9_lines_on_the_virtual_machine() -> None:
     assert math.degrees(metrics["max_heading_error"]) <= 1.0
 
 
-def test_export_refuses_path_mode_by_name(tmp_path: object) -> None:
-    controller = compiled_loop("mecanum", FigureEight(1.0, 16.0), "virtual-machine")
-    with pytest.raises(ControllerError, match="mode='path'"):
-        mpc.export_c(controller, tmp_path)  # type: ignore[arg-type]
+def test_a_new_trajectory_and_a_reset_start_the_progress_over() -> None:
+    """The progress state (``tick.c``'s, and the virtual machine's ``VirtualPath``) is
+    forgotten with the plan: a new trajectory mid-run and a reset give the Python tick's
+    commands, progress and warm-up again."""
+    first, second = FigureEight(1.0, 16.0, heading="tangent"), FigureEight(0.8, 6.0)
+
+    def run(controller: Controller, poses: list[np.ndarray] | None) -> tuple[
+            list[np.ndarray], list[Command]]:
+        pose = first.sample(0.0).pose + np.array([0.15, -0.05, 0.2])
+        seen: list[np.ndarray] = []
+        commands: list[Command] = []
+        for k in range(120):
+            if k == 40:
+                controller.trajectory = second
+            if k == 80:
+                controller.reset(commands[-1].twist)
+            if poses is not None:
+                pose = poses[k]
+            seen.append(pose)
+            commands.append(controller.step(pose, k * DT))
+            pose = plant_step(pose, commands[-1].twist)
+        return seen, commands
+
+    with path_reuse_rule():
+        poses, expected = run(Controller(preset("mecanum"), first, horizon=HORIZON, dt=DT,
+                                         mode="path"), None)
+    _, got = run(compiled_loop("mecanum", first, "virtual-machine"), poses)
+    assert_same(expected, got)
+    assert_same_progress(expected, got)
+    assert got[40].reference_time == pytest.approx(40 * DT)  # on time after the switch

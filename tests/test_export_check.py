@@ -27,6 +27,15 @@ def test_the_exported_library_repeats_the_python_controller_beyond_the_limits() 
     assert item["hessians_built"] >= 1  # (the first tick builds one)
 
 
+def test_the_exported_path_library_repeats_the_python_controller() -> None:
+    """Path mode: the library asks for the reference where the Python controller sampled
+    it (its progress guess and warm-up rounds) and gives its commands."""
+    item = check("mecanum", "path", 1.3, ticks=80, horizon=8, dt=0.05)
+    assert item["supported"] and item["ticks"] == 80
+    assert item["max_difference"] <= 1e-9 and item["status_mismatches"] == 0
+    assert item["time_gap"] <= 1e-9 and item["reference_time_difference"] <= 1e-9
+
+
 def test_the_command_reports_each_preset_or_why_not(capsys: pytest.CaptureFixture[str]
                                                     ) -> None:
     assert main(["export-check", "--layouts", "omni3,swerve", "--modes", "time",

@@ -107,3 +107,18 @@ def test_export_refuses_to_overwrite_and_names_what_it_covers(
             and "supports " in error)
     assert main(["export", "nonesuch", "--out", str(tmp_path / "x")]) == 2
     assert "unknown robot preset 'nonesuch'" in capsys.readouterr().err
+
+
+def test_export_writes_path_mode_with_its_three_calls(tmp_path: Path) -> None:
+    out = tmp_path / "path"
+    assert main(["export", "omni4", "--out", str(out), "--horizon", str(HORIZON), "--dt",
+                 str(DT), "--path"]) == 0
+    controller = Controller(preset("omni4"), FigureEight(0.5, 20.0), horizon=HORIZON,
+                            dt=DT, mode="path", compiled="virtual-machine")
+    expected = mpc.export_c(controller, tmp_path / "direct")
+    for name in WRITES:
+        assert (out / name).read_bytes() == (expected / name).read_bytes(), name
+    assert f"#define MPC_PROGRESS {HORIZON + 1}\n" in (out / "mpc_tick_config.h").read_text()
+    main_c = (out / "main.c").read_text()
+    for call in ("mpc_tick_path_times", "mpc_tick_path_step", "mpc_tick_path_again"):
+        assert call in main_c and call in (out / "README.md").read_text(), call

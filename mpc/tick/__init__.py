@@ -6,8 +6,9 @@ machine where no compiler works.
 which path); :mod:`mpc.tick.graphs` has the arithmetic, ``tick.c`` the small hand-written
 part (daqp's workspace kept between ticks, the dense Cholesky factor),
 :mod:`mpc.tick.reuse` when the Hessian kept across ticks is rebuilt,
-:mod:`mpc.tick.path` and :mod:`mpc.tick.path_edge` path mode's graphs and its reference
-at the edge, :mod:`mpc.tick.steered` swerve's rows, clamp and module commands,
+:mod:`mpc.tick.path` path mode's graphs, :mod:`mpc.tick.progress` its progress
+arithmetic, :mod:`mpc.tick.path_runner` its three calls a tick and :mod:`mpc.tick.path_edge`
+its reference sampled at the edge, :mod:`mpc.tick.steered` swerve's rows, clamp and module commands,
 :mod:`mpc.tick.motors` a motor model's rows, clamp and feedforward,
 :mod:`mpc.tick.offset` axle-offset swerve modules' clamp and commands,
 :mod:`mpc.tick.casters` powered casters' rows, clamp and joint rates,

@@ -51,7 +51,8 @@ def write_sources(graphs: TickGraphs, folder: Path) -> list[Path]:
     folder.mkdir(parents=True, exist_ok=True)
     generator = ca.CodeGenerator(f"{GRAPHS_NAME}.c", {"with_header": True})
     functions = (graphs.prepare, graphs.hessian, graphs.whiten, graphs.whiten_rows,
-                 graphs.unwhiten, graphs.finish)
+                 graphs.unwhiten, graphs.finish,
+                 *getattr(graphs, "progress_graphs", ()))  # path mode's (mpc.tick.progress)
     for function in functions:
         generator.add(function)
     generator.generate(str(folder) + os.sep)

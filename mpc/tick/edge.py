@@ -32,8 +32,9 @@ from mpc.solvers import TrackingSolver
 from mpc.tick import reuse, screen
 from mpc.tick.build import compiled_library
 from mpc.tick.graphs import UNPLANNED, TickGraphs, build_graphs
-from mpc.tick.path import build_path_graphs
-from mpc.tick.path_edge import PathReference
+from mpc.tick.path import PathGraphs, build_path_graphs
+from mpc.tick.path_edge import sample_at
+from mpc.tick.path_runner import PathRunner, path_runner
 from mpc.tick.runners import (
     CLAMPED,
     FAILURES,
@@ -117,9 +118,6 @@ class CompiledTick:
             graphs = build_path_graphs(controller.model, wheels, controller.dt)
         else:
             graphs = build_graphs(controller.model, wheels, controller.dt)
-        #: Path mode's reference at the edge (:mod:`mpc.tick.path_edge`), else None.
-        self._path: PathReference | None = (
-            PathReference(controller.trajectory, controller.model) if path_mode else None)
         #: The tick's graphs (:func:`~mpc.tick.graphs.build_graphs`).
         self.graphs = graphs
         iterations = 1000 if max_iter is None else int(max_iter)
@@ -152,6 +150,10 @@ class CompiledTick:
                          error)
         self._runner: TickRunner = runner or VirtualTick(graphs, iterations, budgeted,
                                                          self.rebuild_drift)
+        #: Path mode's calls (:mod:`mpc.tick.path_runner`: the progress in the graphs, the
+        #: reference sampled at the edge, :mod:`mpc.tick.path_edge`), else None.
+        self._path: PathRunner | None = (
+            path_runner(self._runner, graphs) if isinstance(graphs, PathGraphs) else None)
         self._wheels = graphs.wheels
         self._dt = float(controller.dt)
         self._horizon = graphs.horizon
@@ -215,38 +217,32 @@ class CompiledTick:
                              float(out[SOLVE_TIME]))
 
     def _path_step(self, measured: FloatArray, t_now: float, start: float) -> Command:
-        """Path mode's tick: the reference sampled at the progress guess
-        (:class:`~mpc.tick.path_edge.PathReference`), solved again while the progress
+        """Path mode's tick: the reference sampled at the times the graphs give (the
+        progress guess; :mod:`mpc.tick.path_runner`), solved again while the progress
         settles after a start with no plan (the Python tick's warm-up)."""
         path = self._path
         assert path is not None
-        controller = self._controller
-        if path.trajectory is not controller.trajectory:
-            path = self._path = PathReference(controller.trajectory, controller.model)
+        trajectory = self._controller.trajectory
         heading = float(measured[2])
-        failure = None
-        try:
-            reference_time = path.fill(t_now, heading)
-        except TrajectoryError as error:  # the reference, not the caller: fall back
-            reference_time, failure = t_now, f"reference failed: {error}"
-        if failure is None and self._first_tick:
-            check_heading("pose", heading, path.reference_heading(),
-                          controller.allow_unusual, ControllerError)
+        times = path.times(t_now)
+        reference_time = float(times[0])
+        samples, failure = sample_at(trajectory, times)
+        if failure is not None:  # the reference, not the caller: fall back
+            reference_time = t_now
+        elif self._first_tick:
+            check_heading("pose", heading, float(samples[0][0, 2]),
+                          self._controller.allow_unusual, ControllerError)
             self._first_tick = False
-        runner = self._runner
-        out = runner.step(measured, path.parameters, path.bounds)
+        out = path.step(measured, *samples)
         iterations, seconds = int(out[ITERATIONS]), float(out[SOLVE_TIME])
-        progress_at = TWIST + 3 + self._wheels + 3 * (self._horizon + 1)
-        progress_end = progress_at + self._horizon + 1  # (mpc_tick.h's MPC_OUT_PROGRESS)
-        while (failure is None and int(out[STATUS]) == 0
-               and path.refine(out[progress_at:progress_end].copy(), heading)):
+        while failure is None and (again := path.again()) is not None:
+            samples, failed = sample_at(trajectory, again)
+            if failed is not None:  # (PathProgress.refine: the last solve stands)
+                break
             self.rebuilds += int(out[REBUILT])
-            runner.again()
-            out = runner.step(measured, path.parameters, path.bounds)
+            out = path.step(measured, *samples)
             iterations += int(out[ITERATIONS])
             seconds += float(out[SOLVE_TIME])
-        solved = int(out[STATUS]) == 0
-        path.solved(out[progress_at:progress_end].copy() if solved else None)
         return self._command(out, start, t_now, failure, reference_time, iterations, seconds)
 
     def _command(self, out: FloatArray, start: float, t_now: float, failure: str | None,

@@ -4,8 +4,11 @@ interface and an example ``main.c``), daqp linked from the casadi wheel that gen
 (its ``include/daqp`` and ``libdaqpstat.a``) or, for another target, built from daqp's
 released source (``-DMPC_DAQP_SOURCE``, ``daqp.cmake``); none of daqp's code is copied.
 
-The reference is the caller's: each tick takes the reference's poses and world velocities
-at the stage times (``t + MPC_STAGE_OFFSETS``), as the controller samples them.
+The reference is the caller's: in time mode each tick takes the reference's poses and
+world velocities at the stage times (``t + MPC_STAGE_OFFSETS``), as the controller samples
+them; in path mode the library gives the times to sample at (the progress guess,
+``mpc_tick_path_times``; the warm-up's rounds, ``mpc_tick_path_again``) and each step takes
+the poses, world velocities and accelerations there (``mpc_tick_path_step``).
 """
 
 from __future__ import annotations
@@ -45,10 +48,7 @@ def export_c(controller: Exportable, folder: str | Path) -> Path:
         raise ControllerError(
             "export_c needs a controller built with compiled=True (or 'virtual-machine'): "
             f"this one runs the {controller.tick_path!r} tick")
-    if isinstance(compiled.graphs, PathGraphs):
-        raise ControllerError(
-            "export_c: mode='path' is not exported yet (its reference is sampled at the "
-            "planned progress, in Python); export a mode='time' controller")
+    path = isinstance(compiled.graphs, PathGraphs)
     out = Path(folder)
     graphs = compiled.graphs
     write_sources(graphs, out)
@@ -56,9 +56,10 @@ def export_c(controller: Exportable, folder: str | Path) -> Path:
     (out / "CMakeLists.txt").write_text(_CMAKE.replace("@CASADI_DIR@", casadi.as_posix()))
     (out / "daqp.cmake").write_text(_DAQP_CMAKE.replace("@DAQP_RELEASE@", DAQP_RELEASE))
     robot = controller.robot
-    main = _MAIN.replace("mpc_tick_init(1000, 0, 1.0)",
-                         f"mpc_tick_init({compiled.max_iter}, {int(compiled.budgeted)}, "
-                         f"{compiled.rebuild_drift!r})")
+    main = (_MAIN_PATH if path else _MAIN).replace(
+        "mpc_tick_init(1000, 0, 1.0)",
+        f"mpc_tick_init({compiled.max_iter}, {int(compiled.budgeted)}, "
+        f"{compiled.rebuild_drift!r})")
     if robot.steer_states:  # casters: each line ends with the measured steer angles
         main = main.replace("#define MPC_MEASURED_STEER 0", "#define MPC_MEASURED_STEER 1")
     if graphs.screen_places and compiled.screen_after != LIBRARY_AFTER:  # as the controller
@@ -69,8 +70,8 @@ def export_c(controller: Exportable, folder: str | Path) -> Path:
     (out / "README.md").write_text(_README.format(
         robot=robot.name, kind=robot.kind, wheels=robot.n_wheels, horizon=graphs.horizon,
         dt=graphs.tick, offsets=", ".join(f"{value:g}" for value in graphs.offsets),
-        casadi=casadi.as_posix(), max_iter=compiled.max_iter,
-        rebuild=compiled.rebuild_drift, daqp=DAQP_RELEASE))
+        casadi=casadi.as_posix(), max_iter=compiled.max_iter, mode="path" if path else "time",
+        rebuild=compiled.rebuild_drift, daqp=DAQP_RELEASE) + (_README_PATH if path else ""))
     return out
 
 
@@ -188,11 +189,117 @@ int main(void) {
 }
 """
 
+_MAIN_PATH = """\
+/* Example: the exported path-mode controller (its max_iter and budget) fed recorded ticks.
+ * Each tick is: t [s], the measured pose (3), R (the times the recording sampled the
+ * reference this tick, warm-up rounds included), then R blocks, each: ok (1, or 0 where
+ * the reference could not be sampled), the times sampled at (MPC_PROGRESS), the
+ * reference's poses, world velocities and accelerations there (3 MPC_PROGRESS each, a
+ * stage's three numbers together; NaN where not ok). The library says where to sample
+ * (mpc_tick_path_times, mpc_tick_path_again); a caller with the trajectory at hand samples
+ * there; here the recording's samples are used, and each line of stdout is the status, the
+ * twist (3), the wheel speeds, the reference time tracked [s], the largest difference
+ * between the library's times and the recording's [s] (inf where they took a different
+ * number of rounds) and the steps made. */
+#include <math.h>
+#include <stdio.h>
+
+#include "mpc_tick.h"
+
+#define BLOCK (1 + 10 * MPC_PROGRESS)
+
+static int read_numbers(double* x, int n) {
+  int i;
+  for (i = 0; i < n; i++)
+    if (scanf("%lf", &x[i]) != 1) return 0;
+  return 1;
+}
+
+int main(void) {
+  static double head[5], block[BLOCK], times[MPC_PROGRESS], out[MPC_OUT_SIZE];
+  const double rest[3] = {0.0, 0.0, 0.0};
+  mpc_tick* tick = mpc_tick_init(1000, 0, 1.0);
+  int i, r, rounds, steps, stepping;
+  if (!tick) return 1;
+  mpc_tick_reset(tick, rest);
+  while (read_numbers(head, 5)) {
+    double gap = 0.0, reference_time;
+    const double* pose = head + 1;
+    rounds = (int)head[4];
+    mpc_tick_path_times(tick, head[0], times);
+    reference_time = times[0];
+    steps = 0;
+    stepping = 1;
+    for (r = 0; r < rounds; r++) {
+      if (!read_numbers(block, BLOCK)) return 2;
+      if (!stepping) continue;
+      if (r > 0 && !mpc_tick_path_again(tick, times)) { /* the recording made more rounds */
+        gap = INFINITY;
+        stepping = 0;
+        continue;
+      }
+      for (i = 0; i < MPC_PROGRESS; i++)
+        if (fabs(times[i] - block[1 + i]) > gap) gap = fabs(times[i] - block[1 + i]);
+      if (r > 0 && block[0] == 0.0) { /* no reference there: the last step stands */
+        stepping = 0;
+        continue;
+      }
+      if (r == 0 && block[0] == 0.0) reference_time = head[0];
+      mpc_tick_path_step(tick, pose, block + 1 + MPC_PROGRESS, block + 1 + 4 * MPC_PROGRESS,
+                         block + 1 + 7 * MPC_PROGRESS, out);
+      steps++;
+    }
+    if (stepping && steps == rounds && steps > 0 && mpc_tick_path_again(tick, times))
+      gap = INFINITY; /* the library asks for a round the recording did not make */
+    printf("%d", (int)out[MPC_OUT_STATUS]);
+    for (i = 0; i < 3 + MPC_W; i++) printf(" %.17g", out[MPC_OUT_TWIST + i]);
+    printf(" %.17g %.17g %d\\n", reference_time, gap, steps);
+  }
+  mpc_tick_free(tick);
+  return 0;
+}
+"""
+
+_README_PATH = """
+## Path mode
+
+The reference is sampled where the progress is (the reference time reached at each stage,
+planned with the motion), which the last plan decides: a tick is three calls.
+
+    double times[MPC_PROGRESS], poses[3 * MPC_PROGRESS], velocities[3 * MPC_PROGRESS];
+    double accelerations[3 * MPC_PROGRESS], out[MPC_OUT_SIZE];
+    mpc_tick_path_times(tick, t, times);        /* where to sample this tick [s] */
+    sample(times, poses, velocities, accelerations);
+    mpc_tick_path_step(tick, pose, poses, velocities, accelerations, out);
+    while (mpc_tick_path_again(tick, times)) {  /* warm-up after a start with no plan */
+      if (!sample(times, poses, velocities, accelerations)) break;  /* the step stands */
+      mpc_tick_path_step(tick, pose, poses, velocities, accelerations, out);
+    }
+    /* send out[MPC_OUT_SPEEDS ...] */
+
+- `void mpc_tick_path_times(mpc_tick*, double t, double times[N+1])`: the tick's time
+  `t` [s] in; the N+1 times [s] of the reference's own clock at which to sample it out.
+- `int mpc_tick_path_step(mpc_tick*, const double pose[3], const double poses[3 (N+1)],
+  const double velocities[3 (N+1)], const double accelerations[3 (N+1)],
+  double out[MPC_OUT_SIZE])`: the reference's poses (x, y, theta) [m, m, rad], world
+  velocities [m/s, m/s, rad/s] and accelerations [m/s^2, m/s^2, rad/s^2] at those times, a
+  stage's three numbers together; NaN where the reference cannot be sampled (the fallback
+  runs). Returns the status; `out` as `mpc_tick_step`'s, and `MPC_OUT_PROGRESS` (N+1) the
+  planned progress [s].
+- `int mpc_tick_path_again(mpc_tick*, double times[N+1])`: after a step with no plan to
+  start from (the first tick, after a reset or a failure), 1 and new times while the
+  progress has not settled (at most `MPC_WARM_UP_ROUNDS` rounds), else 0. If the reference
+  cannot be sampled at them, stop: the last step's command stands.
+
+The reference time tracked now is `times[0]` of `mpc_tick_path_times` (`t` when the
+reference could not be sampled). `mpc_tick_reset` forgets the progress as well.
+"""
+
 _README = """\
 # A holonomic-mpc controller as C (mpc.export_c)
 
 Robot `{robot}` ({kind}, {wheels} wheels), horizon N = {horizon}, control tick {dt:g} s,
-time mode. Generated by holonomic-mpc; the numbers come from the same CasADi graphs as
+{mode} mode. Generated by holonomic-mpc; the numbers come from the same CasADi graphs as
 `Controller(..., compiled=True)`.
 
 Build (CMake >= 3.13, a C compiler; daqp from the casadi wheel at `{casadi}`, or give
@@ -220,7 +327,8 @@ headers are the casadi wheel's) with the target's compiler, e.g. 32-bit ARM:
 - `int mpc_tick_step(mpc_tick*, const double pose[3], const double ref_poses[3 (N+1)],
   const double ref_velocities[3 (N+1)], double out[MPC_OUT_SIZE])`: one tick, no
   allocation. `ref_poses` and `ref_velocities` are the reference at `t + offsets`, offsets
-  = ({offsets}) s (`MPC_STAGE_OFFSETS`), a stage's three numbers together.
+  = ({offsets}) s (`MPC_STAGE_OFFSETS`), a stage's three numbers together. (Time mode;
+  path mode's tick is three calls, below.)
 
 Units: m, rad, s. Poses (x, y, theta) in the world frame; twists (vx, vy, omega) in the
 body frame [m/s, m/s, rad/s]; reference velocities (dx/dt, dy/dt, dtheta/dt) in the world

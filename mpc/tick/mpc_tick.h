@@ -66,7 +66,9 @@ void mpc_tick_reset(mpc_tick* tick, const double* last);
 /* One tick: the measured pose (x, y, theta), the reference's poses and world velocities
  * (dx, dy, dtheta per second) at the stage times t + MPC_STAGE_OFFSETS, each 3 x
  * (MPC_N + 1) with a stage's three numbers together; writes out (MPC_OUT_SIZE numbers) and
- * returns the status. No allocation. */
+ * returns the status. No allocation. (Time mode; in path mode, mpc_tick_path_step calls it
+ * with the model's parameter vector and the progress bounds: use the mpc_tick_path_* calls
+ * below.) */
 int mpc_tick_step(mpc_tick* tick, const double* pose, const double* ref_poses,
                   const double* ref_velocities, double* out);
 int mpc_tick_output_size(void);
@@ -85,6 +87,26 @@ void mpc_tick_screen_counts(const mpc_tick* tick, long* counts);
 /* Path mode's warm-up: solve the tick just stepped again (its plan, unshifted, is the
  * guess; the last command and the fallback's memory as before it). */
 void mpc_tick_again(mpc_tick* tick);
+#if MPC_PROGRESS > 0
+/* Path mode (MPC_PROGRESS = N + 1), a tick in three calls: the reference is sampled where
+ * the progress is, which the last plan decides.
+ *   mpc_tick_path_times(tick, t, times);            the times [s] to sample at (N + 1)
+ *   (sample the reference's poses, world velocities and accelerations at those times)
+ *   mpc_tick_path_step(tick, pose, poses, velocities, accelerations, out);
+ *   while (mpc_tick_path_again(tick, times)) {      the warm-up after a start with no plan
+ *     (sample at the new times; if that fails, stop: the last step's command stands)
+ *     mpc_tick_path_step(tick, pose, poses, velocities, accelerations, out);
+ *   }
+ * then send out's command. t [s] is the tick's time; poses (x, y, theta) [m, m, rad],
+ * velocities (dx, dy, dtheta per second of the reference's own time) and accelerations
+ * (per second squared), world frame, 3 x (N + 1) each, a stage's three numbers together
+ * (NaN where it cannot be sampled: the fallback). out[MPC_OUT_PROGRESS] is the planned
+ * progress [s] (its first value: the reference time tracked now). No allocation. */
+void mpc_tick_path_times(mpc_tick* tick, double t, double* times);
+int mpc_tick_path_step(mpc_tick* tick, const double* pose, const double* poses,
+                       const double* velocities, const double* accelerations, double* out);
+int mpc_tick_path_again(mpc_tick* tick, double* times);
+#endif
 
 #ifdef __cplusplus
 }

@@ -6,13 +6,11 @@ terms in the cost, its bound and rate rows; built from the model's own functions
 What differs from time mode:
 
 - The reference is sampled at the progress guess, not at ``t + offsets``: that guess
-  follows the last plan's progress, so the sampling stays in Python at the edge, with the
-  Python tick's own objects (:class:`~mpc.control.timing.PathProgress` and
-  :class:`~mpc.control.timing.ReferenceWindow`, which unwraps the heading and evaluates
-  :attr:`~mpc.model.tracking.TrackingModel.reference_terms` there), as time mode's window
-  is sampled at the edge. ``prepare`` takes the parameter vector they fill (the model's
-  own layout, :mod:`mpc.model.layout`) and the progress bounds, and writes the measured
-  pose and the last command into it.
+  follows the last plan's progress. The progress graphs (:mod:`mpc.tick.progress`) give
+  the times to sample at and turn the samples into the model's parameter vector (its own
+  layout, :mod:`mpc.model.layout`) and the progress bounds; ``prepare`` takes those and
+  writes the measured pose and the last command into the vector. Only the sampling is the
+  caller's (:mod:`mpc.tick.path_edge`, or an exported library's caller).
 - The cost's Hessian moves with the path (its contour directions and path rates are
   parameters), so ``prepare`` carries its values to ``hessian`` and counts their change
   in the drift: the Hessian is kept across ticks by the Python tick's measure, the cost
@@ -23,9 +21,10 @@ What differs from time mode:
 - ``hessian`` adds the progress blocks to time mode's (:func:`_progress_blocks`);
   ``finish`` is time mode's with the planned progress as one more output.
 - A tick with no plan to start from solves again while the progress settles (the Python
-  tick's warm-up, :meth:`~mpc.control.timing.PathProgress.refine`): the runners'
-  ``again`` puts the last command and the fallback's memory back as they were before the
-  tick and takes the round's plan, unshifted, as the next guess (:data:`AGAIN`).
+  tick's warm-up, :meth:`~mpc.control.timing.PathProgress.refine`; the progress graphs'
+  ``refine`` decides, :mod:`mpc.tick.path_runner` loops): the runners' ``again`` puts the
+  last command and the fallback's memory back as they were before the tick and takes the
+  round's plan, unshifted, as the next guess (:data:`AGAIN`).
 """
 
 from __future__ import annotations
@@ -35,6 +34,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from mpc.control.timing import WARM_UP_ROUNDS
 from mpc.model.grid import shift_maps
 from mpc.model.tracking import TrackingModel
 from mpc.robots.base import ScalarWheels
@@ -50,6 +50,7 @@ from mpc.tick.graphs import (
     _condensed_hessian,
     _finish,
 )
+from mpc.tick.progress import progress_graphs
 from mpc.tick.reuse import reuse_terms, terms_size
 
 #: ``prepare``'s guess mode of a tick solved again (path mode's warm-up): the last
@@ -79,12 +80,17 @@ class PathGraphs(TickGraphs):
 
     progress: int = 0
     reference_size: int = 0
+    #: The progress arithmetic (:func:`mpc.tick.progress.progress_graphs`): ``times``,
+    #: ``reference``, ``refine``, generated beside the tick's graphs.
+    progress_graphs: tuple[ca.Function, ...] = ()
 
     def config(self) -> dict[str, int]:
-        """Sizes for ``mpc_tick_config.h``: the progress's, and what ``mpc_tick_step``'s
-        two reference arrays hold in path mode (the parameter vector, the bounds)."""
+        """Sizes for ``mpc_tick_config.h``: the progress's, what ``mpc_tick_step``'s
+        two reference arrays hold in path mode (the parameter vector, the bounds), and the
+        warm-up's rounds at most."""
         return {"MPC_PROGRESS": self.progress, "MPC_REF_SIZE": self.reference_size,
-                "MPC_REF2_SIZE": 2 * self.progress, "MPC_AGAIN_MODE": int(AGAIN)}
+                "MPC_REF2_SIZE": 2 * self.progress, "MPC_AGAIN_MODE": int(AGAIN),
+                "MPC_WARM_UP_ROUNDS": WARM_UP_ROUNDS}
 
 
 def build_path_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -> PathGraphs:
@@ -163,7 +169,8 @@ def build_path_graphs(model: TrackingModel, wheels: ScalarWheels, tick: float) -
     return PathGraphs(prepare, hessian, whiten, whiten_rows, unwhiten, finish, n, size, m,
                       len(wheels.limits), carry.shape[0], int(kept.shape[0]),
                       tuple(float(x) for x in model.offsets), float(tick), progress=n + 1,
-                      reference_size=parameters.size)
+                      reference_size=parameters.size,
+                      progress_graphs=progress_graphs(model))
 
 
 def _drift(model: TrackingModel, initial: np.ndarray, p_data: ca.SX, sensitivities: ca.SX,

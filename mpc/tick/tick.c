@@ -106,6 +106,17 @@ struct mpc_tick {
 #if MPC_SCREEN_ROWS
   struct mpc_screen screen; /* the rows out of daqp's problem (row screen, below) */
 #endif
+#if MPC_PROGRESS > 0
+  /* path mode's progress between ticks (mpc_tick_path_times, _step, _again; the Python
+   * tick's PathProgress): the last plan's progress (or the guess of a failed tick), the
+   * guess of this tick and the last one sampled, the reference and bounds made of the
+   * samples; the last tick's time, the warm-up's rounds left, whether the last step
+   * solved, whether the next step is a round of the warm-up */
+  double path_plan[MPC_PROGRESS], path_guess[MPC_PROGRESS], path_sampled[MPC_PROGRESS];
+  double path_reference[MPC_REF_SIZE], path_bounds[MPC_REF2_SIZE];
+  double path_t, path_previous;
+  int path_has_plan, path_has_previous, path_rounds, path_solved, path_pending;
+#endif
   DAQPProblem qp;
   DAQPWorkspace work;
   DAQPResult res;
@@ -243,6 +254,10 @@ void mpc_tick_reset(mpc_tick* t, const double* last) {
   t->memory[0] = t->memory[1] = 0.0;
   t->warm = 0;
   forget(t);
+#if MPC_PROGRESS > 0
+  t->path_has_plan = t->path_has_previous = t->path_rounds = 0;
+  t->path_solved = t->path_pending = 0;
+#endif
 }
 
 /* L with H = L L' (lower, column-major: a column's entries together) from H's lower
@@ -779,3 +794,71 @@ void mpc_tick_again(mpc_tick* t) {
   forget(t);
   t->again = 1;
 }
+
+#if MPC_PROGRESS > 0
+/* Path mode, step 1 of a tick at time ``now`` [s]: the times (MPC_PROGRESS) at which the
+ * caller samples the reference this tick (the progress guess: the last plan read on, or on
+ * time after a reset or a jump in ``now``; graph mpc_tick_progress_times). */
+void mpc_tick_path_times(mpc_tick* t, double now, double* times) {
+  double known = t->path_has_plan && t->path_has_previous ? 1.0 : 0.0;
+  t->arg[0] = &now;
+  t->arg[1] = &t->path_previous;
+  t->arg[2] = t->path_plan;
+  t->arg[3] = &known;
+  t->out[0] = t->path_guess;
+  mpc_tick_progress_times(t->arg, t->out, t->iw, t->w, 0);
+  t->path_t = t->path_previous = now;
+  t->path_has_previous = 1;
+  t->path_rounds = t->path_solved ? 0 : MPC_WARM_UP_ROUNDS; /* a warm-up without a plan */
+  t->path_pending = 0;
+  memcpy(times, t->path_guess, sizeof(t->path_guess));
+}
+
+/* Path mode, step 2: the tick (or a warm-up round) with the reference sampled at the times
+ * given: its poses, world velocities and accelerations, 3 x MPC_PROGRESS each (a stage's
+ * three numbers together; NaN where it cannot be sampled: the fallback). */
+int mpc_tick_path_step(mpc_tick* t, const double* pose, const double* poses,
+                       const double* velocities, const double* accelerations, double* out) {
+  int status;
+  if (t->path_pending) mpc_tick_again(t); /* a warm-up round: this tick solved again */
+  t->path_pending = 0;
+  t->arg[0] = pose;
+  t->arg[1] = t->path_guess;
+  t->arg[2] = &t->path_t;
+  t->arg[3] = poses;
+  t->arg[4] = velocities;
+  t->arg[5] = accelerations;
+  t->out[0] = t->path_reference;
+  t->out[1] = t->path_bounds;
+  mpc_tick_progress_reference(t->arg, t->out, t->iw, t->w, 0);
+  if (finite_vector(poses, 3 * MPC_PROGRESS) && finite_vector(velocities, 3 * MPC_PROGRESS)
+      && finite_vector(accelerations, 3 * MPC_PROGRESS))
+    memcpy(t->path_sampled, t->path_guess, sizeof(t->path_guess));
+  status = mpc_tick_step(t, pose, t->path_reference, t->path_bounds, out);
+  /* the plan's progress, or where the reference was last sampled after a failed tick */
+  t->path_solved = status == MPC_SOLVED;
+  memcpy(t->path_plan, t->path_solved ? t->progress : t->path_sampled, sizeof(t->path_plan));
+  t->path_has_plan = 1;
+  return status;
+}
+
+/* Path mode, step 3 (after a solved step with no plan to start from): 1 and the times of
+ * another round of the warm-up (sample there and call mpc_tick_path_step again), 0 once
+ * the progress settled or after MPC_WARM_UP_ROUNDS rounds (graph mpc_tick_progress_refine).
+ * A caller that cannot sample at the times keeps the last step's command. */
+int mpc_tick_path_again(mpc_tick* t, double* times) {
+  double settled = 1.0;
+  if (!t->path_solved || t->path_rounds <= 0) return 0;
+  t->path_rounds--;
+  t->arg[0] = t->progress;
+  t->arg[1] = t->path_guess;
+  t->arg[2] = &t->path_t;
+  t->out[0] = &settled;
+  t->out[1] = times;
+  mpc_tick_progress_refine(t->arg, t->out, t->iw, t->w, 0);
+  if (settled != 0.0) return 0;
+  memcpy(t->path_guess, times, sizeof(t->path_guess));
+  t->path_pending = 1;
+  return 1;
+}
+#endif
