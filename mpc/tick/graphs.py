@@ -285,7 +285,8 @@ def build_graphs(model: TrackingModel, wheels: ScalarWheels | PlanarModules,
                       0 if steering is None else steering.wheels, rows_move,
                       0 if motor is None else feedforward_size(model.robot),
                       screened_places(limits, motor is not None,
-                                      0 if steering is None else steering.wheels * FACES))
+                                      steering.wheels * FACES
+                                      if faces and steering is not None else 0))
 
 
 def _moving_cost(model: TrackingModel, p_data: ca.SX, inputs: ca.SX) -> ca.SX:
