@@ -4,7 +4,8 @@ with its Hessian rebuilt every tick (no reuse, :data:`mpc.tick.reuse.REBUILD_DRI
 0), the Python tick (daqp), the compiled tick's virtual-machine path, the exported C
 library's tick (:mod:`benchmarks.exported`: built with CMake, each ``mpc_tick_step`` timed
 in C on the compiled tick's recorded ticks) and the project's IPOPT path: the same ticks on
-the same ideal plant, every controller built once and run ``rounds`` times in turns (the
+the same plant (each of ``plants`` in turn: the ideal one, and the realistic one of
+:mod:`benchmarks.perf_plants`), every controller built once and run ``rounds`` times in turns (the
 order rotated each round) so that their ratios are taken under the same load; tick times
 pooled over the rounds, errors from the first round (the exported library's: the recorded
 run's, whose commands it repeats).
@@ -69,25 +70,30 @@ _NOTE = "; it supports "
 def compiled_section(layouts: list[str], modes: list[str], speeds: dict[str, float],
                      shape: str, heading: str, horizon: int, dt: float, ticks: int,
                      rounds: int, reference: Callable[..., Trajectory],
-                     run: Callable[[TrackingController, int], Any],
+                     run: Callable[..., Any],
                      row: Callable[..., dict[str, Any]], settle: Callable[[int], int],
-                     say: Callable[[str], None], motors: bool = False) -> dict[str, Any]:
+                     say: Callable[[str], None], motors: bool = False,
+                     plants: tuple[str, ...] | list[str] = ("ideal",)) -> dict[str, Any]:
     """The section: ``rows`` (each with perf's row keys), ``unsupported`` (the scenarios
     the compiled tick refuses, with the reason) and ``builds`` (per robot: seconds to build
     or load its compiled and exported libraries). ``reference``, ``run``, ``row``,
     ``settle``: perf's own helpers, so that its rows have every other section's keys;
-    ``motors``: on the layouts' motor presets (a layout with none: ScenarioError)."""
+    ``motors``: on the layouts' motor presets (a layout with none: ScenarioError);
+    ``plants``: each scenario's closed loops on each of these plants in turn
+    (:data:`benchmarks.perf_plants.PLANTS`, ``run``'s ``plant``), the same controllers on
+    each, the rows saying which (``plant``)."""
     if motors:
         unknown = [layout for layout in layouts if layout not in MOTOR_ROBOT_PRESETS]
         if unknown:
             raise ScenarioError(f"--motors: no motor preset of {', '.join(unknown)}; "
                                 f"expected some of {', '.join(MOTOR_ROBOT_PRESETS)}")
     say(f"{rounds} rounds of {ticks} ticks each, the controllers taking turns; N={horizon}, "
-        f"{shape} {heading} heading, ideal plant" + ("; motor presets" if motors else ""))
-    say(f"{'layout':8s} {'mode':5s} {'speed':7s} {'controller':16s} {'tick p50':>9s} "
-        f"{'tick p99':>9s} {'solve p50':>9s} {'rms err':>9s} {'/compiled':>9s} {'build':>6s}"
-        f"  path")
-    say(f"{'':8s} {'':5s} {'':7s} {'':16s} {'[ms]':>9s} {'[ms]':>9s} {'[ms]':>9s} "
+        f"{shape} {heading} heading, {' and '.join(plants)} plant"
+        + ("s" if len(plants) > 1 else "") + ("; motor presets" if motors else ""))
+    say(f"{'layout':8s} {'mode':5s} {'speed':7s} {'plant':9s} {'controller':16s} "
+        f"{'tick p50':>9s} {'tick p99':>9s} {'solve p50':>9s} {'rms err':>9s} "
+        f"{'/compiled':>9s} {'build':>6s}  path")
+    say(f"{'':8s} {'':5s} {'':7s} {'':9s} {'':16s} {'[ms]':>9s} {'[ms]':>9s} {'[ms]':>9s} "
         f"{'[mm]':>9s} {'':>9s} {'[s]':>6s}")
     rows: list[dict[str, Any]] = []
     unsupported: list[dict[str, Any]] = []
@@ -140,8 +146,9 @@ def compiled_section(layouts: list[str], modes: list[str], speeds: dict[str, flo
                     builds[layout][f"exported_{mode}"] = (
                         exported if isinstance(exported, str)
                         else {"build_s": exported.build_time, "cached": exported.cached})
-                rows += _scenario(built, exported, layout, mode, speed, ratio, horizon,
-                                  ticks, rounds, run, row, settle, say, motors)
+                for plant in plants:
+                    rows += _scenario(built, exported, layout, mode, speed, ratio, horizon,
+                                      ticks, rounds, run, row, settle, say, motors, plant)
     say("/compiled: the row's tick p50 over the compiled tick's; path: what ran the tick "
         "(the compiled tick runs the virtual machine where no compiler works); "
         "compiled-rebuild: the compiled tick with its Hessian rebuilt every tick; "
@@ -157,14 +164,15 @@ def _scenario(built: dict[str, tuple[TrackingController, float]],
               exported: ExportedTick | str, layout: str, mode: str, speed: str, ratio: float,
               horizon: int, ticks: int, rounds: int, run: Callable[..., Any],
               row: Callable[..., dict[str, Any]], settle: Callable[[int], int],
-              say: Callable[[str], None], motors: bool = False) -> list[dict[str, Any]]:
-    """One scenario's rows: every controller in turns, the exported library among them
-    (``motors``: the robot is the layout's motor preset)."""
-    label = f"{layout:8s} {mode:5s} {speed:7s}"
+              say: Callable[[str], None], motors: bool = False,
+              plant: str = "ideal") -> list[dict[str, Any]]:
+    """One scenario's rows on ``plant``: every controller in turns, the exported library
+    among them (``motors``: the robot is the layout's motor preset)."""
+    label = f"{layout:8s} {mode:5s} {speed:7s} {plant:9s}"
     names: list[str] = list(built)
     recorded = inputs = None
     if not isinstance(exported, str):  # its ticks: the compiled tick's closed loop, untimed
-        recorded = run(built["compiled"][0], ticks)
+        recorded = run(built["compiled"][0], ticks, plant=plant)
         inputs = tick_inputs(built["compiled"][0], recorded.result.time,
                              recorded.result.measured)
         names.append(EXPORTED)
@@ -175,9 +183,10 @@ def _scenario(built: dict[str, tuple[TrackingController, float]],
                 assert isinstance(exported, ExportedTick) and inputs is not None
                 runs[name].append(exported.replay(inputs))
             else:
-                runs[name].append(run(built[name][0], ticks))
+                runs[name].append(run(built[name][0], ticks, plant=plant))
     common = {"section": "compiled", "layout": layout, "mode": mode, "speed": speed,
-              "peak_ratio": ratio, "horizon": horizon, "rounds": rounds, "motors": motors}
+              "peak_ratio": ratio, "horizon": horizon, "rounds": rounds, "motors": motors,
+              "plant": plant}
     items: dict[str, dict[str, Any]] = {}
     for name, (control, build) in built.items():
         items[name] = row(runs[name], settle(ticks), **common, solver=name, build_time=build,

@@ -1,7 +1,9 @@
 """``mpc-bench export-check``: the exported C library against the Python controller, on
 every preset and mode the compiled tick covers.
 
-For each robot preset (``--layouts``) x mode x speed: the Python controller (daqp,
+For each robot preset (``--layouts``: every shipped preset, then every motor preset,
+named ``<layout>-motors`` as its file, :func:`mpc.robots.motor_preset`) x mode x speed:
+the Python controller (daqp,
 ``compiled=False``) runs ``--ticks`` ticks in a closed loop on a plant that differs from
 the model (3 % slip along the body x axis, five Euler substeps; the model integrates SE(2)
 exactly), from a start
@@ -10,11 +12,15 @@ exactly), from a start
 library :func:`mpc.export_c` writes for the same controller, built with gcc from its
 ``CMakeLists.txt`` (:mod:`benchmarks.exported`); the command reports the largest
 difference of a commanded twist component or wheel speed, and the ticks whose status
-differs. Path mode: the samples the Python controller took each tick (its progress guess
-and warm-up rounds, :class:`~benchmarks.exported.SampleLog`) are fed to the library's
-three calls, and the line also reports how far the times the library asked for, and the
-reference time it tracked, are from the Python controller's. The Python tick keeps its
-Hessian by the compiled tick's rule for this (rebuilt at once when it drifted beyond
+differs, and the same against the compiled tick run in this process on those ticks
+(``compiled=True``: the library's graphs and daqp build; the Python tick's daqp is another
+release, whose answers on ill-conditioned problems drift apart from it over ticks). Path
+mode: the samples the Python controller took each tick (its progress guess and warm-up
+rounds, :class:`~benchmarks.exported.SampleLog`) are fed to the library's three calls, and
+the line also reports how far the times the library asked for, and the reference time it
+tracked, are from the Python controller's. A motor preset's Python tick hands daqp every
+row, as the library does (no row screen). The Python tick keeps its Hessian by the
+compiled tick's rule for this (rebuilt at once when it drifted beyond
 :data:`mpc.tick.reuse.REBUILD_DRIFT`, never staged: a kept Hessian changes a step by far
 more than rounding, docs/guide/compiled-tick.md). A preset or mode the compiled tick does
 not cover is a line with its reason. Exit code 1 if any difference exceeds
@@ -32,6 +38,7 @@ from typing import Any
 import numpy as np
 
 import mpc.solvers.dense as dense
+import mpc.solvers.row_screen as row_screen
 import mpc.tick.reuse as reuse
 from benchmarks.exported import (
     ExportBuildError,
@@ -45,7 +52,7 @@ from benchmarks.options import add_list_option
 from benchmarks.scenarios import Parser, ScenarioError, choose, parse_speeds, reference
 from mpc import Command, Controller, Status
 from mpc.control.controller import MODES
-from mpc.robots import preset, shipped_presets
+from mpc.robots import MOTOR_ROBOT_PRESETS, Robot, motor_preset, preset, shipped_presets
 from mpc.tick import UnsupportedTickError
 
 #: The start's offset from the reference's first pose (x [m], y [m], heading [rad]).
@@ -53,6 +60,18 @@ START_OFFSET = (0.15, -0.05, 0.2)
 SLIP = 0.03  # the plant's slip along the body x axis
 SUBSTEPS = 5  # the plant's Euler substeps a tick
 TOLERANCE = 1e-9  # the largest command difference accepted [m/s, rad/s]
+MOTORS = "-motors"  # a motor preset's name here: its layout and this (its file's name)
+
+
+def robot_names() -> tuple[str, ...]:
+    """The robots ``--layouts`` takes: every shipped preset, then every motor preset."""
+    return (*shipped_presets(), *(f"{name}{MOTORS}" for name in MOTOR_ROBOT_PRESETS))
+
+
+def robot_named(name: str) -> Robot:
+    """The robot of a :func:`robot_names` name (a ``-motors`` name: the motor preset)."""
+    layout = name.removesuffix(MOTORS)
+    return motor_preset(layout) if layout != name else preset(name)
 
 
 @contextmanager
@@ -70,6 +89,21 @@ def compiled_reuse_rule(path: bool = False) -> Iterator[None]:
         yield
     finally:
         dense.REBUILD_NOW, dense.REBUILD_EARLY, dense.COST_ONLY_DRIFT = saved
+
+
+@contextmanager
+def every_row() -> Iterator[None]:
+    """The Python tick handing daqp every motor row (no row screen,
+    :mod:`mpc.solvers.row_screen`) and never rebuilding its Hessian with the last build's
+    sensitivities (``COST_ONLY_DRIFT``: a motor robot's cost moves with the reference), as
+    the exported library does (as tests/test_compiled_motor_tick.py and tick_loop.py
+    compare them)."""
+    saved = row_screen.SCREEN_AFTER, dense.COST_ONLY_DRIFT
+    row_screen.SCREEN_AFTER, dense.COST_ONLY_DRIFT = 10**9, -1.0
+    try:
+        yield
+    finally:
+        row_screen.SCREEN_AFTER, dense.COST_ONLY_DRIFT = saved
 
 
 def plant_step(pose: np.ndarray, twist: np.ndarray, dt: float) -> np.ndarray:
@@ -107,7 +141,7 @@ def check(robot_name: str, mode: str, ratio: float, ticks: int, horizon: int,
           dt: float) -> dict[str, Any]:
     """One preset, mode and speed: ``{"supported": False, "reason": ...}``, or the
     comparison (``max_difference``, ``status_mismatches``, ``fallbacks``, ``build_s``)."""
-    robot = preset(robot_name)
+    robot = robot_named(robot_name)
     trajectory = reference("figure8", "fixed", robot, ratio)
     try:
         exported = Controller(robot, trajectory, horizon=horizon, dt=dt, mode=mode,
@@ -120,7 +154,7 @@ def check(robot_name: str, mode: str, ratio: float, ticks: int, horizon: int,
     library = ExportedTick(exported)
     path = mode == "path"  # (the reference sampled where the library says: recorded)
     log = SampleLog(trajectory) if path else None
-    with compiled_reuse_rule(path):
+    with compiled_reuse_rule(path), every_row():
         python = Controller(robot, trajectory, horizon=horizon, dt=dt, mode=mode)
         times, poses, commands, samples = record(python, ticks, log)
     replay = library.replay(path_tick_inputs(times, poses, samples) if path
@@ -132,17 +166,33 @@ def check(robot_name: str, mode: str, ratio: float, ticks: int, horizon: int,
         progress = {"time_gap": float(replay.time_gap.max(initial=0.0)),
                     "reference_time_difference": float(np.abs(
                         replay.reference_time - [c.reference_time for c in commands]).max())}
+    own = compiled_differences(robot, trajectory, horizon, dt, mode, times, poses, replay)
     return {"supported": True, "max_difference": difference, "status_mismatches": mismatches,
+            "compiled_difference": own[0], "compiled_status_mismatches": own[1],
             **progress, "ticks": len(commands),
             "fallbacks": sum(command.status is not Status.SOLVED for command in commands),
             "hessians_built": int(replay.rebuilt.sum()), "build_s": library.build_time,
             "cached": library.cached}
 
 
+def compiled_differences(robot: Robot, trajectory: Any, horizon: int, dt: float, mode: str,
+                         times: list[float], poses: list[np.ndarray],
+                         replay: Any) -> tuple[float, int]:
+    """The library's commands (``replay``) against the compiled tick's in this process
+    (``compiled=True``: the same graphs, linked with the same daqp) on the same recorded
+    ticks: its largest difference and the ticks whose status differs. Beside the Python
+    controller's, it tells the export's own error from the two daqp releases' (the casadi
+    wheel's in C, the daqp module's in Python) drifting apart over ticks."""
+    compiled = Controller(robot, trajectory, horizon=horizon, dt=dt, mode=mode, compiled=True)
+    commands = [compiled.step(pose, t) for t, pose in zip(times, poses, strict=True)]
+    return command_differences(replay, commands)
+
+
 def _parser() -> Parser:
     parser = Parser(prog="mpc-bench export-check", description=__doc__.split("\n")[0])
     add_list_option(parser, "--layouts",
-                    help="comma list of robot presets (default: every shipped preset)")
+                    help="comma list of robot presets, a motor preset as LAYOUT-motors "
+                         "(default: every shipped preset, then every motor preset)")
     add_list_option(parser, "--modes", help=f"comma list of {', '.join(MODES)} (default: all)")
     add_list_option(parser, "--speeds",
                     help="inside (0.8 x limits), beyond (1.3 x) or peak ratios like 1.1 "
@@ -158,7 +208,7 @@ def _parser() -> Parser:
 
 def main(argv: list[str]) -> int:
     args = _parser().parse_args(argv)
-    presets = shipped_presets()
+    presets = robot_names()
     robots = choose("--layouts", "layout", args.layouts, presets, presets)
     modes = choose("--modes", "mode", args.modes, list(MODES))
     speeds = parse_speeds(args.speeds)
@@ -172,7 +222,8 @@ def main(argv: list[str]) -> int:
           f"{SLIP:.0%} slip and {SUBSTEPS} Euler substeps; tolerance {args.tolerance:g}",
           flush=True)
     print(f"{'robot':14s} {'mode':5s} {'speed':7s} {'ticks':>6s} {'max diff':>9s} "
-          f"{'status':>6s} {'fallbk':>6s} {'builds':>6s} {'build s':>7s}", flush=True)
+          f"{'status':>6s} {'fallbk':>6s} {'builds':>6s} {'build s':>7s} {'vs comp':>9s} "
+          f"{'status':>6s}", flush=True)
     failed = checked = 0
     notes: dict[str, None] = {}
     for robot in robots:
@@ -199,16 +250,19 @@ def main(argv: list[str]) -> int:
                 failed += bad
                 print(f"{label} {item['ticks']:6d} {item['max_difference']:9.2g} "
                       f"{item['status_mismatches']:6d} {item['fallbacks']:6d} "
-                      f"{item['hessians_built']:6d} {item['build_s']:7.1f}"
+                      f"{item['hessians_built']:6d} {item['build_s']:7.1f} "
+                      f"{item['compiled_difference']:9.2g} "
+                      f"{item['compiled_status_mismatches']:6d}"
                       + (f"  times {progress:.2g}" if "time_gap" in item else "")
                       + ("  BEYOND TOLERANCE" if bad else ""), flush=True)
     for supported in notes:
         print(f"(the compiled tick supports {supported})")
     print(f"max diff: the largest |twist or wheel-speed difference| [m/s, rad/s] over the "
           f"ticks; status: ticks whose status differs; fallbk: the Python controller's "
-          f"fallback ticks; builds: Hessians the library built; times (path mode): the "
-          f"largest difference [s] of the times the library sampled the reference at, or "
-          f"of the reference time it tracked, from the Python controller's; {checked} "
-          f"checked, "
+          f"fallback ticks; builds: Hessians the library built; vs comp, status: the same "
+          f"against the compiled tick in this process (compiled=True, the library's daqp); "
+          f"times (path mode): the largest difference [s] of the times the library sampled "
+          f"the reference at, or of the reference time it tracked, from the Python "
+          f"controller's; {checked} checked, "
           f"{failed} failed, {time.perf_counter() - started:.0f} s")
     return 1 if failed else 0

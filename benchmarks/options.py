@@ -26,6 +26,7 @@ LIST_OPTIONS: dict[str, tuple[str, ...]] = {
     "--sections": ("--section",),
     "--kinds": ("--kind",),
     "--horizons": (),  # --horizon is the MPC's horizon, a number
+    "--plants": (),  # --plant is run's one plant
 }
 
 

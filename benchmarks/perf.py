@@ -33,6 +33,12 @@ are shared and noisy; absolute times are what this machine did while it ran. Sec
    IPOPT path over it, issue 37's lines). Each robot's library is compiled once (tens of
    seconds at N = 20; cached after), so ``--quick`` leaves the section out unless named.
 
+The peers and compiled sections close their loops on each of ``--plants``
+(:mod:`benchmarks.perf_plants`): the ideal plant and the ``realistic`` one (motor lag, a
+tick of delay, noise, slip, ten substeps, a start 0.28 m off), both by default (``--quick``:
+ideal), and issue 37's lines are stated per plant. ``--runs R`` runs those two sections R
+times over and states each line in each run and whether it held in every run.
+
 Times [s] in ``perf.json``, printed in ms or us. ``tick`` is the whole ``step()``
 (``Command.tick_time``); ``solve`` the solver's own time (daqp and OSQP: their reported
 solve time; IPOPT: its wall time); ``overhead`` their difference (Python, NumPy, CasADi).
@@ -60,6 +66,7 @@ from benchmarks import peers
 from benchmarks.compiled_tick import compiled_section, issue_targets
 from benchmarks.options import add_list_option
 from benchmarks.outdir import add_force_argument, claim
+from benchmarks.perf_plants import PLANTS, describe, simulate_options
 from benchmarks.runner import machine
 from benchmarks.scenarios import (
     HEADINGS,
@@ -164,9 +171,12 @@ class _CpuTimed:
 
 
 def _run(control: TrackingController, ticks: int,
-         on_tick: Callable[[int, int], None] | None = None) -> Run:
+         on_tick: Callable[[int, int], None] | None = None, plant: str = "ideal") -> Run:
+    """``control``'s closed loop over ``ticks`` on ``plant`` (:data:`benchmarks.perf_plants.
+    PLANTS`), each step's process CPU time kept."""
     timed = _CpuTimed(control)
-    result = simulate(timed, ticks * control.dt, on_tick=on_tick)
+    result = simulate(timed, ticks * control.dt, on_tick=on_tick,
+                      **simulate_options(plant, control.trajectory))
     return Run(result, np.asarray(timed.cpu))
 
 
@@ -431,14 +441,17 @@ def scenarios_section(layouts: list[str], modes: list[str], speeds: dict[str, fl
 
 # ------------------------------------------------------------------------------- 4. peers
 def peers_section(ticks: int, say: Printer, rounds: int = PEER_ROUNDS,
-                  compiled: bool = False) -> dict[str, Any]:
+                  compiled: bool = False, plants: tuple[str, ...] | list[str] = ("ideal",)
+                  ) -> dict[str, Any]:
     """daqp (the default and ``jit=True``, when it compiles; with ``compiled``, the compiled
     tick too), the IPOPT path and (when
     installed) do-mpc on the reference scenario, inside and beyond the limits, over the same
     ticks on the same plant: each controller built once and run ``rounds`` times, the
     controllers taking turns (the order rotated each round), so that every ratio is taken
     under the same load, their objects frozen out of the garbage collector's scans
-    (``gc.freeze``) meanwhile; tick times pooled over the rounds, errors from the first."""
+    (``gc.freeze``) meanwhile; tick times pooled over the rounds, errors from the first.
+    Each of ``plants`` (:data:`benchmarks.perf_plants.PLANTS`) in turn, the same
+    controllers on each: the rows say which (``plant``)."""
     robot = preset(REFERENCE_LAYOUT)
     names = [f"mpc-{FAST}", JIT_PEER, *([COMPILED_PEER] if compiled else []), "mpc-ipopt"]
     if peers.available():
@@ -449,10 +462,12 @@ def peers_section(ticks: int, say: Printer, rounds: int = PEER_ROUNDS,
         say(peers.INSTALL_HINT)
     say(f"{rounds} rounds of {ticks} ticks each, the controllers taking turns; tick p50 over "
         f"the rounds' ticks pooled")
-    say(f"{'speed':7s} {'controller':10s} {'tick p50':>9s} {'solve p50':>9s} {'iters':>6s} "
-        f"{'rms err':>11s} {'max err':>11s} {'failures':>8s} {'build':>6s}")
-    say(f"{'':7s} {'':10s} {'[ms]':>9s} {'[ms]':>9s} {'':>6s} {'[mm]':>11s} {'[mm]':>11s} "
-        f"{'':>8s} {'[s]':>6s}")
+    for plant in plants:
+        say(describe(plant))
+    say(f"{'speed':7s} {'plant':9s} {'controller':12s} {'tick p50':>9s} {'solve p50':>9s} "
+        f"{'iters':>6s} {'rms err':>11s} {'max err':>11s} {'failures':>8s} {'build':>6s}")
+    say(f"{'':7s} {'':9s} {'':12s} {'[ms]':>9s} {'[ms]':>9s} {'':>6s} {'[mm]':>11s} "
+        f"{'[mm]':>11s} {'':>8s} {'[s]':>6s}")
     rows = []
     for speed in ("inside", "beyond"):
         trajectory: Trajectory = reference(REFERENCE_SHAPE, REFERENCE_HEADING, robot,
@@ -484,37 +499,46 @@ def peers_section(ticks: int, say: Printer, rounds: int = PEER_ROUNDS,
                 control = Controller(robot, trajectory, horizon=REFERENCE_HORIZON, dt=DT,
                                      solver=name.removeprefix("mpc-"))
             built[name] = control, time.perf_counter() - started
-        # Every controller is alive through the rounds: their objects are frozen out of
-        # the garbage collector's scans, so that one's heap (do-mpc's is large) does not
-        # slow another's ticks (docs/design/perf-gc-freeze.md).
-        gc.collect()
-        gc.freeze()
-        runs: dict[str, list[Run]] = {name: [] for name in built}
-        failures = dict.fromkeys(built, 0)
-        order = list(built)
-        try:
-            for turn in range(rounds):
-                for name in order[turn % len(order):] + order[:turn % len(order)]:
-                    control = built[name][0]
-                    runs[name].append(_run(control, ticks))  # (simulate resets it)
-                    if isinstance(control, peers.DoMpcController):
-                        failures[name] += control.failures  # IPOPT reported no success
-        finally:
-            gc.unfreeze()
-        for name, (control, build) in built.items():
-            row = _row(runs[name], _settle(ticks), section="peers", layout=REFERENCE_LAYOUT,
-                       mode="time", speed=speed, peak_ratio=SPEEDS[speed], solver=name,
-                       horizon=REFERENCE_HORIZON, build_time=build, rounds=rounds)
-            if isinstance(control, peers.DoMpcController):
-                row["failures"] = failures[name]  # (no fallback: IPOPT's last iterate)
-            rows.append(row)
-            say(f"{speed:7s} {name:10s} {_ms(row['tick_p50'])} {_ms(row['solve_p50'])} "
-                f"{row['iterations_p50']:6.0f} {row['rms_position_error'] * 1e3:11.6f} "
-                f"{row['max_position_error'] * 1e3:11.6f} {row['failures']:8d} {build:6.1f}")
+        for plant in plants:
+            rows += _peer_rounds(built, ticks, rounds, speed, plant, say)
     return {"status": "measured" if "do-mpc" in names else "do-mpc not installed",
             "version": peers.version(), "rows": rows,
             "integration": "exact SE(2) integral of the body twist over each stage "
                            "(discrete do-mpc model, no collocation)"}
+
+
+def _peer_rounds(built: dict[str, tuple[TrackingController, float]], ticks: int, rounds: int,
+                 speed: str, plant: str, say: Printer) -> list[dict[str, Any]]:
+    """The peers' rounds at ``speed`` on ``plant``: one row a controller."""
+    # Every controller is alive through the rounds: their objects are frozen out of
+    # the garbage collector's scans, so that one's heap (do-mpc's is large) does not
+    # slow another's ticks (docs/design/perf-gc-freeze.md).
+    gc.collect()
+    gc.freeze()
+    runs: dict[str, list[Run]] = {name: [] for name in built}
+    failures = dict.fromkeys(built, 0)
+    order = list(built)
+    try:
+        for turn in range(rounds):
+            for name in order[turn % len(order):] + order[:turn % len(order)]:
+                control = built[name][0]
+                runs[name].append(_run(control, ticks, plant=plant))  # (simulate resets it)
+                if isinstance(control, peers.DoMpcController):
+                    failures[name] += control.failures  # IPOPT reported no success
+    finally:
+        gc.unfreeze()
+    rows = []
+    for name, (control, build) in built.items():
+        row = _row(runs[name], _settle(ticks), section="peers", layout=REFERENCE_LAYOUT,
+                   mode="time", speed=speed, peak_ratio=SPEEDS[speed], solver=name,
+                   horizon=REFERENCE_HORIZON, build_time=build, rounds=rounds, plant=plant)
+        if isinstance(control, peers.DoMpcController):
+            row["failures"] = failures[name]  # (no fallback: IPOPT's last iterate)
+        rows.append(row)
+        say(f"{speed:7s} {plant:9s} {name:12s} {_ms(row['tick_p50'])} {_ms(row['solve_p50'])} "
+            f"{row['iterations_p50']:6.0f} {row['rms_position_error'] * 1e3:11.6f} "
+            f"{row['max_position_error'] * 1e3:11.6f} {row['failures']:8d} {build:6.1f}")
+    return rows
 
 
 # ------------------------------------------------------------------------------- summary
@@ -561,33 +585,7 @@ def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, 
             summary["swerve_over_mecanum_tick_p50_beyond"] = (swerve["tick_p50"]
                                                               / mecanum["tick_p50"])
     if peer is not None and peer["rows"]:
-        by = {(row["speed"], row["solver"]): row for row in peer["rows"]}
-        for speed in ("inside", "beyond"):
-            mine, ipopt = by[(speed, f"mpc-{FAST}")], by[(speed, "mpc-ipopt")]
-            item = {f"ipopt_over_{FAST}_tick": ipopt["tick_p50"] / mine["tick_p50"],
-                    f"{FAST}_rms_over_ipopt_rms":
-                        mine["rms_position_error"] / ipopt["rms_position_error"]}
-            other = by.get((speed, "do-mpc"))
-            if other is not None:
-                item.update({
-                    f"do_mpc_over_{FAST}_tick": other["tick_p50"] / mine["tick_p50"],
-                    "do_mpc_over_ipopt_tick": other["tick_p50"] / ipopt["tick_p50"],
-                    "do_mpc_rms_over_ipopt_rms":
-                        other["rms_position_error"] / ipopt["rms_position_error"]})
-            compiled = by.get((speed, JIT_PEER))
-            if compiled is not None:  # beside the targets (those are the default's)
-                item["ipopt_over_jit_tick"] = ipopt["tick_p50"] / compiled["tick_p50"]
-                if other is not None:
-                    item["do_mpc_over_jit_tick"] = other["tick_p50"] / compiled["tick_p50"]
-            tick = by.get((speed, COMPILED_PEER))
-            if tick is not None:  # issue 37's lines (the compiled tick)
-                item["compiled_tick_p50"] = tick["tick_p50"]
-                item["ipopt_over_compiled_tick"] = ipopt["tick_p50"] / tick["tick_p50"]
-                item["compiled_rms_over_ipopt_rms"] = (tick["rms_position_error"]
-                                                       / ipopt["rms_position_error"])
-                if other is not None:
-                    item["do_mpc_over_compiled_tick"] = other["tick_p50"] / tick["tick_p50"]
-            summary[f"same_ticks_{speed}"] = item
+        summary.update(same_ticks(peer["rows"]))
     if drift is not None:
         summary["drift"] = drift
     summary["targets"] = _targets(summary)
@@ -598,6 +596,40 @@ def summarise(horizon_rows: list[dict[str, Any]], scenario_rows: list[dict[str, 
             "not_supported": len(section["unsupported"])}
         summary["issue37"] = _issue37(summary, section["rows"])
     return summary
+
+
+def same_ticks(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """The peers section's ratios over the same ticks (one plant's rows), by
+    ``same_ticks_<speed>``."""
+    found: dict[str, dict[str, Any]] = {}
+    by = {(row["speed"], row["solver"]): row for row in rows}
+    for speed in ("inside", "beyond"):
+        mine, ipopt = by[(speed, f"mpc-{FAST}")], by[(speed, "mpc-ipopt")]
+        item = {f"ipopt_over_{FAST}_tick": ipopt["tick_p50"] / mine["tick_p50"],
+                f"{FAST}_rms_over_ipopt_rms":
+                    mine["rms_position_error"] / ipopt["rms_position_error"]}
+        other = by.get((speed, "do-mpc"))
+        if other is not None:
+            item.update({
+                f"do_mpc_over_{FAST}_tick": other["tick_p50"] / mine["tick_p50"],
+                "do_mpc_over_ipopt_tick": other["tick_p50"] / ipopt["tick_p50"],
+                "do_mpc_rms_over_ipopt_rms":
+                    other["rms_position_error"] / ipopt["rms_position_error"]})
+        compiled = by.get((speed, JIT_PEER))
+        if compiled is not None:  # beside the targets (those are the default's)
+            item["ipopt_over_jit_tick"] = ipopt["tick_p50"] / compiled["tick_p50"]
+            if other is not None:
+                item["do_mpc_over_jit_tick"] = other["tick_p50"] / compiled["tick_p50"]
+        tick = by.get((speed, COMPILED_PEER))
+        if tick is not None:  # issue 37's lines (the compiled tick)
+            item["compiled_tick_p50"] = tick["tick_p50"]
+            item["ipopt_over_compiled_tick"] = ipopt["tick_p50"] / tick["tick_p50"]
+            item["compiled_rms_over_ipopt_rms"] = (tick["rms_position_error"]
+                                                   / ipopt["rms_position_error"])
+            if other is not None:
+                item["do_mpc_over_compiled_tick"] = other["tick_p50"] / tick["tick_p50"]
+        found[f"same_ticks_{speed}"] = item
+    return found
 
 
 def _issue37(summary: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
@@ -730,15 +762,75 @@ def _print_summary(summary: dict[str, Any], say: Printer) -> None:
             say(f"  {name}: {shown}: {'met' if item['met'] else 'NOT met'}")
     if "issue37" in summary:
         covered = summary["compiled_scenarios"]
-        say(f"issue 37 targets (the compiled tick, {covered['measured']} scenarios measured, "
-            f"{covered['not_supported']} not supported yet) on this machine:")
-        for name, item in summary["issue37"].items():
-            sign = "<=" if item.get("at_most") else ">="
-            value, limit = item["measured"], item["limit"]
-            shown = (f"{value * 1e6:.1f} us {sign} {limit * 1e6:.0f} us" if limit < 0.01
-                     else f"{value:.2f} {sign} {limit:g}")
-            where = f" (worst: {item['scenario']})" if "scenario" in item else ""
-            say(f"  {name}: {shown}{where}: {'met' if item['met'] else 'NOT met'}")
+        plants = summary.get("issue37_plants") or {"": summary["issue37"]}
+        for plant, lines in plants.items():
+            on = f" on the {plant} plant" if plant else ""
+            say(f"issue 37 targets (the compiled tick, {covered['measured']} scenarios "
+                f"measured, {covered['not_supported']} not supported yet){on} on this "
+                f"machine:")
+            for name, item in lines.items():
+                say(f"  {name}: {_shown(item)}: {'met' if item['met'] else 'NOT met'}")
+
+
+def _shown(item: dict[str, Any]) -> str:
+    """A target's measured value against its limit, with its worst scenario if named."""
+    sign = "<=" if item.get("at_most") else ">="
+    value, limit = item["measured"], item["limit"]
+    shown = (f"{value * 1e6:.1f} us {sign} {limit * 1e6:.0f} us" if limit < 0.01
+             else f"{value:.2f} {sign} {limit:g}")
+    return shown + (f" (worst: {item['scenario']})" if "scenario" in item else "")
+
+
+def issue37_by_plant(peer_rows: list[dict[str, Any]], compiled_rows: list[dict[str, Any]],
+                     plants: list[str]) -> dict[str, dict[str, dict[str, Any]]]:
+    """Issue 37's lines on each plant, from one run's peers and compiled rows (a row
+    without a ``plant`` is the ideal plant's)."""
+    found = {}
+    for plant in plants:
+        mine = [row for row in peer_rows if row.get("plant", "ideal") == plant]
+        ticks = same_ticks(mine) if mine else {}
+        found[plant] = _issue37(ticks, [row for row in compiled_rows
+                                        if row.get("plant", "ideal") == plant])
+    return found
+
+
+def every_run(runs: list[dict[str, dict[str, dict[str, Any]]]]
+              ) -> dict[str, dict[str, dict[str, Any]]]:
+    """Issue 37's lines over several runs (each :func:`issue37_by_plant`'s), by plant and
+    line: each run's value (and worst scenario) and whether it was met in every run."""
+    table: dict[str, dict[str, dict[str, Any]]] = {}
+    for lines_by_plant in runs:
+        for plant, lines in lines_by_plant.items():
+            for name, item in lines.items():
+                entry = table.setdefault(plant, {}).setdefault(
+                    name, {"limit": item["limit"], "at_most": bool(item.get("at_most")),
+                           "measured": [], "scenario": [], "met": []})
+                entry["measured"].append(item["measured"])
+                entry["scenario"].append(item.get("scenario"))
+                entry["met"].append(item["met"])
+    for lines in table.values():
+        for entry in lines.values():
+            entry["met_in_every_run"] = len(entry["met"]) == len(runs) and all(entry["met"])
+    return table
+
+
+def _print_every_run(table: dict[str, dict[str, dict[str, Any]]], runs: int,
+                     say: Printer) -> None:
+    say(f"issue 37 targets in each of the {runs} runs (run 1 / 2 / ..., worst scenario in "
+        f"brackets):")
+    for plant, lines in table.items():
+        say(f"  {plant} plant:")
+        for name, entry in lines.items():
+            values = []
+            for value, scenario in zip(entry["measured"], entry["scenario"], strict=True):
+                text = (f"{value * 1e6:.1f} us" if entry["limit"] < 0.01 else f"{value:.2f}")
+                values.append(text + (f" ({scenario})" if scenario else ""))
+            sign = "<=" if entry["at_most"] else ">="
+            limit = (f"{entry['limit'] * 1e6:.0f} us" if entry["limit"] < 0.01
+                     else f"{entry['limit']:g}")
+            verdict = ("met in every run" if entry["met_in_every_run"]
+                       else f"NOT met in {entry['met'].count(False)} of {runs}")
+            say(f"    {name}: {' / '.join(values)}; {sign} {limit}: {verdict}")
 
 
 # ---------------------------------------------------------------------------------- main
@@ -817,6 +909,12 @@ def _parser() -> Parser:
     parser.add_argument("--motors", action="store_true",
                         help="compiled: the layouts' motor presets (mpc.robots.motor_preset: "
                              "voltage, current and traction rows) instead of the kinematic")
+    add_list_option(parser, "--plants",
+                    help=f"peers and compiled: comma list of {', '.join(PLANTS)} (default: "
+                         f"both; --quick: ideal): each scenario's closed loop on each")
+    parser.add_argument("--runs", type=int,
+                        help="peers and compiled: run both sections this many times, issue "
+                             "37's lines stated for each run (1)")
     parser.add_argument("--ticks", type=int, help="ticks per run (400; --quick 40)")
     parser.add_argument("--ipopt-ticks", type=int,
                         help="ticks per IPOPT run and per peers run (120; --quick 20)")
@@ -860,6 +958,11 @@ def main(argv: list[str]) -> int:
               else (1 if args.quick else PEER_ROUNDS))
     if rounds < 1:
         raise ScenarioError(f"--peer-rounds must be >= 1, got {rounds}")
+    plants = choose("--plants", "plant", args.plants, list(PLANTS),
+                    ["ideal"] if args.quick else list(PLANTS))
+    runs = args.runs if args.runs is not None else 1
+    if runs < 1:
+        raise ScenarioError(f"--runs must be >= 1, got {runs}")
     profiles = ("tick_profile.txt", "tick_profile.json") if "profile" in sections else ()
     out = claim(args.out, ("perf.json", "perf.txt", *profiles), args.force)
 
@@ -869,7 +972,9 @@ def main(argv: list[str]) -> int:
     load_start = os.getloadavg() if hasattr(os, "getloadavg") else None
     commit = _commit()
     say(f"{command}: sections {', '.join(sections)}; {ticks} ticks a run (IPOPT and peers "
-        f"{ipopt_ticks}), dt {DT} s, ideal plant")
+        f"{ipopt_ticks}), dt {DT} s, ideal plant; peers and compiled on the "
+        f"{', '.join(plants)} plant{'s' if len(plants) > 1 else ''}"
+        + (f", {runs} runs" if runs > 1 else ""))
     profile = horizon_rows = scenario_rows = peer = drift = jit = None
     if "profile" in sections:
         say("\n== 1. tick split (TickProfile) ==")
@@ -888,18 +993,32 @@ def main(argv: list[str]) -> int:
             f"{P99_LIMIT * 1e3:g} ms) ==")
         scenario_rows = scenarios_section(layouts, modes, speeds, trajectories, headings,
                                           ticks, say, args.jit)
-    if "peers" in sections:
-        say(f"\n== 4. peers: {FAST}, the IPOPT path and do-mpc on the same problem and ticks ==")
-        peer = peers_section(ipopt_ticks, say, rounds, "compiled" in sections)
     compiled = None
-    if "compiled" in sections:
-        say("\n== 5. compiled tick: Controller(compiled=True) beside itself rebuilding its "
-            "Hessian every tick, the Python tick, its virtual machine, the exported C library "
-            "and the IPOPT path ==")
-        compiled = compiled_section(
-            layouts, modes, speeds, REFERENCE_SHAPE, REFERENCE_HEADING,
-            REFERENCE_HORIZON, DT, ipopt_ticks, rounds, reference, _run, _row, _settle, say,
-            motors=args.motors)
+    peer_runs: list[dict[str, Any] | None] = []
+    compiled_runs: list[dict[str, Any] | None] = []
+    for run in range(1, runs + 1):
+        each = f" (run {run} of {runs})" if runs > 1 else ""
+        found = None
+        if "peers" in sections:
+            say(f"\n== 4. peers: {FAST}, the IPOPT path and do-mpc on the same problem and "
+                f"ticks{each} ==")
+            found = peers_section(ipopt_ticks, say, rounds, "compiled" in sections, plants)
+            for row in found["rows"]:
+                row["run"] = run
+        peer_runs.append(found)
+        found = None
+        if "compiled" in sections:
+            say("\n== 5. compiled tick: Controller(compiled=True) beside itself rebuilding "
+                "its Hessian every tick, the Python tick, its virtual machine, the exported C "
+                f"library and the IPOPT path{each} ==")
+            found = compiled_section(
+                layouts, modes, speeds, REFERENCE_SHAPE, REFERENCE_HEADING,
+                REFERENCE_HORIZON, DT, ipopt_ticks, rounds, reference, _run, _row, _settle,
+                say, motors=args.motors, plants=plants)
+            for row in found["rows"]:
+                row["run"] = run
+        compiled_runs.append(found)
+    peer, compiled = peer_runs[0], compiled_runs[0]
     first = next((row for row in horizon_rows or []
                   if row["solver"] == FAST and row["horizon"] == REFERENCE_HORIZON), None)
     if first is not None:  # the same run again: how much the machine moved meanwhile
@@ -910,11 +1029,30 @@ def main(argv: list[str]) -> int:
                      _settle(ticks))
         drift = {"start_tick_p50": first["tick_p50"], "end_tick_p50": again["tick_p50"],
                  "end_over_start": again["tick_p50"] / first["tick_p50"]}
-    summary = summarise(horizon_rows or [], scenario_rows or [], peer, drift, jit, compiled)
+    lead = plants[0]  # issues 11 and 12's lines: from the first plant's peers rows
+
+    def on_first(document: dict[str, Any] | None) -> dict[str, Any] | None:
+        return None if document is None else {
+            **document, "rows": [row for row in document["rows"]
+                                 if row.get("plant", "ideal") == lead]}
+
+    summary = summarise(horizon_rows or [], scenario_rows or [], on_first(peer), drift, jit,
+                        on_first(compiled))
+    by_run = [issue37_by_plant((ran or {}).get("rows", []), (built or {}).get("rows", []),
+                               plants)
+              for ran, built in zip(peer_runs, compiled_runs, strict=True)]
+    if "issue37" in summary:
+        summary["issue37_plants"] = by_run[0]
+        if runs > 1:
+            summary["issue37_runs"] = by_run
+            summary["issue37_every_run"] = every_run(by_run)
     say()
     _print_summary(summary, say)
-    rows = [*(horizon_rows or []), *(scenario_rows or []), *((peer or {}).get("rows", [])),
-            *((compiled or {}).get("rows", []))]
+    if "issue37_every_run" in summary:
+        _print_every_run(summary["issue37_every_run"], runs, say)
+    rows = [*(horizon_rows or []), *(scenario_rows or []),
+            *(row for ran in peer_runs for row in (ran or {}).get("rows", [])),
+            *(row for built in compiled_runs for row in (built or {}).get("rows", []))]
     document = {
         "command": command,
         "commit": commit,
@@ -928,6 +1066,11 @@ def main(argv: list[str]) -> int:
                      "solvers": solvers, "layouts": layouts,
                      "modes": modes, "speeds": speeds, "trajectories": trajectories,
                      "headings": headings, "sections": sections, "plant": "ideal",
+                     "plants": plants, "runs": runs,
+                     "plant_settings": {name: {"preset": PLANTS[name].preset,
+                                               "start_offset": PLANTS[name].start_offset,
+                                               "seed": PLANTS[name].seed}
+                                        for name in plants},
                      "jit_scenarios": args.jit, "motors_compiled": args.motors,
                      "p99_limit": P99_LIMIT},
         "profiles": profile,

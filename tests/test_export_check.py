@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 from benchmarks.cli import main
-from benchmarks.export_check import check
+from benchmarks.export_check import check, robot_named, robot_names
 from benchmarks.exported import Replay, differences
 from mpc import Status
+from mpc.robots import MOTOR_ROBOT_PRESETS, shipped_presets
 
 pytestmark = pytest.mark.skipif(shutil.which("cmake") is None or shutil.which("gcc") is None,
                                 reason="needs cmake and gcc")
@@ -48,6 +49,31 @@ def test_the_command_reports_each_preset_or_why_not(capsys: pytest.CaptureFixtur
     (swerve,) = [line for line in out.splitlines() if line.startswith("swerve ")]
     if "not supported: " not in swerve:  # (covered once the compiled tick widens)
         assert float(swerve.split()[4]) <= 1e-9 and swerve.split()[5] == "0"
+
+
+def test_motor_presets_are_named_as_their_files_and_checked() -> None:
+    """``LAYOUT-motors`` is the layout's motor preset (its file's name), listed after every
+    shipped preset; the library repeats the compiled tick in this process exactly (the same
+    graphs and daqp build) and the Python controller to the two daqp releases' tolerance
+    (tests/test_compiled_motor_tick.py: 1e-5)."""
+    names = robot_names()
+    assert names[:len(shipped_presets())] == shipped_presets()
+    assert names[len(shipped_presets()):] == tuple(f"{name}-motors"
+                                                   for name in MOTOR_ROBOT_PRESETS)
+    assert robot_named("mecanum-motors").dynamics is not None
+    assert robot_named("mecanum").dynamics is None
+    item = check("mecanum-motors", "time", 1.3, ticks=30, horizon=8, dt=0.05)
+    assert item["supported"] and item["ticks"] == 30 and item["fallbacks"] == 0
+    assert item["compiled_difference"] == 0.0 and item["compiled_status_mismatches"] == 0
+    assert item["max_difference"] <= 1e-5 and item["status_mismatches"] == 0
+
+
+def test_a_refused_motor_preset_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["export-check", "--layouts", "swerve-motors", "--modes", "time",
+                 "--speeds", "beyond", "--ticks", "5", "--horizon", "8"]) == 0
+    (line,) = [line for line in capsys.readouterr().out.splitlines()
+               if line.startswith("swerve-motors ")]
+    assert "not supported: " in line and "motor model" in line
 
 
 def test_bad_options_are_one_line_errors(capsys: pytest.CaptureFixture[str]) -> None:
