@@ -8,8 +8,10 @@ from the measurements in ``benchmarks/results/`` (never typed by hand).
 - ``docs/benchmarks/motors.md`` from ``motors.json`` (``mpc-bench motors``);
 - ``docs/performance/index.md`` from ``perf.json``, ``perf.txt``, ``tick_profile.txt``
   and ``motors-perf.json`` (``mpc-bench perf``, ``mpc-bench motors --perf``);
-- the block between ``<!-- results:begin -->`` and ``<!-- results:end -->`` in
-  ``README.md``.
+- ``docs/performance/compiled.md`` from ``compiled/perf.json`` and ``compiled/perf.txt``
+  (``mpc-bench perf --sections compiled,peers``, :mod:`benchmarks.compiled_pages`);
+- the blocks between ``<!-- results:begin -->`` and ``<!-- results:end -->`` and between
+  ``<!-- performance:begin -->`` and ``<!-- performance:end -->`` in ``README.md``.
 
 ``--check`` writes nothing and fails (exit 1) naming every file that differs from what
 the results give now; ``tests/test_docs_pages.py`` runs the same check.
@@ -27,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from benchmarks import compiled_pages
 from benchmarks.scenarios import Parser
 from mpc.plot.headline import POSITION_FLOOR, headline, is_mpc, ties
 
@@ -371,13 +374,13 @@ class Output:
     content: bytes
 
 
-def replace_block(text: str, block: str) -> str:
-    """``text`` with the lines between :data:`BEGIN` and :data:`END` set to ``block``."""
-    if BEGIN not in text or END not in text:
-        raise ValueError(f"README.md has no {BEGIN} ... {END} block")
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    return f"{head}{BEGIN}\n{block}\n{END}{tail}"
+def replace_block(text: str, block: str, begin: str = BEGIN, end: str = END) -> str:
+    """``text`` with the lines between ``begin`` and ``end`` set to ``block``."""
+    if begin not in text or end not in text:
+        raise ValueError(f"README.md has no {begin} ... {end} block")
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    return f"{head}{begin}\n{block}\n{end}{tail}"
 
 
 def outputs(root: Path = ROOT) -> list[Output]:
@@ -394,9 +397,14 @@ def outputs(root: Path = ROOT) -> list[Output]:
     out = [Output(Path(name), make().encode("utf-8")) for name, make in pages]
     out += [Output(Path("docs/benchmarks") / name, (results / name).read_bytes())
             for name in FIGURES]
-    readme = (root / "README.md").read_text("utf-8")
-    out.append(Output(Path("README.md"), replace_block(readme, readme_block(runs))
-                      .encode("utf-8")))
+    compiled = results / compiled_pages.FOLDER
+    perf = _json(compiled, "perf.json")
+    out.append(Output(Path("docs/performance/compiled.md"), compiled_pages.page(
+        perf, (compiled / "perf.txt").read_text("utf-8"), NOTICE).encode("utf-8")))
+    readme = replace_block((root / "README.md").read_text("utf-8"), readme_block(runs))
+    readme = replace_block(readme, compiled_pages.readme_block(perf), compiled_pages.BEGIN,
+                           compiled_pages.END)
+    out.append(Output(Path("README.md"), readme.encode("utf-8")))
     return out
 
 

@@ -125,3 +125,31 @@ def test_motors_page_quotes_the_results_file() -> None:
             assert _close(error, 1e3 * row["rms_position_error"])
             assert (int(voltage), int(current), int(slip)) == (
                 row["voltage_violations"], row["current_violations"], row["slip_events"])
+
+
+def test_the_compiled_tick_table_has_a_row_a_layout_from_the_run() -> None:
+    """The README's performance table from a hand-made run: a layout's p50 range, its worst
+    CPU p99, the Python tick's ratio range and the least IPOPT ratio; a refused scenario
+    counted, a layout with none compiled shown empty."""
+    from benchmarks import compiled_pages
+
+    def row(solver: str, mode: str, p50: float, cpu99: float, ipopt: float) -> dict:
+        return {"section": "compiled", "solver": solver, "plant": "ideal", "run": 1,
+                "layout": "mecanum", "mode": mode, "speed": "inside", "tick_p50": p50,
+                "cpu_p99": cpu99, "ipopt_over_compiled_tick": ipopt,
+                "rms_position_error": 0.001}
+
+    perf = {"command": "mpc-bench perf", "commit": "abc", "machine": {"cpu_count": 2},
+            "settings": {"plants": ["ideal"], "ticks": 10, "ipopt_ticks": 5},
+            "wall_time": 60.0, "summary": {"issue37_plants": {"ideal": {}}},
+            "compiled": {"unsupported": [
+                {"layout": "mecanum", "mode": "path", "speed": "beyond", "reason": "no"},
+                {"layout": "caster4", "mode": "time", "speed": "inside", "reason": "no"}]},
+            "rows": [row("compiled", "time", 1e-4, 4e-4, 300.0),
+                     row("python", "time", 3e-4, 9e-4, 0.0),
+                     row("compiled", "path", 5e-4, 1.2e-3, 90.0),
+                     row("python", "path", 7.5e-4, 2e-3, 0.0)]}
+    lines = compiled_pages.readme_block(perf).splitlines()
+    assert lines[2] == "| mecanum | 2 of 3 | 0.100-0.500 | 1.200 | 1.5-3 | 90 |"
+    assert lines[3] == "| caster4 | 0 of 1 |  |  |  |  |"
+    assert "# The compiled tick" in compiled_pages.page(perf, "output", "")
