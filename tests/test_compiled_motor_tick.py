@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import functools
 import math
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -26,6 +25,7 @@ from tick_loop import (
     plant_step,
     same_reuse_rule,
 )
+from toolchain import COMPILED_PATH, needs_cmake
 
 import mpc
 import mpc.solvers.row_screen as row_screen
@@ -238,7 +238,7 @@ def test_compiled_motor_tick_matches_the_python_tick(layout: str) -> None:
         compiled = Controller(robot, trajectory, horizon=HORIZON, dt=DT, compiled=True)
         machine = Controller(robot, trajectory, horizon=HORIZON, dt=DT,
                              compiled="virtual-machine")
-    assert compiled.tick_path == "compiled"
+    assert compiled.tick_path == COMPILED_PATH
     for controller, tolerance in ((compiled, 1e-5), (machine, 1e-9)):
         got = [controller.step(pose, k * DT) for k, pose in enumerate(poses)]
         _assert_same(expected, got, tolerance)
@@ -257,8 +257,7 @@ def test_swerve_motor_preset_is_refused_by_name() -> None:
                    compiled="virtual-machine")
 
 
-@pytest.mark.skipif(shutil.which("cmake") is None or shutil.which("gcc") is None,
-                    reason="needs cmake and gcc")
+@needs_cmake
 def test_the_exported_motor_library_gives_the_python_commands(tmp_path: Path) -> None:
     """``mpc.export_c`` of the Mecanum motor preset, built with CMake: its example program
     replaying the recorded loop's ticks gives the Python tick's statuses, twists and wheel

@@ -17,7 +17,6 @@ active sets (tests/test_compiled_swerve.py), hence :data:`LIBRARY_TOLERANCE` (an
 from __future__ import annotations
 
 import math
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -35,6 +34,7 @@ from tick_loop import (
     same_reuse_rule,
     sanitized_example,
 )
+from toolchain import COMPILED_PATH, needs_cmake
 
 import mpc
 import mpc.robots.wheels.swerve.limits as swerve_limits
@@ -116,7 +116,7 @@ def test_compiled_mpo700_matches_the_python_tick(name: str) -> None:
     assert_same(expected, got_virtual, 1e-9)
     compiled = Controller(preset("mpo700"), trajectory, horizon=HORIZON, dt=DT,
                           compiled=True)
-    assert compiled.tick_path == "compiled"
+    assert compiled.tick_path == COMPILED_PATH
     got = [compiled.step(pose, k * DT) for k, pose in enumerate(poses)]
     assert_same(expected, got, LIBRARY_TOLERANCE)
     assert_same(got_virtual, got, LIBRARY_TOLERANCE)
@@ -203,8 +203,7 @@ def test_axle_offsets_with_what_it_does_not_cover_are_refused_by_name(
     assert named in str(error.value)
 
 
-@pytest.mark.skipif(shutil.which("cmake") is None or shutil.which("gcc") is None,
-                    reason="needs cmake and gcc")
+@needs_cmake
 def test_the_exported_mpo700_library_gives_the_compiled_ticks_commands(tmp_path: Path) -> None:
     """``mpc.export_c`` of an mpo700 controller, built with CMake: its example program, fed
     the recorded ticks beyond the limits, gives the compiled tick's statuses, twists, wheel
@@ -330,7 +329,7 @@ def test_compiled_casters_match_the_python_tick(name: str) -> None:
     for compiled in ("virtual-machine", True):
         controller = Controller(preset("caster4"), trajectory, horizon=HORIZON, dt=DT,
                                 compiled=compiled)
-        assert controller.tick_path == ("compiled" if compiled is True else compiled)
+        assert controller.tick_path == (COMPILED_PATH if compiled is True else compiled)
         got[controller.tick_path] = [
             controller.step(pose, k * DT, steer_angles=angles)
             for k, (pose, angles) in enumerate(zip(poses, measured, strict=True))]
@@ -412,8 +411,7 @@ def test_casters_it_does_not_cover_are_refused_by_name(options: dict[str, object
                    compiled=True)
 
 
-@pytest.mark.skipif(shutil.which("cmake") is None or shutil.which("gcc") is None,
-                    reason="needs cmake and gcc")
+@needs_cmake
 def test_the_exported_caster_library_gives_the_compiled_ticks_commands(tmp_path: Path) -> None:
     """``mpc.export_c`` of a caster controller, built with CMake: its example program, fed
     the recorded ticks (the pose, the reference window, the measured steer angles), gives

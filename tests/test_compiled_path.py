@@ -29,6 +29,7 @@ from tick_loop import (
     record,
     same_reuse_rule,
 )
+from toolchain import COMPILED_PATH
 
 import mpc.solvers.dense as dense
 from benchmarks.scenarios import reference
@@ -101,7 +102,7 @@ def test_the_path_tick_matches_the_python_tick(robot_name: str, period: float,
     trajectory = FigureEight(1.0, period, heading="tangent")
     poses, expected = recorded(robot_name, trajectory, every_tick)
     controller = compiled_loop(robot_name, trajectory, compiled, every_tick)
-    assert controller.tick_path == ("compiled" if compiled is True else "virtual-machine")
+    assert controller.tick_path == (COMPILED_PATH if compiled is True else "virtual-machine")
     got = replay(controller, poses)
     assert_same(expected, got)
     assert_same_progress(expected, got)

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import ctypes
 import math
-import shutil
 import subprocess
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -40,6 +39,7 @@ from tick_loop import (
     same_reuse_rule,
     sanitized_example,
 )
+from toolchain import COMPILED_PATH, needs_cmake, needs_compiler
 
 import mpc
 import mpc.robots.wheels.swerve.limits as swerve_limits
@@ -138,7 +138,7 @@ def test_compiled_swerve_matches_the_python_tick(name: str) -> None:
     got_virtual = [virtual.step(pose, k * DT) for k, pose in enumerate(poses)]
     assert_same(expected, got_virtual, 1e-9)
     compiled = Controller(preset("swerve"), trajectory, horizon=HORIZON, dt=DT, compiled=True)
-    assert compiled.tick_path == "compiled"
+    assert compiled.tick_path == COMPILED_PATH
     got = [compiled.step(pose, k * DT) for k, pose in enumerate(poses)]
     assert_same(expected, got, LIBRARY_TOLERANCE)
     assert_same(got_virtual, got, LIBRARY_TOLERANCE)
@@ -269,8 +269,7 @@ def test_polygon_rows_are_refused() -> None:
                    polygon_sides=16, compiled=True)
 
 
-@pytest.mark.skipif(shutil.which("cmake") is None or shutil.which("gcc") is None,
-                    reason="needs cmake and gcc")
+@needs_cmake
 def test_the_exported_swerve_library_gives_the_compiled_ticks_commands(tmp_path: Path) -> None:
     """``mpc.export_c`` of a swerve controller, built with CMake: its example program, fed
     the recorded ticks beyond the limits, gives the compiled tick's statuses, twists, wheel
@@ -304,6 +303,7 @@ def test_the_exported_swerve_library_gives_the_compiled_ticks_commands(tmp_path:
     np.testing.assert_allclose(again, rows, rtol=0, atol=1e-9)
 
 
+@needs_compiler
 def test_the_row_whitening_in_c_is_the_graphs() -> None:
     """``tick.c``'s ``mpc_tick_whiten_moving`` (swerve's rows whitened every tick) against
     the generated ``mpc_tick_whiten_rows`` in the same library, on seeded random factors and

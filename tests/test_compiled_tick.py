@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from tick_loop import DT, HORIZON, TICKS, Broken, hessian_every_tick, plant_step, record
+from toolchain import COMPILED_PATH, needs_cmake
 
 import benchmarks.perf as perf
 from benchmarks.cli import main
@@ -75,7 +76,7 @@ def test_compiled_tick_matches_the_python_tick(name: str) -> None:
     poses, expected = record(robot_name, trajectory)
     compiled = Controller(preset(robot_name), trajectory, horizon=HORIZON, dt=DT,
                           compiled=True)
-    assert compiled.tick_path == "compiled"
+    assert compiled.tick_path == COMPILED_PATH
     got = replay(compiled, poses)
     assert_same(expected, got)
     assert_safe(robot_name, got)
@@ -140,7 +141,7 @@ def test_the_virtual_machine_runs_the_same_tick() -> None:
                           compiled=True)
     virtual = Controller(preset("mecanum"), trajectory, horizon=HORIZON, dt=DT,
                          compiled="virtual-machine")
-    assert (compiled.tick_path, virtual.tick_path) == ("compiled", "virtual-machine")
+    assert (compiled.tick_path, virtual.tick_path) == (COMPILED_PATH, "virtual-machine")
     assert_same(replay(compiled, poses[:120]), replay(virtual, poses[:120]))
 
 
@@ -279,6 +280,7 @@ def test_the_compiled_step_allocates_nothing(tmp_path: Path, robot_name: str) ->
     assert solved == 200
 
 
+@needs_cmake
 def test_perf_shows_the_compiled_tick_beside_the_others(tmp_path: Path,
                                                         monkeypatch: pytest.MonkeyPatch,
                                                         capsys: pytest.CaptureFixture[str]
