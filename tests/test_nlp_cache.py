@@ -94,6 +94,22 @@ def test_a_changed_problem_derives_anew(builds: list[bool]) -> None:
     assert builds[-1] is True
 
 
+def test_the_kept_derivatives_are_bounded_least_recently_used_first(
+        builds: list[bool], monkeypatch: pytest.MonkeyPatch) -> None:
+    NlpSolver(model(horizon=12))
+    NlpSolver(model(horizon=11))
+    budget = nlp._kept_instructions()  # these two just fit
+    monkeypatch.setattr(nlp, "_DERIVATIVES_INSTRUCTIONS", budget)
+    for horizon in (12, 10, 11, 12):
+        NlpSolver(model(horizon=horizon))
+    # 12 again: kept, now the most recent; 10 drops 11; 11 built anew drops 12, so 12 too
+    assert builds == [False, False, True, False, False, False]
+    assert nlp._kept_instructions() <= budget and list(nlp._DERIVATIVES) != []
+    monkeypatch.setattr(nlp, "_DERIVATIVES_MAX", 1)
+    NlpSolver(model(horizon=13))
+    assert len(nlp._DERIVATIVES) == 1
+
+
 def test_bounds_stay_each_solvers_own(builds: list[bool]) -> None:
     """A wheel at a fifth of its speed changes only the constraints' bounds: the two solvers
     share the build, and each keeps its own limits."""

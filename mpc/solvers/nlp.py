@@ -33,7 +33,10 @@ from mpc.solvers.base import SolveResult
 #: ``hess_lag``), keyed by :func:`_problem_key`: deriving them takes seconds for the casters,
 #: so solvers of one problem share them (each builds its own IPOPT from them, in ms).
 _DERIVATIVES: OrderedDict[str, dict[str, ca.Function]] = OrderedDict()
-_DERIVATIVES_MAX = 8  # problems kept (least recently used dropped first)
+#: Problems kept at most, and their derivatives' CasADi instructions at most (a caster
+#: robot's take 1.5 million, a Mecanum robot's 14 thousand); least recently used dropped.
+_DERIVATIVES_MAX = 32
+_DERIVATIVES_INSTRUCTIONS = 4_000_000
 _DERIVATIVES_LOCK = threading.Lock()
 #: nlpsol's names of the derivatives, by the option that takes each.
 _DERIVED = {"grad_f": "nlp_grad_f", "jac_g": "nlp_jac_g", "hess_lag": "nlp_hess_l"}
@@ -50,6 +53,10 @@ def _problem_key(problem: dict[str, ca.SX], options: dict[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+def _kept_instructions() -> int:
+    return sum(f.n_instructions() for kept in _DERIVATIVES.values() for f in kept.values())
+
+
 def build_ipopt(problem: dict[str, ca.SX], options: dict[str, Any]) -> ca.Function:
     """IPOPT for ``problem`` with ``options``, from the derivatives of an identical problem
     built before if there is one (:data:`_DERIVATIVES`)."""
@@ -64,7 +71,8 @@ def build_ipopt(problem: dict[str, ca.SX], options: dict[str, Any]) -> ca.Functi
     with _DERIVATIVES_LOCK:
         _DERIVATIVES[key] = {option: solver.get_function(name)
                              for option, name in _DERIVED.items()}
-        while len(_DERIVATIVES) > _DERIVATIVES_MAX:
+        while len(_DERIVATIVES) > 1 and (len(_DERIVATIVES) > _DERIVATIVES_MAX
+                                         or _kept_instructions() > _DERIVATIVES_INSTRUCTIONS):
             _DERIVATIVES.popitem(last=False)
     return solver
 
