@@ -30,8 +30,8 @@ from mpc.robots.drive.motor_nlp import nlp_stage_limits
 from mpc.solvers.base import SolveResult
 
 #: CasADi's derivatives of each problem built so far (IPOPT's ``grad_f``, ``jac_g`` and
-#: ``hess_lag``), keyed by :func:`_problem_key`: deriving them takes seconds for the casters,
-#: so solvers of one problem share them (each builds its own IPOPT from them, in ms).
+#: ``hess_lag``), keyed by :func:`_problem_key`: deriving them is most of a caster robot's
+#: set-up, so solvers of one problem share them (each builds its own IPOPT from them).
 _DERIVATIVES: OrderedDict[str, dict[str, ca.Function]] = OrderedDict()
 #: Problems kept at most, and their derivatives' CasADi instructions at most (a caster
 #: robot's take 1.5 million, a Mecanum robot's 14 thousand); least recently used dropped.
@@ -79,6 +79,9 @@ def build_ipopt(problem: dict[str, ca.SX], options: dict[str, Any]) -> ca.Functi
 
 class NlpSolver:
     """IPOPT solver of a :class:`~mpc.model.tracking.TrackingModel`.
+
+    Solvers of one problem (the same cost and constraints) share CasADi's derivatives of
+    it, built by the first; each keeps its own IPOPT, options and bounds.
 
     Args:
         model: the tracking problem.
