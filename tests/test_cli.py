@@ -17,16 +17,27 @@ from typing import Any
 import numpy as np
 import pytest
 
+import mpc.plot.writer
 from benchmarks.cli import COMMANDS, command_parser, main
 from benchmarks.runner import summary_table
 from benchmarks.scenarios import DEFAULT_CONTROLLERS
 from trajectories import read_choreo
 
 
+def _runs_not_drawn(patch: pytest.MonkeyPatch) -> None:
+    """Each run's own figure left undrawn (progress still counted), here and on the report's
+    worker processes: these tests read the results, the page and the summary figures;
+    test_report_subcommand_rebuilds_the_report draws the quick run's figures."""
+    patch.setattr(mpc.plot.writer, "_draw_runs",
+                  lambda jobs, workers, tick: [tick() for _ in jobs])
+
+
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("bench")
-    assert main(["--quick", "--out", str(out)]) == 0
+    with pytest.MonkeyPatch.context() as patch:
+        _runs_not_drawn(patch)
+        assert main(["--quick", "--out", str(out)]) == 0
     return out
 
 
@@ -268,7 +279,8 @@ def test_a_second_run_into_the_same_folder_is_refused(quick_run: Path,
     assert (quick_run / "results.json").read_bytes() == before
 
 
-def test_force_overwrites(tmp_path: Path) -> None:
+def test_force_overwrites(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    _runs_not_drawn(monkeypatch)
     def run(*extra: str) -> int:
         return main(["--layouts", "omni3", "--trajectories", "circle", "--speeds", "inside",
                      "--headings", "fixed", "--controllers", "ff-p-clip", "--duration", "1",
@@ -357,7 +369,9 @@ def choreo_file(folder: Path, name: str = "lane-change", **changes: Any) -> Path
     return path
 
 
-def test_choreo_trajectory_runs_on_its_own_robot(tmp_path: Path) -> None:
+def test_choreo_trajectory_runs_on_its_own_robot(tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    _runs_not_drawn(monkeypatch)  # the page's run names are read, not the runs' figures
     path = choreo_file(tmp_path)
     out = tmp_path / "out"
     # --quick: the file for 3 s (no built-in shape); two processes: the samples cross them

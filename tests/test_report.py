@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from matplotlib.legend import Legend
     from matplotlib.text import Text
 
+import mpc.plot.writer
 from benchmarks.report import ReportError, load_results, run_id, verdict, write_report
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -107,6 +108,14 @@ def report(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[tuple[i
     progress: list[tuple[int, int]] = []
     index = write_report(_results(), out_dir / "nested", lambda i, n: progress.append((i, n)))
     return index, progress
+
+
+@pytest.fixture()
+def runs_not_drawn(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each run's own figure left undrawn, for tests of the page and of the figures beside
+    it: the page is the same text either way, and the module's report draws runs of these
+    synthetic series (the run figure reads the series, not the metrics)."""
+    monkeypatch.setattr(mpc.plot.writer, "write_run_figure", lambda run, data, path: None)
 
 
 def test_index_references_every_figure_and_run(report: tuple[Path, list[tuple[int, int]]]) -> None:
@@ -247,6 +256,7 @@ def test_degenerate_runs_do_not_crash(tmp_path: Path) -> None:
         assert png.read_bytes()[:8] == PNG_MAGIC
 
 
+@pytest.mark.usefixtures("runs_not_drawn")
 def test_pace_figure_and_column_for_runs_with_laps(tmp_path: Path) -> None:
     """Runs that carry a steady lap and the fastest lap they could keep get the lap/target
     column and the pace figure (lap ratio against path error per scenario)."""
@@ -281,6 +291,7 @@ def test_figures_drawn_on_processes_are_the_same_files(
         write_report(_results(), tmp_path / "bad", workers=0)
 
 
+@pytest.mark.usefixtures("runs_not_drawn")
 def test_report_takes_a_results_json_and_the_cli_rebuilds_it_in_place(tmp_path: Path) -> None:
     """mpc.plot.report(path) draws a results.json; mpc.plot.report keeps its results.json
     inside the report folder, and `mpc-bench report` rebuilds that folder, not a nested
@@ -403,11 +414,13 @@ def test_tied_variants_stay_apart_on_the_dot_chart() -> None:
     assert len(outlined) == sum(len(ranking.winners) for ranking in lead.rankings) == 6
 
 
+@pytest.mark.usefixtures("runs_not_drawn")
 def test_errors_below_the_floor_are_not_ranked(tmp_path: Path) -> None:
     """Inside the limits 1e-14 and 3e-8 m are both "< 0.01" mm, tied best, not ranked.
 
     The inside scenario and one beyond it (so the headline's focus stays beyond the
-    limits): what is checked is per scenario, and the report draws a figure per run."""
+    limits): what is checked is per scenario, and the report draws a figure per
+    scenario."""
     kept = {("mecanum", "circle", "inside", 0.8), ("mecanum", "circle", "beyond", 1.3)}
     page = write_report(_hand_made(kept), tmp_path).read_text(encoding="utf-8")
     table = _full_table(page)
@@ -472,6 +485,7 @@ def _narrow_span() -> dict[str, Any]:
     return results
 
 
+@pytest.mark.usefixtures("runs_not_drawn")  # the first run's figure is drawn and read below
 @pytest.mark.parametrize("document", [_single_run, _narrow_span])
 def test_figures_have_readable_ticks_and_legends_off_the_data(
         document: Callable[[], dict[str, Any]], tmp_path: Path) -> None:
@@ -484,7 +498,7 @@ def test_figures_have_readable_ticks_and_legends_off_the_data(
 
     results = document()
     runs = results["runs"]
-    write_report(results, tmp_path)  # the whole report draws
+    write_report(results, tmp_path)  # the page and the figures beside it draw
     series = [read_series(run, run_id(run), DT) for run in runs]
     lead_figure = headline_figure(headline(runs), runs)
     members = [i for i, run in enumerate(runs) if run["layout"] == runs[0]["layout"]]

@@ -1,9 +1,10 @@
 """Exact path: the nonlinear tracking problem solved by IPOPT (the yardstick).
 
 Multiple shooting over ``z`` with the exact dynamics, parameterised by ``p``
-(see :mod:`mpc.model.layout`), built once and warm started from the guess
-(the shifted previous plan). Wheel limits are exact: each robot gives its
-own CasADi expressions (:meth:`~mpc.robots.Robot.casadi_limits`: linear rows
+(see :mod:`mpc.model.layout`), its derivatives built once per distinct
+problem (solvers of one problem share them: :func:`build_ipopt`), warm started
+from the guess (the shifted previous plan). Wheel limits are exact: each robot
+gives its own CasADi expressions (:meth:`~mpc.robots.Robot.casadi_limits`: linear rows
 for Swedish wheels, disks for swerve modules), on every twist for speed and
 on every change of twist for acceleration. In path mode the reference is
 expanded to second order in the progress around where it was sampled
@@ -13,6 +14,9 @@ are bounds on ``z``.
 
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from typing import Any
 
 import casadi as ca
@@ -25,9 +29,59 @@ from mpc.profiling import TickProfile
 from mpc.robots.drive.motor_nlp import nlp_stage_limits
 from mpc.solvers.base import SolveResult
 
+#: CasADi's derivatives of each problem built so far (IPOPT's ``grad_f``, ``jac_g`` and
+#: ``hess_lag``), keyed by :func:`_problem_key`: deriving them is most of a caster robot's
+#: set-up, so solvers of one problem share them (each builds its own IPOPT from them).
+_DERIVATIVES: OrderedDict[str, dict[str, ca.Function]] = OrderedDict()
+#: Problems kept at most, and their derivatives' CasADi instructions at most (a caster
+#: robot's take 1.5 million, a Mecanum robot's 14 thousand); least recently used dropped.
+_DERIVATIVES_MAX = 32
+_DERIVATIVES_INSTRUCTIONS = 4_000_000
+_DERIVATIVES_LOCK = threading.Lock()
+#: nlpsol's names of the derivatives, by the option that takes each.
+_DERIVED = {"grad_f": "nlp_grad_f", "jac_g": "nlp_jac_g", "hess_lag": "nlp_hess_l"}
+
+
+def _problem_key(problem: dict[str, ca.SX], options: dict[str, Any]) -> str:
+    """A digest of everything that defines the derivatives: the expressions of the cost and
+    constraints in ``x`` and ``p`` (every number in them) and nlpsol's options (IPOPT's own,
+    such as ``max_iter``, change the solve, not the derivatives)."""
+    function = ca.Function("problem", [problem["x"], problem["p"]],
+                           [problem["f"], problem["g"]])
+    shared = {name: value for name, value in options.items() if name != "ipopt"}
+    text = function.serialize() + repr(sorted(shared.items()))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _kept_instructions() -> int:
+    return sum(f.n_instructions() for kept in _DERIVATIVES.values() for f in kept.values())
+
+
+def build_ipopt(problem: dict[str, ca.SX], options: dict[str, Any]) -> ca.Function:
+    """IPOPT for ``problem`` with ``options``, from the derivatives of an identical problem
+    built before if there is one (:data:`_DERIVATIVES`)."""
+    key = _problem_key(problem, options)
+    with _DERIVATIVES_LOCK:
+        derivatives = _DERIVATIVES.get(key)
+        if derivatives is not None:
+            _DERIVATIVES.move_to_end(key)
+    if derivatives is not None:
+        return ca.nlpsol("tracking_nlp", "ipopt", problem, {**options, **derivatives})
+    solver = ca.nlpsol("tracking_nlp", "ipopt", problem, options)
+    with _DERIVATIVES_LOCK:
+        _DERIVATIVES[key] = {option: solver.get_function(name)
+                             for option, name in _DERIVED.items()}
+        while len(_DERIVATIVES) > 1 and (len(_DERIVATIVES) > _DERIVATIVES_MAX
+                                         or _kept_instructions() > _DERIVATIVES_INSTRUCTIONS):
+            _DERIVATIVES.popitem(last=False)
+    return solver
+
 
 class NlpSolver:
     """IPOPT solver of a :class:`~mpc.model.tracking.TrackingModel`.
+
+    Solvers of one problem (the same cost and constraints) share CasADi's derivatives of
+    it, built by the first; each keeps its own IPOPT, options and bounds.
 
     Args:
         model: the tracking problem.
@@ -71,7 +125,7 @@ class NlpSolver:
                       "tol": float(tolerance),
                       "max_wall_time": float(time_limit) if time_limit > 0 else 1e20},
         }
-        self._solver = ca.nlpsol("tracking_nlp", "ipopt", problem, options)
+        self._solver = build_ipopt(problem, options)
         self._lbg = np.concatenate(lower)
         self._ubg = np.concatenate(upper)
         self._lbx = np.full(variables.size, -np.inf)
