@@ -11,8 +11,9 @@ refused, with why.
 from __future__ import annotations
 
 import textwrap
-from collections.abc import Sequence
 from typing import Any
+
+from benchmarks.markdown import sig, table
 
 Row = dict[str, Any]
 
@@ -34,18 +35,8 @@ LINES = {
 }
 
 
-def _sig(value: float, digits: int = 3) -> str:
-    return f"{value:.{digits}g}"
-
-
 def _ms(seconds: float) -> str:
     return f"{1e3 * seconds:.3f}"
-
-
-def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(row) + " |" for row in rows]
-    return "\n".join(lines)
 
 
 def _machine(perf: dict[str, Any]) -> str:
@@ -99,8 +90,8 @@ def readme_block(perf: dict[str, Any]) -> str:
         rows.append([
             layout, f"{len(own)} of {total}", f"{_ms(p50[0])}-{_ms(p50[-1])}",
             _ms(max(row["cpu_p99"] for row in own)),
-            f"{_sig(min(speedup))}-{_sig(max(speedup))}" if speedup else "",
-            _sig(min(row["ipopt_over_compiled_tick"] for row in own))])
+            f"{sig(min(speedup))}-{sig(max(speedup))}" if speedup else "",
+            sig(min(row["ipopt_over_compiled_tick"] for row in own))])
     lines = issue_lines(perf, plant)
     peers = {key: lines[key]["measured"] for key in (
         "mecanum_inside_do_mpc_over_compiled_tick", "mecanum_inside_ipopt_over_compiled_tick")
@@ -110,7 +101,7 @@ def readme_block(perf: dict[str, Any]) -> str:
                  f"{peers['mecanum_inside_ipopt_over_compiled_tick']:.0f}x the compiled "
                  "tick's (p50, same ticks)." if len(peers) == 2 else "")
     return "\n".join([
-        _table(["layout", "scenarios compiled", "compiled tick p50 [ms]",
+        table(["layout", "scenarios compiled", "compiled tick p50 [ms]",
                 "process-CPU p99, worst [ms]", "Python tick / compiled", "IPOPT / compiled, least"],
                rows), "",
         textwrap.fill(
@@ -147,27 +138,27 @@ def page(perf: dict[str, Any], text: str, notice: str) -> str:
             key = _key(row)
             rows.append([
                 *key, _ms(row["tick_p50"]), _ms(row["cpu_p99"]),
-                _sig(python[key]["tick_p50"] / row["tick_p50"]) if key in python else "",
-                _sig(machine[key]["tick_p50"] / row["tick_p50"]) if key in machine else "",
-                _sig(exported[key]["tick_p50"] / row["tick_p50"]) if key in exported else "",
-                _sig(row["ipopt_over_compiled_tick"]), _sig(1e3 * row["rms_position_error"])])
+                sig(python[key]["tick_p50"] / row["tick_p50"]) if key in python else "",
+                sig(machine[key]["tick_p50"] / row["tick_p50"]) if key in machine else "",
+                sig(exported[key]["tick_p50"] / row["tick_p50"]) if key in exported else "",
+                sig(row["ipopt_over_compiled_tick"]), sig(1e3 * row["rms_position_error"])])
         lines = []
         for name, item in issue_lines(perf, plant).items():
             scale = 1e3 if name.endswith("p99_max") else 1.0  # seconds shown in ms
             sense = "at least" if item.get("at_least") else "at most"
-            lines.append([LINES.get(name, name), _sig(scale * item["measured"], 4),
-                          f"{sense} {_sig(scale * item['limit'])}", item.get("scenario", ""),
+            lines.append([LINES.get(name, name), sig(scale * item["measured"], 4),
+                          f"{sense} {sig(scale * item['limit'])}", item.get("scenario", ""),
                           "met" if item["met"] else "**not met**"])
         out += [f"## The {plant} plant", "",
-                _table(["layout", "mode", "speed", "compiled p50 [ms]", "CPU p99 [ms]",
+                table(["layout", "mode", "speed", "compiled p50 [ms]", "CPU p99 [ms]",
                         "Python / compiled", "virtual machine / compiled",
                         "exported (in C) / compiled", "IPOPT / compiled", "RMS error [mm]"],
                        rows), "", "Issue 37's lines:", "",
-                _table(["line", "measured", "limit", "worst scenario", ""], lines), ""]
+                table(["line", "measured", "limit", "worst scenario", ""], lines), ""]
     refused = perf.get("compiled", {}).get("unsupported", [])
     if refused:
         out += ["## Not compiled", "",
-                _table(["layout", "mode", "speed", "why"],
+                table(["layout", "mode", "speed", "why"],
                        [[item["layout"], item["mode"], item["speed"],
                          item["reason"].split("; it supports")[0]] for item in refused]), ""]
     out += ["## The run's output", "", "```text", text.rstrip(), "```", ""]

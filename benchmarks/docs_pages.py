@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks import compiled_pages
+from benchmarks.markdown import sig, table
 from benchmarks.scenarios import Parser
 from mpc.plot.headline import POSITION_FLOOR, headline, is_mpc, ties
 
@@ -81,26 +82,6 @@ def _json(folder: Path, name: str) -> Any:
 
 
 # --------------------------------------------------------------------------- formatting
-
-
-def sig(value: Any, digits: int = 3) -> str:
-    """A number to ``digits`` significant digits (no exponent for 1e-3..1e6), ``-`` if
-    missing or not finite."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        return "-"
-    if value == 0:
-        return "0"
-    magnitude = math.floor(math.log10(abs(value)))
-    if magnitude < -3 or magnitude >= 6:
-        return f"{value:.{digits - 1}e}"
-    return f"{value:.{max(digits - 1 - magnitude, 0)}f}"
-
-
-def table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    """A Markdown table."""
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(row) + " |" for row in rows]
-    return "\n".join(lines)
 
 
 def _machine(document: dict[str, Any]) -> str:

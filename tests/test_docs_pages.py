@@ -150,6 +150,6 @@ def test_the_compiled_tick_table_has_a_row_a_layout_from_the_run() -> None:
                      row("compiled", "path", 5e-4, 1.2e-3, 90.0),
                      row("python", "path", 7.5e-4, 2e-3, 0.0)]}
     lines = compiled_pages.readme_block(perf).splitlines()
-    assert lines[2] == "| mecanum | 2 of 3 | 0.100-0.500 | 1.200 | 1.5-3 | 90 |"
+    assert lines[2] == "| mecanum | 2 of 3 | 0.100-0.500 | 1.200 | 1.50-3.00 | 90.0 |"
     assert lines[3] == "| caster4 | 0 of 1 |  |  |  |  |"
     assert "# The compiled tick" in compiled_pages.page(perf, "output", "")
