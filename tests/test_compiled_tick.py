@@ -291,7 +291,8 @@ def test_perf_shows_the_compiled_tick_beside_the_others(tmp_path: Path,
     steering range) says why in one line (at N = 8 here, for a quick build)."""
     monkeypatch.setattr(perf, "REFERENCE_HORIZON", HORIZON)
     assert main(["perf", "--sections", "compiled", "--layouts", "mecanum,swerve-cable",
-                 "--modes", "time", "--speeds", "beyond", "--ipopt-ticks", "20",
+                 "--modes", "time", "--speeds", "beyond", "--plants", "ideal",
+                 "--ipopt-ticks", "20",
                  "--peer-rounds", "1", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert ("swerve-cable time  beyond  not supported: compiled tick: robot 'swerve-cable' "
