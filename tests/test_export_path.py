@@ -190,10 +190,12 @@ def test_the_path_calls_allocate_nothing(exported: tuple[Path, Path],
     assert steps > 200  # (warm-up rounds at the start and after the reset)
 
 
-@pytest.mark.parametrize("target", sorted(TARGETS))
+# armhf only: the roboRIO's class, and the 32-bit target; tests/test_export_cross.py builds
+# time mode's library for both targets (one cross build of path mode's added C is enough)
+@pytest.mark.parametrize("target", ["armhf"])
 def test_the_cross_built_path_library_gives_the_same_commands_under_qemu(
         target: str, exported: tuple[Path, Path], request: pytest.FixtureRequest) -> None:
-    """Built for armhf and aarch64 with daqp from its released source (as
+    """Built for armhf with daqp from its released source (as
     tests/test_export_cross.py builds time mode), statically linked, under qemu-user: the
     Python controller's statuses, commands and reference times to 1e-9 beyond the limits,
     and the recorded times asked for."""
