@@ -44,7 +44,7 @@ from mpc.robots.wheels.swerve.limits import (
 )
 from mpc.robots.wheels.swerve.robot import SwerveRobot
 from mpc.tick.casters import CasterSteering
-from mpc.tick.steered import _HALF, Steering, _all, _any, flip_turn, wrapped
+from mpc.tick.steered import Steering, _all, _any, flip_turn, module_state, wrapped
 
 
 def axle_modules(robot: SwerveRobot) -> PlanarModules:
@@ -240,14 +240,9 @@ class AxleSteering(Steering):
         radius, lever = self.modules.radius, self.robot.axle_offset
         speeds, angles = [], []
         for i in range(self.wheels):
-            x, y = self._velocity(i, twist[0], twist[1], twist[2])
-            speed, angle, present = ca.hypot(x, y), ca.atan2(y, x), steer[i]
-            flip = ca.fabs(wrapped(angle - present)) > _HALF
-            angle = ca.if_else(flip, angle + math.pi, angle)
-            speed = ca.if_else(flip, -speed, speed)
-            still = ca.fabs(speed) * radius < STOPPED_MODULE_SPEED
-            angle = wrapped(ca.if_else(still, present, angle))
-            speed = ca.if_else(still, 0.0, speed)
+            present = steer[i]
+            speed, angle = module_state(*self._velocity(i, twist[0], twist[1], twist[2]),
+                                        present, radius)
             turning = wrapped(angle - present) / self.dt
             speeds.append(speed + lever * (twist[2] + turning) / radius)
             angles.append(angle)

@@ -69,6 +69,19 @@ def wrapped(angle: ca.SX) -> ca.SX:
     return ca.if_else(w == -math.pi, math.pi, w)
 
 
+def module_state(x: ca.SX, y: ca.SX, present: ca.SX, radius: float) -> tuple[ca.SX, ca.SX]:
+    """``module_states``' rule for one module whose wheel is to move at (``x``, ``y``)
+    [rad/s, wheel-rim units]: its signed speed [rad/s] and angle [rad] in (-pi, pi],
+    flipped where the turn from ``present`` would exceed 90 deg, held at ``present`` with
+    speed 0 below :data:`STOPPED_MODULE_SPEED` at the rim (``radius`` [m])."""
+    speed, angle = ca.hypot(x, y), ca.atan2(y, x)
+    flip = ca.fabs(wrapped(angle - present)) > _HALF
+    angle = ca.if_else(flip, angle + math.pi, angle)
+    speed = ca.if_else(flip, -speed, speed)
+    still = ca.fabs(speed) * radius < STOPPED_MODULE_SPEED
+    return ca.if_else(still, 0.0, speed), wrapped(ca.if_else(still, present, angle))
+
+
 def _any(values: list[ca.SX]) -> ca.SX:
     out = ca.SX(0)
     for value in values:
@@ -337,14 +350,9 @@ class Steering:
         reach = self.modules.steer_rate * self.dt
         speeds, angles, velocities = [], [], []
         for i in range(self.wheels):
-            x, y = self._velocity(i, twist[0], twist[1], twist[2])
-            speed, angle, present = ca.hypot(x, y), ca.atan2(y, x), steer[i]
-            flip = ca.fabs(wrapped(angle - present)) > _HALF
-            angle = ca.if_else(flip, angle + math.pi, angle)
-            speed = ca.if_else(flip, -speed, speed)
-            still = ca.fabs(speed) * radius < STOPPED_MODULE_SPEED
-            angle = wrapped(ca.if_else(still, present, angle))
-            speed = ca.if_else(still, 0.0, speed)
+            present = steer[i]
+            speed, angle = module_state(*self._velocity(i, twist[0], twist[1], twist[2]),
+                                        present, radius)
             # aimed_angles: a module at rest turns towards its direction in the aim
             gx, gy = self._velocity(i, aim[0], aim[1], aim[2])
             turn = wrapped(ca.atan2(gy, gx) - present)

@@ -393,21 +393,26 @@ static int in_play(const struct mpc_screen* s, int row) {
   return row >= MPC_SCREENED_ROWS || s->in_play[row % MPC_SCREEN_ROWS];
 }
 
+/* Row ``r`` as daqp's row ``j``: whitened (a moving row from this tick's values, another
+ * from the kept whitened rows), its bounds. */
+static void screen_put(mpc_tick* t, int r, int j) {
+  struct mpc_screen* s = &t->screen;
+  if (rows_move[r])
+    whiten_row(s, t->inverse, t->row_values, r, s->rows + j * MPC_NV);
+  else
+    memcpy(s->rows + j * MPC_NV, t->rows + r * MPC_NV, sizeof(double) * MPC_NV);
+  s->picked[j] = r;
+  s->lower[j] = t->lower[r];
+  s->upper[j] = t->upper[r];
+}
+
 /* daqp's rows: those in play, whitened (moving rows from this tick's values, the others
  * from the kept whitened rows), their bounds and their flags from the last solve. */
 static void screen_pick(mpc_tick* t) {
   struct mpc_screen* s = &t->screen;
   int r, j = 0;
   for (r = 0; r < MPC_M; r++) {
-    if (!in_play(s, r)) continue;
-    if (rows_move[r])
-      whiten_row(s, t->inverse, t->row_values, r, s->rows + j * MPC_NV);
-    else
-      memcpy(s->rows + j * MPC_NV, t->rows + r * MPC_NV, sizeof(double) * MPC_NV);
-    s->picked[j] = r;
-    s->lower[j] = t->lower[r];
-    s->upper[j] = t->upper[r];
-    j++;
+    if (in_play(s, r)) screen_put(t, r, j++);
   }
   s->count = j;
 }
@@ -420,14 +425,7 @@ static void screen_admit(mpc_tick* t, int p) {
   s->in_play[p] = 1;
   s->needed_at[p] = s->ticks;
   for (k = 0; k < MPC_N; k++) {
-    const int r = k * MPC_SCREEN_ROWS + p, j = s->count++;
-    if (rows_move[r])
-      whiten_row(s, t->inverse, t->row_values, r, s->rows + j * MPC_NV);
-    else
-      memcpy(s->rows + j * MPC_NV, t->rows + r * MPC_NV, sizeof(double) * MPC_NV);
-    s->picked[j] = r;
-    s->lower[j] = t->lower[r];
-    s->upper[j] = t->upper[r];
+    screen_put(t, k * MPC_SCREEN_ROWS + p, s->count++);
   }
 }
 
